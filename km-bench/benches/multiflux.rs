@@ -1,0 +1,2 @@
+//! Criterion benchmarks of the multiflux method (filled in with the method).
+fn main() {}

@@ -1,0 +1,2 @@
+//! Criterion benchmarks of the two_flux method (filled in with the method).
+fn main() {}

@@ -1,0 +1,27 @@
+//! # km-core: the shared vocabulary of km, and the closed-form models
+//!
+//! * [`Scene`] / [`MonoScene`]: the scene file (DESIGN.md §5), validated, one
+//!   [`MonoScene`] per spectral channel; [`Light`], [`Substrate`].
+//! * [`Layer`]: one homogeneous layer (`sigma_a`, `sigma_s`, thickness, phase, `n`).
+//! * [`phase`]: phase functions ([`phase::Phase`], [`phase::PhaseFunction`]).
+//! * [`fresnel`]: Snell, unpolarised Fresnel, total internal reflection,
+//!   hemispherical averages, Gauss–Legendre quadrature.
+//! * [`two_flux`]: Kubelka–Munk (seed 000 §2).
+//! * [`presets`]: measured materials (Jensen et al. 2001).
+//! * [`Solution`]: what every method returns, and its JSON contract.
+//! * [`CoreError`]: every refusal, naming the offending key or value.
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod fresnel;
+pub mod layer;
+pub mod phase;
+pub mod presets;
+pub mod scene;
+pub mod solution;
+pub mod two_flux;
+
+pub use error::CoreError;
+pub use layer::Layer;
+pub use scene::{Light, MonoScene, Scene, Substrate};
+pub use solution::{ChannelResult, Solution};

@@ -1,0 +1,1 @@
+//! Two-flux Kubelka–Munk theory (seed 000 §2). Being written.
