@@ -1,0 +1,109 @@
+//! Human-readable output.
+
+use std::fmt::Write;
+
+use km_core::{Light, Scene, Solution, Substrate};
+
+/// A table of the solution, one column per channel.
+pub fn table(sol: &Solution, scene: &Scene) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "method: {}   solver time: {}", sol.method, seconds(sol.seconds));
+    let _ = write!(s, "{:<24}", "");
+    for l in &sol.labels {
+        let _ = write!(s, "{l:>14}");
+    }
+    let _ = writeln!(s);
+    let rows: [(&str, fn(&km_core::ChannelResult) -> f64); 5] = [
+        ("reflectance", |c| c.reflectance),
+        ("  specular part", |c| c.reflectance_specular),
+        ("transmittance", |c| c.transmittance),
+        ("  direct part", |c| c.transmittance_direct),
+        ("absorptance", |c| c.absorptance),
+    ];
+    for (name, get) in rows {
+        let _ = write!(s, "{name:<24}");
+        for c in &sol.channels {
+            let _ = write!(s, "{:>14.6}", get(c));
+        }
+        let _ = writeln!(s);
+    }
+    let dirs = &scene.channels[0].directions_deg;
+    for (what, pick) in [("BRDF", 0usize), ("BTDF", 1usize)] {
+        if sol
+            .channels
+            .iter()
+            .all(|c| if pick == 0 { c.brdf.is_empty() } else { c.btdf.is_empty() })
+        {
+            continue;
+        }
+        for (i, d) in dirs.iter().enumerate() {
+            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1}) 1/sr", d[0], d[1]));
+            for c in &sol.channels {
+                let v = if pick == 0 { &c.brdf } else { &c.btdf };
+                let _ = write!(s, "{:>14.6}", v.get(i).copied().unwrap_or(f64::NAN));
+            }
+            let _ = writeln!(s);
+        }
+    }
+    if let Some(notes) = sol.extra.get("notes").and_then(|n| n.as_array()) {
+        for n in notes {
+            if let Some(t) = n.as_str() {
+                let _ = writeln!(s, "note: {t}");
+            }
+        }
+    }
+    s
+}
+
+fn seconds(t: f64) -> String {
+    if t < 1e-3 {
+        format!("{:.2} us", t * 1e6)
+    } else if t < 1.0 {
+        format!("{:.3} ms", t * 1e3)
+    } else {
+        format!("{t:.3} s")
+    }
+}
+
+/// What a scene describes, in words.
+pub fn describe(scene: &Scene) -> String {
+    let mut s = String::new();
+    let c0 = &scene.channels[0];
+    let _ = writeln!(s, "channels: {} ({})", scene.channels.len(), scene.labels.join(", "));
+    match c0.light {
+        Light::Collimated { theta_deg } => {
+            let _ = writeln!(s, "light: collimated at {theta_deg} degrees");
+        }
+        Light::Diffuse => {
+            let _ = writeln!(s, "light: diffuse");
+        }
+    }
+    let _ = writeln!(s, "ambient index: {}", c0.ambient_n);
+    for (ch, c) in scene.channels.iter().enumerate() {
+        let _ = writeln!(s, "channel {}:", scene.labels[ch]);
+        for (i, l) in c.layers.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "  layer {}: sigma_a = {}, sigma_s = {}, thickness = {}, tau = {}, albedo = {:.6}, g = {}, n = {}",
+                i + 1,
+                l.sigma_a,
+                l.sigma_s,
+                l.thickness,
+                l.tau(),
+                l.albedo(),
+                l.g(),
+                l.n
+            );
+        }
+        let sub = match c.substrate {
+            Substrate::Transparent { n } => format!("transparent, n = {n}"),
+            Substrate::Lambertian { albedo } => format!("lambertian, albedo = {albedo}"),
+            Substrate::Black => "black".into(),
+        };
+        let _ = writeln!(s, "  substrate: {sub}");
+    }
+    if !c0.directions_deg.is_empty() {
+        let _ = writeln!(s, "output directions (theta, phi): {:?}", c0.directions_deg);
+    }
+    s
+}
