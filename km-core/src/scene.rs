@@ -395,6 +395,15 @@ impl Parser<'_> {
             None => Coef::constant("ambient.n", 1.0),
             Some(v) => self.coef("ambient.n", v)?,
         };
+        for &x in &ambient_n.values {
+            if !x.is_finite() || x < 1.0 {
+                return Err(CoreError::scene(
+                    ambient_n.key.clone(),
+                    ambient_n.line,
+                    format!("{x}: refractive index must be finite and >= 1"),
+                ));
+            }
+        }
         note(&ambient_n);
 
         // [[layer]]
@@ -463,7 +472,9 @@ impl Parser<'_> {
             }
         }
 
-        // All lists must have one length: the number of channels.
+        // All lists must have one length: the number of channels. The
+        // [spectrum] table, when present, sets it (stable sort keeps file order).
+        coefs.sort_by_key(|c| !c.0.starts_with("spectrum"));
         let mut channels = 1;
         let mut first: Option<&(String, Option<usize>, usize)> = None;
         for c in coefs.iter().filter(|c| c.2 > 1 || c.0.starts_with("spectrum")) {
@@ -503,18 +514,7 @@ impl Parser<'_> {
                 directions_deg: directions_deg.clone(),
             });
         }
-        // Channel-wise checks on ambient and substrate values.
-        for c in [&ambient_n] {
-            for &x in &c.values {
-                if !x.is_finite() || x < 1.0 {
-                    return Err(CoreError::scene(
-                        c.key.clone(),
-                        c.line,
-                        format!("{x}: refractive index must be finite and >= 1"),
-                    ));
-                }
-            }
-        }
+        // Channel-wise checks on substrate values.
         match &substrate {
             RawSub::Transparent(c) => {
                 for &x in &c.values {
