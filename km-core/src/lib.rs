@@ -16,6 +16,7 @@ pub mod error;
 pub mod fresnel;
 pub mod layer;
 pub mod phase;
+pub mod plan;
 pub mod presets;
 pub mod scene;
 pub mod solution;

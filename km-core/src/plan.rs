@@ -1,0 +1,340 @@
+//! The planner: what a scene and its question call for, and what each method
+//! may therefore skip.
+//!
+//! A [`Plan`] is derived from a [`MonoScene`] (one spectral channel) and the
+//! outputs asked for. It lists the physical effects present, the
+//! simplifications taken (each under a stable name in [`Plan::skipped`], with
+//! a reason in [`Plan::reasons`]), and per-layer and per-method decisions the
+//! solvers obey. `all_effects = true` turns every simplification off, for
+//! comparison.
+//!
+//! Stable names of simplifications (other tools rely on them):
+//!
+//! | name | meaning |
+//! |---|---|
+//! | `interface` | a boundary whose two sides have the same index is no interface |
+//! | `scattering` | a layer that only absorbs is attenuation in closed form, no eigen-solve |
+//! | `azimuth` | only the azimuth-independent Fourier order is needed |
+//! | `transmission` | a layer so thick that nothing measurable gets through is a half-space |
+//! | `angular-tallies` | Monte Carlo without angular bins (no directions asked) |
+//! | `substrate` | the substrate cannot be reached (a half-space or opaque layer above it) |
+//! | `duplicate-channels` | spectral channels with identical coefficients are solved once |
+//!
+//! The `transmission` rule (eq. PL1): light crossing a layer of optical
+//! thickness `tau` decays at least like `exp(-k tau)` where `k` is the
+//! smallest decay constant of the transport equation in the layer. The
+//! diffusion (similarity) estimate `k_d = sqrt(3 (1 - omega)(1 - omega g))`
+//! approaches the exact value from above only as `omega -> 1`, and `k <= 1`;
+//! we take the safe half `k_s = min(1, k_d) / 2` and treat the layer as a
+//! half-space when `exp(-2 k_s tau) < 1e-14` (the light has to cross twice to
+//! come back). The bound on the neglected reflectance is reported with the
+//! reason. Conservative layers (`omega = 1`) are never cut.
+
+use std::collections::BTreeMap;
+
+use crate::scene::{Light, MonoScene, Scene, Substrate};
+
+/// Relative size below which the light returning from beneath a layer is
+/// neglected by the `transmission` rule (eq. PL1).
+pub const TRANSMISSION_CUTOFF: f64 = 1e-14;
+
+/// What the user asks for, beyond the totals that are always computed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Request {
+    /// BRDF / BTDF values at the scene's output directions.
+    pub directions: bool,
+    /// The internal light field at some depths.
+    pub internal_field: bool,
+    /// The radially resolved reflectance of a pencil beam.
+    pub radial_profile: bool,
+}
+
+impl Request {
+    /// What a scene file asks for by itself (directions when `[output]` has any).
+    pub fn from_scene(scene: &MonoScene) -> Request {
+        Request { directions: !scene.directions_deg.is_empty(), ..Request::default() }
+    }
+}
+
+/// The decisions about one layer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LayerPlan {
+    /// There is a Fresnel interface at the top of this layer (index differs from above).
+    pub interface_above: bool,
+    /// The layer scatters (an eigen-solve or a random walk is needed).
+    pub scatters: bool,
+    /// The layer is treated as a half-space (its own thickness, or the `transmission` rule).
+    pub half_space: bool,
+    /// When the `transmission` rule applies: the bound on the neglected reflectance.
+    pub cutoff_bound: Option<f64>,
+}
+
+/// What a scene calls for, and what may be skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Physical effects present, as short phrases (`"interface"`, `"total-internal-reflection"`, ...).
+    pub effects: Vec<String>,
+    /// Stable names of the simplifications taken.
+    pub skipped: Vec<String>,
+    /// Why each simplification was taken (by name), or why an effect is kept.
+    pub reasons: BTreeMap<String, String>,
+    /// One entry per layer, top first.
+    pub layers: Vec<LayerPlan>,
+    /// How many layers take part (those below a half-space do not).
+    pub active_layers: usize,
+    /// Whether the substrate is reached.
+    pub substrate_reached: bool,
+    /// Only the azimuth-independent Fourier order is needed.
+    pub azimuth_independent: bool,
+    /// Monte Carlo needs angular bins.
+    pub angular_tallies: bool,
+    /// The planner was switched off.
+    pub all_effects: bool,
+}
+
+impl Plan {
+    /// The plan for one channel and one request.
+    ///
+    /// ```
+    /// use km_core::{Scene, plan::{Plan, Request}};
+    /// let s = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
+    /// let p = Plan::new(&s.channels[0], Request::default(), false);
+    /// assert!(p.skipped.contains(&"interface".to_string()));
+    /// assert!(p.skipped.contains(&"azimuth".to_string()));
+    /// ```
+    pub fn new(scene: &MonoScene, request: Request, all_effects: bool) -> Plan {
+        let mut effects = Vec::new();
+        let mut skipped: Vec<String> = Vec::new();
+        let mut reasons = BTreeMap::new();
+        let mut layers = Vec::with_capacity(scene.layers.len());
+        let mut skip = |name: &str, reason: String, skipped: &mut Vec<String>| {
+            if !skipped.iter().any(|s| s == name) {
+                skipped.push(name.to_string());
+            }
+            reasons.entry(name.to_string()).or_insert(reason);
+        };
+
+        // Interfaces: wherever the index changes, top to bottom.
+        let mut n_above = scene.ambient_n;
+        let mut any_interface = false;
+        let mut tir = false;
+        let mut matched = Vec::new();
+        for (i, l) in scene.layers.iter().enumerate() {
+            let iface = l.n != n_above || all_effects;
+            if l.n != n_above {
+                any_interface = true;
+                // Light inside the denser medium can be totally reflected.
+                tir |= l.n > scene.ambient_n || l.n > n_above;
+            } else {
+                matched.push(format!("top of layer {}", i + 1));
+            }
+            layers.push(LayerPlan {
+                interface_above: iface,
+                scatters: l.sigma_s > 0.0 || all_effects,
+                half_space: l.is_half_space(),
+                cutoff_bound: None,
+            });
+            n_above = l.n;
+        }
+        if let Substrate::Transparent { n } = scene.substrate {
+            if n != n_above {
+                any_interface = true;
+                tir |= n_above > n;
+            } else {
+                matched.push("bottom of the stack".to_string());
+            }
+        }
+        if any_interface {
+            effects.push("interface".to_string());
+        }
+        if tir {
+            effects.push("total-internal-reflection".to_string());
+        }
+        if !matched.is_empty() && !all_effects {
+            skip("interface", format!("indices match at: {}", matched.join(", ")), &mut skipped);
+        }
+
+        // Scattering and anisotropy.
+        let scattering: Vec<usize> =
+            (0..scene.layers.len()).filter(|&i| scene.layers[i].sigma_s > 0.0).collect();
+        if !scattering.is_empty() {
+            effects.push("scattering".to_string());
+        }
+        if scene.layers.iter().any(|l| l.sigma_s > 0.0 && l.g() != 0.0) {
+            effects.push("anisotropy".to_string());
+        }
+        let absorbers: Vec<String> = (0..scene.layers.len())
+            .filter(|&i| scene.layers[i].sigma_s == 0.0)
+            .map(|i| format!("layer {}", i + 1))
+            .collect();
+        if !absorbers.is_empty() && !all_effects {
+            skip(
+                "scattering",
+                format!("{} only absorb: attenuation in closed form", absorbers.join(", ")),
+                &mut skipped,
+            );
+        }
+
+        // Thick layers: the transmission rule (eq. PL1), top down; nothing
+        // below a half-space takes part.
+        let mut active = scene.layers.len();
+        for (i, l) in scene.layers.iter().enumerate() {
+            if l.is_half_space() {
+                active = i + 1;
+                break;
+            }
+            if all_effects {
+                continue;
+            }
+            let omega = l.albedo();
+            let k_d = (3.0 * (1.0 - omega) * (1.0 - omega * l.g())).max(0.0).sqrt();
+            let k_s = 0.5 * k_d.min(1.0);
+            let bound = (-2.0 * k_s * l.tau()).exp();
+            if k_s > 0.0 && bound < TRANSMISSION_CUTOFF {
+                layers[i].half_space = true;
+                layers[i].cutoff_bound = Some(bound);
+                active = i + 1;
+                skip(
+                    "transmission",
+                    format!(
+                        "layer {} (tau = {:.4e}, albedo = {:.6}) is treated as a half-space: \
+                         light returning from below is < {:.1e} of the incident",
+                        i + 1,
+                        l.tau(),
+                        omega,
+                        bound
+                    ),
+                    &mut skipped,
+                );
+                break;
+            }
+        }
+        layers.truncate(active);
+        let substrate_reached =
+            active == scene.layers.len() && layers.last().is_none_or(|l| !l.half_space);
+        match scene.substrate {
+            Substrate::Lambertian { .. } if substrate_reached => {
+                effects.push("lambertian-substrate".to_string())
+            }
+            Substrate::Black if substrate_reached => effects.push("black-substrate".to_string()),
+            _ => {}
+        }
+        if !substrate_reached {
+            skip("substrate", format!("no light reaches below layer {active}"), &mut skipped);
+        }
+
+        // Azimuth: isotropic phase functions, diffuse light or totals only need m = 0.
+        let isotropic = scene.layers[..active].iter().all(|l| l.g() == 0.0 || l.sigma_s == 0.0);
+        let diffuse = scene.light == Light::Diffuse;
+        let azimuth_independent =
+            !all_effects && (!request.directions || isotropic || diffuse || scattering.is_empty());
+        if azimuth_independent {
+            let why = if !request.directions {
+                "only totals are asked: the azimuth-independent Fourier order gives them exactly"
+            } else if scattering.is_empty() {
+                "nothing scatters: no azimuthal structure"
+            } else if diffuse {
+                "diffuse light has no azimuth: only order m = 0 is excited"
+            } else {
+                "isotropic scattering: the phase function has no azimuthal Fourier orders m > 0"
+            };
+            skip("azimuth", why.to_string(), &mut skipped);
+        }
+        let angular_tallies = all_effects || request.directions;
+        if !angular_tallies {
+            skip(
+                "angular-tallies",
+                "no [output] directions: Monte Carlo tallies totals only".to_string(),
+                &mut skipped,
+            );
+        }
+        Plan {
+            effects,
+            skipped,
+            reasons,
+            layers,
+            active_layers: active,
+            substrate_reached,
+            azimuth_independent,
+            angular_tallies,
+            all_effects,
+        }
+    }
+
+    /// Whether the simplification `name` was taken.
+    pub fn skips(&self, name: &str) -> bool {
+        self.skipped.iter().any(|s| s == name)
+    }
+
+    /// The JSON of the `km solve --json` contract: `{"effects", "skipped", "reasons"}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "effects": self.effects,
+            "skipped": self.skipped,
+            "reasons": self.reasons,
+        })
+    }
+}
+
+/// Channels with identical coefficients: for each channel, the index of the
+/// first channel equal to it (so a solver computes only the distinct ones).
+///
+/// ```
+/// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = [1, 2, 1]\nalbedo = 0.5\n").unwrap();
+/// assert_eq!(km_core::plan::distinct_channels(&s), vec![0, 1, 0]);
+/// ```
+pub fn distinct_channels(scene: &Scene) -> Vec<usize> {
+    let mut first = Vec::with_capacity(scene.channels.len());
+    for (i, c) in scene.channels.iter().enumerate() {
+        let j = scene.channels[..i].iter().position(|d| d == c).unwrap_or(i);
+        first.push(j);
+    }
+    first
+}
+
+/// The plan of a whole scene: the union over channels, plus `duplicate-channels`.
+pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
+    let mut plans = scene.channels.iter().map(|c| Plan::new(c, request, all_effects));
+    let Some(mut p) = plans.next() else {
+        // No channel (a scene built in code without any): nothing to plan.
+        return Plan::new(&MonoScene::empty(), request, all_effects);
+    };
+    for q in plans {
+        for e in q.effects {
+            if !p.effects.contains(&e) {
+                p.effects.push(e);
+            }
+        }
+        // A simplification holds for the scene only if it holds in every channel.
+        p.skipped.retain(|s| q.skipped.contains(s));
+        p.azimuth_independent &= q.azimuth_independent;
+        p.angular_tallies |= q.angular_tallies;
+    }
+    p.reasons.retain(|k, _| p.skipped.contains(k));
+    let first = distinct_channels(scene);
+    let distinct = first.iter().enumerate().filter(|(i, j)| i == *j).count();
+    if distinct < scene.channels.len() && !all_effects {
+        p.skipped.push("duplicate-channels".to_string());
+        p.reasons.insert(
+            "duplicate-channels".to_string(),
+            format!(
+                "{} of {} channels are distinct: each is solved once",
+                distinct,
+                scene.channels.len()
+            ),
+        );
+    }
+    p
+}
+
+impl MonoScene {
+    fn empty() -> MonoScene {
+        MonoScene {
+            light: Light::Diffuse,
+            ambient_n: 1.0,
+            layers: Vec::new(),
+            substrate: Substrate::Black,
+            directions_deg: Vec::new(),
+        }
+    }
+}
