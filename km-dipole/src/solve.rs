@@ -1,0 +1,216 @@
+//! Scene entry points for the command line: [`solve`] (`km solve --method
+//! dipole`) and [`profile`] (`km profile`).
+//!
+//! What a scene must be (otherwise a [`DipoleError`] names the problem):
+//! exactly one layer, of infinite thickness (a half-space), with
+//! `sigma_s > 0` in every channel. The substrate is irrelevant below a
+//! half-space and is ignored.
+//!
+//! What is reported, per channel (eq. D18 of `docs/diffusion.md`), with
+//! `eta = n_layer / n_ambient`:
+//!
+//! * collimated light at `theta`: `reflectance_specular = F_r(cos theta)`
+//!   (ambient into layer), diffuse part `(1 - F_r(cos theta)) Rd` with the
+//!   dipole's total `Rd` (eq. D16) of normal incidence: the angle enters
+//!   only through the Fresnel transmission into the medium, as in
+//!   Jensen et al. 2001;
+//! * diffuse light: `reflectance_specular = F_ext` (the hemispherical
+//!   reflectance of the interface seen from the ambient), diffuse part
+//!   `(1 - F_ext) Rd` (every direction of incidence treated as above);
+//! * `reflectance = specular + diffuse`, `transmittance = 0`,
+//!   `absorptance = 1 - reflectance`; single scattering is not included
+//!   (the dipole is the multiple-scattering term only);
+//! * `brdf` at the output directions: `diffuse * F_t(cos theta_o) / (pi C)`,
+//!   `C = 1 - F_ext(eta)`, so that `integral brdf cos dw = diffuse`; `btdf = 0`.
+
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use km_core::fresnel::{diffuse_reflectance, reflectance};
+use km_core::{ChannelResult, Light, MonoScene, Scene, Solution};
+use serde_json::{Map, Value, json};
+
+use crate::dipole::{exit_constant, fresnel_transmittance, rd_radial, rd_total};
+use crate::error::DipoleError;
+use crate::params::{DiffusionParams, FdrModel};
+
+/// Options of the dipole method.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DipoleOptions {
+    /// How `F_dr` (hence `A`) is computed; default [`FdrModel::Exact`].
+    pub fdr: FdrModel,
+}
+
+/// The half-space of a channel, checked, and its diffusion quantities.
+///
+/// # Errors
+/// More than one layer, finite thickness, no scattering, and the errors of
+/// [`DiffusionParams::from_layer`].
+pub fn channel_params(
+    mono: &MonoScene,
+    channel: usize,
+    opts: &DipoleOptions,
+) -> Result<DiffusionParams, DipoleError> {
+    if mono.layers.len() != 1 {
+        return Err(DipoleError::LayerCount { count: mono.layers.len() });
+    }
+    let layer = &mono.layers[0];
+    if !layer.is_half_space() {
+        return Err(DipoleError::FiniteThickness { layer: 1, thickness: layer.thickness });
+    }
+    if layer.sigma_s <= 0.0 {
+        return Err(DipoleError::NoScattering { layer: 1, channel, sigma_s: layer.sigma_s });
+    }
+    DiffusionParams::from_layer(layer, mono.ambient_n, opts.fdr)
+}
+
+/// Solve a scene whose single layer is a half-space with the dipole
+/// (module docs: what is reported and how).
+///
+/// `seconds` is the time of the computation only (no parsing, no checks of
+/// the scene beyond the dipole's own).
+///
+/// # Errors
+/// The scene is invalid or not a single scattering half-space (see
+/// [`channel_params`]).
+///
+/// ```
+/// let scene = km_core::Scene::from_toml_str(r#"
+/// [[layer]]
+/// preset = "marble"
+/// "#).unwrap();
+/// let sol = km_dipole::solve(&scene, &Default::default()).unwrap();
+/// assert_eq!(sol.channels.len(), 3);
+/// assert!(sol.channels[0].reflectance > 0.8);
+/// ```
+pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleError> {
+    // Check every channel before timing.
+    for mono in &scene.channels {
+        mono.validate()?;
+    }
+    let params = scene
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(c, mono)| channel_params(mono, c, opts))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let start = Instant::now();
+    let mut channels = Vec::with_capacity(params.len());
+    for (mono, p) in scene.channels.iter().zip(&params) {
+        channels.push(solve_channel(mono, p));
+    }
+    let seconds = start.elapsed().as_secs_f64();
+
+    // Report the diffusion quantities: a number for one channel, a list for several.
+    let one = params.len() == 1;
+    let list = |f: &dyn Fn(&DiffusionParams) -> f64| -> Value {
+        if one { json!(f(&params[0])) } else { json!(params.iter().map(f).collect::<Vec<_>>()) }
+    };
+    let mut extra = Map::new();
+    extra.insert("fdr_model".into(), json!(opts.fdr.name()));
+    extra.insert("fdr".into(), list(&|p| p.fdr));
+    extra.insert("A".into(), list(&|p| p.a));
+    extra.insert("reduced_albedo".into(), list(&|p| p.alpha_prime));
+    extra.insert("rd_dipole".into(), list(&rd_total));
+    extra.insert("notes".into(), json!(notes(scene)));
+    Ok(Solution { method: "dipole".into(), channels, labels: scene.labels.clone(), seconds, extra })
+}
+
+/// One channel (eq. D16, D18).
+fn solve_channel(mono: &MonoScene, p: &DiffusionParams) -> ChannelResult {
+    let n_layer = mono.layers[0].n;
+    // Specular (delta) part and the fraction that enters the medium.
+    let r_spec = match mono.light {
+        Light::Collimated { .. } => {
+            reflectance(mono.light.mu0().unwrap_or(1.0), mono.ambient_n, n_layer)
+        }
+        Light::Diffuse => diffuse_reflectance(mono.ambient_n, n_layer),
+    };
+    // Multiple scattering that comes back out (normal-incidence dipole).
+    let diffuse = (1.0 - r_spec) * rd_total(p);
+    // Exit distribution F_t(cos theta_o) / (pi C), normalised to 1 over the hemisphere.
+    let c = exit_constant(p.eta);
+    let brdf = mono
+        .directions_deg
+        .iter()
+        .map(|d| diffuse * fresnel_transmittance(p.eta, d[0].to_radians().cos()) / (PI * c))
+        .collect::<Vec<_>>();
+    let btdf = vec![0.0; brdf.len()];
+    let reflectance = r_spec + diffuse;
+    ChannelResult {
+        reflectance,
+        reflectance_specular: r_spec,
+        transmittance: 0.0,
+        transmittance_direct: 0.0,
+        absorptance: 1.0 - reflectance,
+        brdf,
+        btdf,
+        absorptance_layers: Some(vec![1.0 - reflectance]),
+        ..Default::default()
+    }
+}
+
+/// The notes of the `extra` JSON: what the numbers are and are not.
+fn notes(scene: &Scene) -> Vec<String> {
+    let mut notes = vec![
+        "single scattering excluded: the dipole gives the multiple-scattering part only \
+         (Jensen et al. 2001 add an exact single-scattering term separately)"
+            .to_string(),
+        "reflectance = Fresnel specular part + (1 - F_r) * Rd, with Rd the dipole's total \
+         diffuse reflectance (closed form) for normal incidence"
+            .to_string(),
+        "brdf = diffuse part * F_t(theta_o) / (pi * C), C = 1 - F_ext(eta), which integrates \
+         (with cos) to the diffuse part; btdf = 0 for a half-space"
+            .to_string(),
+    ];
+    if scene
+        .channels
+        .iter()
+        .any(|m| matches!(m.light, Light::Collimated { theta_deg } if theta_deg > 0.0))
+    {
+        notes.push(
+            "oblique incidence: the dipole's source depth 1/sigma_t' is that of normal \
+             incidence; the angle enters only through the Fresnel transmission 1 - F_r(theta)"
+                .to_string(),
+        );
+    }
+    if scene.channels.iter().any(|m| m.light == Light::Diffuse) {
+        notes.push(
+            "diffuse light: specular part = hemispherical Fresnel reflectance F_ext of the \
+             interface; diffuse part = (1 - F_ext) * Rd"
+                .to_string(),
+        );
+    }
+    notes
+}
+
+/// The dipole's radial diffuse reflectance `Rd(r)` (eq. D15), 1/length^2,
+/// per channel, on the grid `r` (lengths in the scene's unit): the answer
+/// is `out[channel][i] = Rd(r[i])`, per unit power entering the medium.
+///
+/// # Errors
+/// Those of [`solve`], and a negative or non-finite `r`.
+///
+/// ```
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\npreset = \"skin1\"\n").unwrap();
+/// let rd = km_dipole::profile(&scene, &[0.0, 1.0, 2.0], &Default::default()).unwrap();
+/// assert_eq!(rd.len(), 3);
+/// assert!(rd[0][0] > rd[0][1] && rd[0][1] > rd[0][2]);
+/// ```
+pub fn profile(
+    scene: &Scene,
+    r: &[f64],
+    opts: &DipoleOptions,
+) -> Result<Vec<Vec<f64>>, DipoleError> {
+    if let Some(&bad) = r.iter().find(|x| !x.is_finite() || **x < 0.0) {
+        return Err(DipoleError::invalid("r", bad, "distances must be finite and >= 0"));
+    }
+    let mut out = Vec::with_capacity(scene.channels.len());
+    for (c, mono) in scene.channels.iter().enumerate() {
+        mono.validate()?;
+        let p = channel_params(mono, c, opts)?;
+        out.push(r.iter().map(|&x| rd_radial(&p, x)).collect());
+    }
+    Ok(out)
+}
