@@ -39,6 +39,22 @@ enum Command {
 km solve examples/seed-three-layers.toml --method km --json\n  \
 km solve examples/paint-over-primer.toml --method km --km-mapping star-1988 --json")]
     Solve(SolveArgs),
+    /// Print what a scene calls for: effects present, work skipped and why.
+    #[command(after_help = "Examples:\n  km plan examples/seed-three-layers.toml\n  \
+km plan examples/paint-over-primer.toml --method mc --json")]
+    Plan {
+        /// Scene file (TOML, see docs/scene-file.md).
+        scene: PathBuf,
+        /// Method whose decisions to show.
+        #[arg(long, short, value_enum, default_value_t = Method::Multiflux)]
+        method: Method,
+        /// Print JSON instead of words.
+        #[arg(long)]
+        json: bool,
+        /// Turn the planner off (compute every effect), for comparison.
+        #[arg(long)]
+        all_effects: bool,
+    },
     /// Parse and validate a scene file, and print what it describes.
     #[command(after_help = "Example:\n  km check examples/paint-over-primer.toml")]
     Check {
@@ -136,6 +152,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&sol.to_json())?);
             } else {
                 print!("{}", output::table(&sol, &scene));
+            }
+            Ok(())
+        }
+        Some(Command::Plan { scene, method, json, all_effects }) => {
+            let s = km_core::Scene::from_path(&scene)?;
+            let request = km_core::plan::Request::from_scene(&s.channels[0]);
+            let plan = km_core::plan::plan_scene(&s, request, all_effects);
+            if json {
+                let mut v = plan.to_json();
+                v["method"] = serde_json::json!(method.name());
+                println!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                print!("{}", output::plan_words(&plan, method));
             }
             Ok(())
         }

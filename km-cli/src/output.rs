@@ -107,3 +107,44 @@ pub fn describe(scene: &Scene) -> String {
     }
     s
 }
+
+/// A plan in plain words.
+pub fn plan_words(plan: &km_core::plan::Plan, method: crate::Method) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "plan for method {}", method.name());
+    if plan.all_effects {
+        let _ = writeln!(s, "planner off (--all-effects): every effect is computed");
+    }
+    let effects =
+        if plan.effects.is_empty() { "none".to_string() } else { plan.effects.join(", ") };
+    let _ = writeln!(s, "effects present: {effects}");
+    let _ = writeln!(s, "layers taking part: {}", plan.active_layers);
+    for (i, l) in plan.layers.iter().enumerate() {
+        let mut what = Vec::new();
+        what.push(if l.interface_above { "Fresnel interface above" } else { "no interface above" });
+        what.push(if l.scatters { "scatters" } else { "absorbs only: closed-form attenuation" });
+        if l.half_space {
+            what.push("half-space");
+        }
+        let _ = writeln!(s, "  layer {}: {}", i + 1, what.join(", "));
+    }
+    if plan.skipped.is_empty() {
+        let _ = writeln!(s, "skipped: nothing");
+    }
+    for name in &plan.skipped {
+        let why = plan.reasons.get(name).map(String::as_str).unwrap_or("");
+        let _ = writeln!(s, "skipped {name}: {why}");
+    }
+    let per_method = match method {
+        crate::Method::Km => "two-flux closed form per layer, adding for the stack",
+        crate::Method::Multiflux if plan.azimuth_independent => {
+            "Fourier order m = 0 only; eigen-solve only for scattering layers"
+        }
+        crate::Method::Multiflux => "Fourier orders m = 0..M for the requested directions",
+        crate::Method::Mc if plan.angular_tallies => "photon tracing with totals and angular bins",
+        crate::Method::Mc => "photon tracing with totals only",
+        crate::Method::Dipole => "closed form for a semi-infinite layer",
+    };
+    let _ = writeln!(s, "{}: {per_method}", method.name());
+    s
+}

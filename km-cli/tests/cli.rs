@@ -35,14 +35,30 @@ const LAYER: &str = "[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 1.0\n"
 #[test]
 fn every_bad_input_class_is_refused_by_name() {
     let cases: &[(&str, String, &str)] = &[
-        ("negative", "[[layer]]\nsigma_a = -1\nsigma_s = 1\nthickness = 1\n".into(), "layer[1].sigma_a"),
+        (
+            "negative",
+            "[[layer]]\nsigma_a = -1\nsigma_s = 1\nthickness = 1\n".into(),
+            "layer[1].sigma_a",
+        ),
         ("g", format!("{LAYER}g = 1.0\n"), "layer[1].g"),
         ("n", format!("{LAYER}n = 0.5\n"), "layer[1].n"),
-        ("nan", "[[layer]]\nsigma_a = nan\nsigma_s = 1\nthickness = 1\n".into(), "layer[1].sigma_a"),
+        (
+            "nan",
+            "[[layer]]\nsigma_a = nan\nsigma_s = 1\nthickness = 1\n".into(),
+            "layer[1].sigma_a",
+        ),
         ("empty", "[light]\nkind = \"diffuse\"\n".into(), "layer"),
-        ("lengths", "[[layer]]\nsigma_a = [1, 2]\nsigma_s = [1, 2, 3]\nthickness = 1\n".into(), "layer[1].sigma_s"),
+        (
+            "lengths",
+            "[[layer]]\nsigma_a = [1, 2]\nsigma_s = [1, 2, 3]\nthickness = 1\n".into(),
+            "layer[1].sigma_s",
+        ),
         ("unknown", format!("{LAYER}colour = 3\n"), "colour"),
-        ("both", "[[layer]]\nsigma_a = 1\nsigma_s = 1\ntau = 1\nalbedo = 0.5\n".into(), "layer[1].tau"),
+        (
+            "both",
+            "[[layer]]\nsigma_a = 1\nsigma_s = 1\ntau = 1\nalbedo = 0.5\n".into(),
+            "layer[1].tau",
+        ),
         ("syntax", "[[layer]\n".into(), "line 1"),
     ];
     for (tag, text, names) in cases {
