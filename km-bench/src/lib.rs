@@ -1,1 +1,26 @@
-//! placeholder
+//! # km-bench: the seed paper reproduced, and what accuracy costs in time
+//!
+//! [`reproduce()`] runs every recipe of [`recipes`] and writes, into one
+//! directory, `report.md` with every chart (PNG and SVG) and table, and the
+//! CSV of every chart's data. `km reproduce [--quick | --full]` calls it.
+//!
+//! * [`chart`]: line charts (linear or log axes, also used for the Pareto
+//!   charts), polar plots in the plane of incidence, heat maps; each drawn
+//!   as SVG and PNG with an embedded font ([`font`]).
+//! * [`data`]: CSV files with the parameters and the seed in their header.
+//! * [`report`]: the Markdown report.
+//! * [`methods`]: one entry point over every solver ([`methods::Method`]).
+//! * [`scenes`]: the scenes of the recipes (the seed's §4.4 example, study scenes).
+//! * [`recipes`]: one function per figure of the seed's §4 and per study.
+#![deny(missing_docs)]
+
+pub mod chart;
+pub mod data;
+pub mod font;
+pub mod methods;
+pub mod recipes;
+pub mod report;
+pub mod reproduce;
+pub mod scenes;
+
+pub use reproduce::{ReproduceOptions, Size, Summary, SummaryRow, reproduce};
