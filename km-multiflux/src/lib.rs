@@ -6,6 +6,8 @@
 #![deny(missing_docs)]
 
 pub mod adding;
+pub mod direction_set;
 pub mod error;
+pub mod flatland;
 
 pub use error::MultifluxError;
