@@ -494,7 +494,7 @@ fn check_n(name: &str, n: f64) -> Result<(), CoreError> {
 /// flux at the junction (eq. K8).
 ///
 /// # Reference
-/// Seed 000 eq. 14; van de Hulst (1980) §7; Redheffer (1961).
+/// Seed 000 eq. 14; van de Hulst (1980), the adding method.
 ///
 /// ```
 /// use km_core::two_flux::{add, Slab};
@@ -546,7 +546,7 @@ pub struct StackFluxes {
 /// (eq. K9). An empty slice is a clear stack (`r = 0, t = 1`).
 ///
 /// # Reference
-/// Seed 000 eq. 14; van de Hulst (1980) §7.
+/// Seed 000 eq. 14; van de Hulst (1980), the adding method.
 ///
 /// ```
 /// use km_core::two_flux::{stack_adding, Slab};

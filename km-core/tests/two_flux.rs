@@ -575,3 +575,19 @@ fn nearly_conservative_thick_stacks_adding_keeps_relative_accuracy() {
     assert!(dr_add < 2.0 * f64::EPSILON);
     assert!(dr_tm < 2.0 * f64::EPSILON / (4.0 / (1.0 + s * d)));
 }
+
+#[test]
+fn star_mapping_reproduces_the_diffusion_attenuation() {
+    // Star et al. (1988) derive K, S from diffusion theory: the two-flux
+    // eigenvalue sqrt(K (K + 2S)) must equal mu_eff = sqrt(3 sigma_a (sigma_a + sigma_s (1 - g))).
+    // Checked through the closed form: a half-space profile decays as exp(-lambda z).
+    for &(sa, ss, g) in &[(0.1, 10.0, 0.0), (0.01, 5.0, 0.8), (1.0, 2.0, -0.3)] {
+        let l = km_core::Layer::new(sa, ss, f64::INFINITY, g, 1.0).unwrap();
+        let (k, s) = KmMapping::StarEtAl1988.coefficients(&l).unwrap();
+        let mu_eff = (3.0 * sa * (sa + ss * (1.0 - g))).sqrt();
+        let p0 = profile(k, s, f64::INFINITY, 0.0).unwrap();
+        let p1 = profile(k, s, f64::INFINITY, 1.0).unwrap();
+        let lambda = (p0.down / p1.down).ln();
+        assert!((lambda - mu_eff).abs() < 1e-12 * mu_eff, "{sa} {ss} {g}: {lambda} vs {mu_eff}");
+    }
+}
