@@ -591,3 +591,26 @@ fn star_mapping_reproduces_the_diffusion_attenuation() {
         assert!((lambda - mu_eff).abs() < 1e-12 * mu_eff, "{sa} {ss} {g}: {lambda} vs {mu_eff}");
     }
 }
+
+#[test]
+fn extreme_scenes_stay_finite_and_balanced() {
+    // Scene level: thick, clear, non-absorbing and index-mismatched layers together.
+    let layers = vec![
+        km_core::Layer::new(1e-300, 1.0, 1e6, 0.0, 1.5).unwrap(),
+        km_core::Layer::new(0.0, 0.0, 1e6, 0.0, 1.2).unwrap(),
+        km_core::Layer::new(5.0, 0.0, 1e-3, 0.0, 1.2).unwrap(),
+        km_core::Layer::new(0.0, 3.0, 1e6, 0.0, 1.7).unwrap(),
+    ];
+    for sub in
+        [Substrate::Transparent { n: 2.0 }, Substrate::Lambertian { albedo: 1.0 }, Substrate::Black]
+    {
+        for light in [Light::Collimated { theta_deg: 89.0 }, Light::Diffuse] {
+            let s = mono(layers.clone(), light, 1.0, sub);
+            let c = &solve(&s, &KmOptions::default()).unwrap().channels[0];
+            let all = [c.reflectance, c.transmittance, c.absorptance, c.transmittance_direct];
+            assert!(all.iter().all(|x| x.is_finite() && *x >= 0.0), "{c:?}");
+            assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-14, "{c:?}");
+            assert!(c.transmittance_direct <= c.transmittance);
+        }
+    }
+}
