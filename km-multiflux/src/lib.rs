@@ -1,13 +1,31 @@
 //! # km-multiflux: the multi-flux eigenvalue solver of seed 000 §3
 //!
+//! The radiative transfer equation of a stack of flat homogeneous layers,
+//! discretised in direction and solved exactly in depth by eigen-decomposition
+//! (discrete ordinates), in the Fourier–Gauss mode: Gauss nodes per hemisphere
+//! that map onto each other under Snell's law, a Fourier series in azimuth,
+//! delta-M scaling, and adding of layers, interfaces and substrates.
+//!
+//! * [`solve`] / [`MultifluxOptions`]: the scene entry point (DESIGN.md §5).
 //! * [`adding`]: the Redheffer star product of two layers' reflection and
 //!   transmission operators (seed eq. 14) and its truncated Neumann series (eq. 21).
+//! * [`slab`]: one homogeneous layer and Fourier order (seed eq. 17–20): the
+//!   half-size symmetric eigenproblem, scaled so no exponential grows, the
+//!   collimated beam's particular solution, exit directions of any angle.
+//! * [`interface`]: Fresnel interfaces and Lambertian substrates as layers (seed §3.4).
+//! * [`quadrature`]: double-Gauss quadratures per medium, mapped under Snell.
+//! * [`legendre`]: Fourier components of the phase function, delta-M.
 //! * [`MultifluxError`]: every refusal of the solver.
 #![deny(missing_docs)]
+#![allow(clippy::needless_range_loop)]
 
 pub mod adding;
-pub mod direction_set;
 pub mod error;
-pub mod flatland;
+pub mod interface;
+pub mod legendre;
+pub mod quadrature;
+pub mod slab;
+pub mod solver;
 
 pub use error::MultifluxError;
+pub use solver::{DEFAULT_STREAMS, MultifluxOptions, solve, solve_mono};

@@ -1,0 +1,569 @@
+//! One homogeneous layer, one Fourier order: reflection and transmission
+//! operators from the half-size eigenproblem, with no growing exponential.
+//!
+//! Notation (seed 000 eq. 17–20 in discrete-ordinate form; Stamnes & Swanson
+//! 1981; Stamnes et al. 1988). `N` nodes `mu_i, w_i` per hemisphere, `M =
+//! diag(mu)`, `W = diag(w)`, `I+` down-going, `I-` up-going radiances at the
+//! nodes, `tau` optical depth (downward). With `A = omega P(mu_i, mu_j) W`
+//! and `B = omega P(mu_i, -mu_j) W` (`P = p^m` of [`crate::legendre`]):
+//!
+//! ```text
+//!   dI+/dtau = -alpha I+ + beta I-,  dI-/dtau = -beta I+ + alpha I-     (S1)
+//!   alpha = M^-1 (1 - A),  beta = M^-1 B
+//! ```
+//!
+//! `I± = g± exp(-k tau)` gives `(alpha + beta)(alpha - beta) v = k^2 v` with
+//! `v = g+ + g-`, `g+ - g- = k z`, `z = (alpha + beta)^-1 v` (S2). With
+//! `T = diag(sqrt(w mu))`, `H± = T (alpha ± beta) T^-1` are symmetric, and
+//! with the Cholesky factor `H+ = L L^T` the problem becomes the symmetric
+//! `L^T H- L y = k^2 y`, `v~ = L y`, `z~ = L^-T y` (S3), solved by faer's
+//! `self_adjoint_eigen` (N x N instead of 2N x 2N).
+//!
+//! Every mode is anchored where it decays from: `c_j g±_j e^{-k tau}` at the
+//! top and `d_j g∓_j e^{-k (tau0 - tau)}` at the bottom (Stamnes & Conklin
+//! 1984), so with `e = exp(-k tau0) <= 1` and `phi = (1 - e)/k` (`= tau0` at
+//! `k = 0`) the boundary conditions `I+(0) = a`, `I-(tau0) = b` read
+//!
+//! ```text
+//!   Cp s = a + b,   Cm y = a - b,   s = c + d,  y = k (c - d)           (S4)
+//!   Cp = 1/2 [v (1+e) + k z (1-e)],   Cm = 1/2 [v phi + z (1+e)]
+//!   R + T = 1/2 [v (1+e) - k z (1-e)] Cp^-1                              (S5)
+//!   R - T = 1/2 [v phi  - z (1+e)]    Cm^-1
+//! ```
+//!
+//! (columns per mode). Nothing grows, and `k = 0` (conservative scattering,
+//! `m = 0`: the pair of modes becomes the constant and the linear solution)
+//! needs no special case: `phi -> tau0`. The half-space is `e = 0`,
+//! `R = 1/2 [v - k z] (1/2 [v + k z])^-1`, `T = 0`.
+//!
+//! Collimated beam (`mu_b`, unit irradiance on a horizontal plane at the top):
+//! particular solution `Z± exp(-tau/mu_b)` with (S6)
+//! `[(alpha-beta)(alpha+beta) - mu_b^-2] Delta = sigma+ / mu_b + (alpha-beta) sigma-`,
+//! `Sigma = mu_b [(alpha+beta) Delta - sigma-]`, `Z± = (Sigma ± Delta)/2`,
+//! `sigma± = M^-1 (s+ ± s-)`, `s±_i = omega (2-delta_m0)/(2pi) p^m(±mu_i, mu_b)/mu_b`,
+//! solved in the eigenbasis (`H- H+ z~_j = k_j^2 z~_j`, dual basis `v~_j`).
+//!
+//! User directions ("probes", zero quadrature weight): the radiance leaving
+//! the layer is the integral of the source function along the path
+//! (Stamnes et al. 1988 §3.6), done analytically per mode (eq. S7 in
+//! `docs/multiflux.md`).
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+
+use crate::MultifluxError;
+use crate::adding::LayerOperators;
+use crate::legendre::normalized_legendre;
+
+/// An extra direction carried besides the quadrature nodes, in one medium.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extra {
+    /// Cosine in this medium; `None` if the direction cannot propagate here.
+    pub mu: Option<f64>,
+    /// True for the collimated beam (its value is an irradiance on a
+    /// horizontal plane and it scatters); false for a probe (a radiance of
+    /// zero quadrature weight, which receives but does not scatter).
+    pub beam: bool,
+}
+
+/// The optical properties of a layer for one Fourier order.
+#[derive(Debug, Clone, Copy)]
+pub struct SlabOrder<'a> {
+    /// Optical thickness (delta-M scaled), `>= 0`, may be infinite.
+    pub tau: f64,
+    /// Single-scattering albedo (delta-M scaled), `[0, 1]`.
+    pub omega: f64,
+    /// Legendre moments (delta-M scaled) `chi_0..chi_{L-1}`.
+    pub chi: &'a [f64],
+    /// Fourier order.
+    pub m: usize,
+}
+
+/// `(1 - exp(-c t)) / c` for `c >= 0`, `t >= 0` (may be infinite); `t` at `c = 0`.
+pub(crate) fn phi(c: f64, t: f64) -> f64 {
+    if t.is_infinite() {
+        return if c > 0.0 { 1.0 / c } else { f64::INFINITY };
+    }
+    let x = c * t;
+    if x < 1e-10 { t * (1.0 - 0.5 * x) } else { -(-x).exp_m1() / c }
+}
+
+/// `(exp(-a t) - exp(-b t)) / (b - a)` for `a, b >= 0`, finite or infinite `t`
+/// (its limit `t exp(-a t)` at `a = b`), without cancellation.
+pub(crate) fn e2(a: f64, b: f64, t: f64) -> f64 {
+    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+    if t.is_infinite() {
+        return if lo > 0.0 { 0.0 } else { phi(hi, t) };
+    }
+    (-lo * t).exp() * phi(hi - lo, t)
+}
+
+/// `exp(-t / mu)`, 0 for an infinite `t`.
+fn atten(t: f64, mu: f64) -> f64 {
+    if t.is_infinite() { 0.0 } else { (-t / mu).exp() }
+}
+
+/// The eigen-solution of one layer and order (eq. S2–S5), kept to evaluate
+/// the operators, the beam's particular solution and the internal field.
+pub struct SlabSolution {
+    n: usize,
+    tau: f64,
+    omega: f64,
+    m: usize,
+    /// `sqrt(w mu)` (the diagonal of `T`).
+    t: Vec<f64>,
+    mu: Vec<f64>,
+    w: Vec<f64>,
+    /// Weighted moments `(2l+1) chi_l` for `l = m..L`.
+    chi: Vec<f64>,
+    /// `Lambda_l^m(mu_i)`, row `i`, column `l`.
+    lam: Mat<f64>,
+    /// Eigenvalues `k_j >= 0`.
+    pub k: Vec<f64>,
+    /// `v~` (columns), transformed coordinates.
+    v: Mat<f64>,
+    /// `z~` (columns), transformed coordinates.
+    z: Mat<f64>,
+    /// `H+` and `H-`.
+    hp: Mat<f64>,
+    hm: Mat<f64>,
+    /// `Cp^-1` and `Cm^-1` of eq. S4 (Cm unused for a half-space).
+    cp_inv: Mat<f64>,
+    cm_inv: Mat<f64>,
+    /// Reflection and transmission between the nodes (original coordinates).
+    r: Mat<f64>,
+    tr: Mat<f64>,
+    /// Scale of the beam coupling to the nodes for m = 0 (energy renormalisation).
+    renorm_m0: bool,
+}
+
+impl SlabSolution {
+    /// Solve the layer (eq. S1–S5) on the nodes `mu`, `w`.
+    ///
+    /// # Errors
+    /// [`MultifluxError::Numerical`] if the Cholesky factorisation of `H+` or the
+    /// eigen-solver fails, or the operators are not finite.
+    pub fn new(mu: &[f64], w: &[f64], p: &SlabOrder<'_>) -> Result<Self, MultifluxError> {
+        let n = mu.len();
+        let (tau, omega, m) = (p.tau, p.omega, p.m);
+        let nl = p.chi.len();
+        let t: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (u * w).sqrt()).collect();
+        let chi: Vec<f64> =
+            (0..nl).map(|l| if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] }).collect();
+
+        // Legendre table Lambda_l^m(mu_i).
+        let mut lam = Mat::<f64>::zeros(n, nl);
+        let mut buf = vec![0.0; nl];
+        for i in 0..n {
+            normalized_legendre(m, mu[i], &mut buf);
+            for l in 0..nl {
+                lam[(i, l)] = buf[l];
+            }
+        }
+        // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu').
+        let mut pe = Mat::<f64>::zeros(n, n);
+        let mut po = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            for i in 0..n {
+                let (mut se, mut so) = (0.0, 0.0);
+                for l in m..nl {
+                    let x = chi[l] * lam[(i, l)] * lam[(j, l)];
+                    if (l + m) % 2 == 0 { se += x } else { so += x }
+                }
+                pe[(i, j)] = se;
+                po[(i, j)] = so;
+            }
+        }
+        // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
+        // (energy conservation of the discrete scattering; DESIGN §4.1). Symmetric
+        // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
+        let renorm_m0 = m == 0;
+        if renorm_m0 {
+            let mut d = vec![1.0; n];
+            for _ in 0..60 {
+                let mut worst = 0.0f64;
+                let mut r = vec![0.0; n];
+                for i in 0..n {
+                    let s: f64 = (0..n).map(|j| pe[(i, j)] * w[j] * d[j]).sum();
+                    r[i] = d[i] * s;
+                    worst = worst.max((r[i] - 1.0).abs());
+                }
+                if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
+                    break;
+                }
+                for i in 0..n {
+                    d[i] /= r[i].sqrt();
+                }
+            }
+            for j in 0..n {
+                for i in 0..n {
+                    let s = d[i] * d[j];
+                    pe[(i, j)] *= s;
+                    po[(i, j)] *= s;
+                }
+            }
+        }
+        // H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)   (eq. S3).
+        let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
+        let hp = Mat::from_fn(n, n, |i, j| {
+            let diag = if i == j { 1.0 / mu[i] } else { 0.0 };
+            diag - omega * sq[i] * po[(i, j)] * sq[j]
+        });
+        let hm = Mat::from_fn(n, n, |i, j| {
+            let diag = if i == j { 1.0 / mu[i] } else { 0.0 };
+            diag - omega * sq[i] * pe[(i, j)] * sq[j]
+        });
+
+        let fail = |what: &'static str| MultifluxError::Numerical {
+            what,
+            detail: format!("N = {n}, tau = {tau}, omega = {omega}, m = {m}"),
+        };
+        let llt = hp.llt(Side::Lower).map_err(|_| fail("Cholesky of H+"))?;
+        let lf = llt.L().to_owned();
+        let sym = lf.transpose() * &hm * &lf;
+        let evd = sym.self_adjoint_eigen(Side::Lower).map_err(|_| fail("eigen-solver"))?;
+        let s = evd.S().column_vector().to_owned();
+        let y = evd.U().to_owned();
+        let mut k: Vec<f64> = (0..n).map(|j| s[j].max(0.0).sqrt()).collect();
+        if m == 0 && omega == 1.0 {
+            // Conservative scattering: the discrete system conserves energy exactly
+            // (renormalised above), so the smallest eigenvalue is exactly 0.
+            k[0] = 0.0;
+        }
+        let v = &lf * &y;
+        let z = llt.solve(&v);
+
+        // Eq. S4-S5.
+        let half = tau.is_infinite();
+        let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
+        let cp = Mat::from_fn(n, n, |i, j| {
+            0.5 * (v[(i, j)] * (1.0 + e[j]) + k[j] * z[(i, j)] * (1.0 - e[j]))
+        });
+        let cp_out = Mat::from_fn(n, n, |i, j| {
+            0.5 * (v[(i, j)] * (1.0 + e[j]) - k[j] * z[(i, j)] * (1.0 - e[j]))
+        });
+        let eye = Mat::<f64>::identity(n, n);
+        let cp_inv = cp.partial_piv_lu().solve(&eye);
+        let rpt = &cp_out * &cp_inv;
+        let (cm_inv, rmt) = if half {
+            (Mat::zeros(0, 0), rpt.clone())
+        } else {
+            let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
+            let cm =
+                Mat::from_fn(n, n, |i, j| 0.5 * (v[(i, j)] * ph[j] + z[(i, j)] * (1.0 + e[j])));
+            let cm_out =
+                Mat::from_fn(n, n, |i, j| 0.5 * (v[(i, j)] * ph[j] - z[(i, j)] * (1.0 + e[j])));
+            let cm_inv = cm.partial_piv_lu().solve(&eye);
+            let rmt = &cm_out * &cm_inv;
+            (cm_inv, rmt)
+        };
+        // Back to radiances: R_ij = R~_ij t_j / t_i.
+        let r = Mat::from_fn(n, n, |i, j| 0.5 * (rpt[(i, j)] + rmt[(i, j)]) * t[j] / t[i]);
+        let tr = if half {
+            Mat::zeros(n, n)
+        } else {
+            Mat::from_fn(n, n, |i, j| 0.5 * (rpt[(i, j)] - rmt[(i, j)]) * t[j] / t[i])
+        };
+        let finite =
+            (0..n).all(|j| (0..n).all(|i| r[(i, j)].is_finite() && tr[(i, j)].is_finite()));
+        if !finite {
+            return Err(fail("layer operators (non-finite)"));
+        }
+        Ok(SlabSolution {
+            n,
+            tau,
+            omega,
+            m,
+            t,
+            mu: mu.to_vec(),
+            w: w.to_vec(),
+            chi,
+            lam,
+            k,
+            v,
+            z,
+            hp,
+            hm,
+            cp_inv,
+            cm_inv,
+            r,
+            tr,
+            renorm_m0,
+        })
+    }
+
+    /// Reflection matrix between the nodes (radiance in, radiance out).
+    pub fn r(&self) -> &Mat<f64> {
+        &self.r
+    }
+
+    /// Transmission matrix between the nodes.
+    pub fn t(&self) -> &Mat<f64> {
+        &self.tr
+    }
+
+    /// `Lambda_l^m(mu)` for this order.
+    fn lam_at(&self, mu: f64) -> Vec<f64> {
+        let mut b = vec![0.0; self.chi.len()];
+        normalized_legendre(self.m, mu, &mut b);
+        b
+    }
+
+    /// Even and odd (in l+m) kernels between direction `mu` and every node:
+    /// `sum_{l+m even/odd} (2l+1) chi_l Lambda_l(mu) Lambda_l(mu_j)`.
+    fn kernels(&self, lam_x: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let (mut ev, mut od) = (vec![0.0; self.n], vec![0.0; self.n]);
+        for j in 0..self.n {
+            let (mut se, mut so) = (0.0, 0.0);
+            for l in self.m..self.chi.len() {
+                let x = self.chi[l] * lam_x[l] * self.lam[(j, l)];
+                if (l + self.m) % 2 == 0 { se += x } else { so += x }
+            }
+            ev[j] = se;
+            od[j] = so;
+        }
+        (ev, od)
+    }
+
+    /// Particular solution for a beam of unit horizontal irradiance entering
+    /// at the top at `mu_b` (eq. S6): `(Z+, Z-)` in radiances at the nodes.
+    fn particular(&self, mu_b: f64) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let lam_b = self.lam_at(mu_b);
+        let (mut ev, mut od) = self.kernels(&lam_b);
+        let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
+        if self.renorm_m0 {
+            // Make the scattered beam integrate to omega exactly over the nodes.
+            let s: f64 = (0..n).map(|j| ev[j] * self.w[j]).sum();
+            if s > 0.0 {
+                ev.iter_mut().for_each(|x| *x /= s);
+                od.iter_mut().for_each(|x| *x /= s);
+            }
+        }
+        // s+ + s- = omega c_m / mu_b * ev ; s+ - s- = omega c_m / mu_b * od.
+        let f = self.omega * cm / mu_b;
+        // sigma~± = T M^-1 (s+ ± s-) = sqrt(w/mu) (s+ ± s-).
+        let sp: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * ev[i]).collect();
+        let sm: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * od[i]).collect();
+        // rhs = sigma+ / mu_b + H- sigma-.
+        let rhs: Vec<f64> = (0..n)
+            .map(|i| sp[i] / mu_b + (0..n).map(|j| self.hm[(i, j)] * sm[j]).sum::<f64>())
+            .collect();
+        // Delta = sum_j z_j (v_j . rhs) / (k_j^2 - mu_b^-2).
+        let lb = 1.0 / (mu_b * mu_b);
+        let mut delta = vec![0.0; n];
+        for j in 0..n {
+            let c: f64 =
+                (0..n).map(|i| self.v[(i, j)] * rhs[i]).sum::<f64>() / (self.k[j] * self.k[j] - lb);
+            for i in 0..n {
+                delta[i] += c * self.z[(i, j)];
+            }
+        }
+        // Sigma = mu_b (H+ Delta - sigma-).
+        let sigma: Vec<f64> = (0..n)
+            .map(|i| mu_b * ((0..n).map(|j| self.hp[(i, j)] * delta[j]).sum::<f64>() - sm[i]))
+            .collect();
+        let zp = (0..n).map(|i| 0.5 * (sigma[i] + delta[i]) / self.t[i]).collect();
+        let zm = (0..n).map(|i| 0.5 * (sigma[i] - delta[i]) / self.t[i]).collect();
+        (zp, zm)
+    }
+
+    /// Particular solution, away from resonances `k_j mu_b = 1` where eq. S6 is
+    /// singular: there the mean of `mu_b (1 ± 2e-4)` is used (error O(1e-7)).
+    fn particular_safe(&self, mu_b: f64) -> (Vec<f64>, Vec<f64>) {
+        let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-4);
+        if !near {
+            return self.particular(mu_b);
+        }
+        let (a, b) = (self.particular(mu_b * (1.0 - 2e-4)), self.particular(mu_b * (1.0 + 2e-4)));
+        let avg = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect();
+        (avg(&a.0, &b.0), avg(&a.1, &b.1))
+    }
+
+    /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
+    /// at `mu_x` leaving the top per unit down-going radiance at each node
+    /// entering at the top, and the same from the bottom (eq. S7).
+    fn probe_rows(&self, mu_x: f64) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let lam_x = self.lam_at(mu_x);
+        let (ev, od) = self.kernels(&lam_x);
+        let beta = 1.0 / mu_x;
+        // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
+        let mut us = vec![0.0; n];
+        let mut uy = vec![0.0; n];
+        for j in 0..n {
+            let (mut a, mut b) = (0.0, 0.0);
+            for i in 0..n {
+                let f = self.omega * self.w[i] / self.t[i];
+                a += f * ev[i] * self.v[(i, j)];
+                b -= f * od[i] * self.z[(i, j)];
+            }
+            let k = self.k[j];
+            if self.tau.is_infinite() {
+                // Only top-anchored modes: out = 1/2 (a + b k) beta/(k + beta) c, c = s.
+                us[j] = 0.5 * (a + b * k) * beta / (k + beta);
+                continue;
+            }
+            let t0 = self.tau;
+            let k1 = beta * phi(k + beta, t0);
+            let k2 = beta * e2(k, beta, t0);
+            let kd = if k > 0.0 {
+                (k1 - k2) / k
+            } else {
+                // limit: beta int_0^t0 e^{-beta t} (t0 - 2 t) dt
+                let x = beta * t0;
+                let om = -(-x).exp_m1();
+                t0 * om - 2.0 * (om - x * (-x).exp()) / beta
+            };
+            us[j] = 0.25 * (a * (k1 + k2) + b * k * (k1 - k2));
+            uy[j] = 0.25 * (a * kd + b * (k1 + k2));
+        }
+        // R_xq = (us Cp^-1 + uy Cm^-1) T ; T_xq = (us Cp^-1 - uy Cm^-1) T.
+        let mut rx = vec![0.0; n];
+        let mut tx = vec![0.0; n];
+        for i in 0..n {
+            let p: f64 = (0..n).map(|j| us[j] * self.cp_inv[(j, i)]).sum();
+            let q: f64 = if self.tau.is_infinite() {
+                0.0
+            } else {
+                (0..n).map(|j| uy[j] * self.cm_inv[(j, i)]).sum()
+            };
+            rx[i] = (p + q) * self.t[i];
+            tx[i] = (p - q) * self.t[i];
+        }
+        if self.tau.is_infinite() {
+            tx.iter_mut().for_each(|x| *x = 0.0);
+        }
+        (rx, tx)
+    }
+
+    /// The operators on the augmented space `[nodes, extras]` (same layout for
+    /// down- and up-going vectors; the layer is symmetric, so `r_bottom = r_top`
+    /// and `t_up = t_down`).
+    pub fn operators(&self, extras: &[Extra]) -> LayerOperators {
+        let n = self.n;
+        let dim = n + extras.len();
+        let mut rr = Mat::<f64>::zeros(dim, dim);
+        let mut tt = Mat::<f64>::zeros(dim, dim);
+        for j in 0..n {
+            for i in 0..n {
+                rr[(i, j)] = self.r[(i, j)];
+                tt[(i, j)] = self.tr[(i, j)];
+            }
+        }
+        // Probe rows first (needed by the beam columns).
+        let mut rows: Vec<Option<(Vec<f64>, Vec<f64>)>> = Vec::with_capacity(extras.len());
+        for (e, ex) in extras.iter().enumerate() {
+            let Some(mu_x) = ex.mu else {
+                rows.push(None);
+                continue;
+            };
+            tt[(n + e, n + e)] = atten(self.tau, mu_x);
+            if ex.beam {
+                rows.push(None);
+                continue;
+            }
+            let (rx, tx) = self.probe_rows(mu_x);
+            for i in 0..n {
+                rr[(n + e, i)] = rx[i];
+                tt[(n + e, i)] = tx[i];
+            }
+            rows.push(Some((rx, tx)));
+        }
+        for (eb, ex) in extras.iter().enumerate() {
+            let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
+            let (zp, zm) = self.particular_safe(mu_b);
+            let eb_att = atten(self.tau, mu_b);
+            // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
+            let a: Vec<f64> = zp.iter().map(|x| -x).collect();
+            let b: Vec<f64> = zm.iter().map(|x| -x * eb_att).collect();
+            for i in 0..n {
+                let (mut ru, mut td) = (zm[i], zp[i] * eb_att);
+                for j in 0..n {
+                    ru += self.r[(i, j)] * a[j] + self.tr[(i, j)] * b[j];
+                    td += self.tr[(i, j)] * a[j] + self.r[(i, j)] * b[j];
+                }
+                rr[(i, n + eb)] = ru;
+                tt[(i, n + eb)] = td;
+            }
+            // Beam -> probes: homogeneous rows plus the particular source integral.
+            let lam_b = self.lam_at(mu_b);
+            let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
+            for (ex_i, exx) in extras.iter().enumerate() {
+                let (Some((rx, tx)), Some(mu_x)) = (&rows[ex_i], exx.mu) else { continue };
+                let lam_x = self.lam_at(mu_x);
+                let (ev, od) = self.kernels(&lam_x);
+                // Direct single scattering of the beam into ±mu_x.
+                let (mut se, mut so) = (0.0, 0.0);
+                for l in self.m..self.chi.len() {
+                    let x = self.chi[l] * lam_x[l] * lam_b[l];
+                    if (l + self.m) % 2 == 0 { se += x } else { so += x }
+                }
+                // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
+                let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
+                let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
+                // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
+                let (mut up, mut dn) = (direct_up, direct_dn);
+                for j in 0..n {
+                    let f = self.omega * self.w[j] * 0.5;
+                    // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
+                    up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
+                    dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
+                }
+                let beta = 1.0 / mu_x;
+                let kb = 1.0 / mu_b;
+                let mut out_up = up * beta * phi(kb + beta, self.tau);
+                let mut out_dn = dn * beta * e2(kb, beta, self.tau);
+                for j in 0..n {
+                    out_up += rx[j] * a[j] + tx[j] * b[j];
+                    out_dn += tx[j] * a[j] + rx[j] * b[j];
+                }
+                rr[(n + ex_i, n + eb)] = out_up;
+                tt[(n + ex_i, n + eb)] = out_dn;
+            }
+        }
+        LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt }
+    }
+}
+
+/// Operators of a layer that does not scatter in this order (pure absorber,
+/// or an order above the phase function's last moment): `R = 0`,
+/// `T = diag(exp(-tau/mu))` (Beer–Lambert), no eigen-solve.
+pub fn absorber_operators(mu: &[f64], extras: &[Extra], tau: f64) -> LayerOperators {
+    let n = mu.len();
+    let dim = n + extras.len();
+    let mut tt = Mat::<f64>::zeros(dim, dim);
+    for i in 0..n {
+        tt[(i, i)] = atten(tau, mu[i]);
+    }
+    for (e, ex) in extras.iter().enumerate() {
+        if let Some(mu_x) = ex.mu {
+            tt[(n + e, n + e)] = atten(tau, mu_x);
+        }
+    }
+    LayerOperators {
+        r_top: Mat::zeros(dim, dim),
+        t_down: tt.clone(),
+        r_bottom: Mat::zeros(dim, dim),
+        t_up: tt,
+    }
+}
+
+/// Operators of one layer and order on the augmented space, choosing the
+/// absorber shortcut when nothing scatters.
+///
+/// # Errors
+/// Those of [`SlabSolution::new`].
+pub fn slab_operators(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    p: &SlabOrder<'_>,
+) -> Result<LayerOperators, MultifluxError> {
+    let scatters =
+        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
+    if !scatters {
+        return Ok(absorber_operators(mu, extras, p.tau));
+    }
+    Ok(SlabSolution::new(mu, w, p)?.operators(extras))
+}
