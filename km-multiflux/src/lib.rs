@@ -20,7 +20,9 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod adding;
+pub mod direction_set;
 pub mod error;
+pub mod flatland;
 pub mod interface;
 pub mod legendre;
 pub mod quadrature;
