@@ -1,1 +1,36 @@
-//! placeholder
+//! # km-montecarlo: the Monte Carlo reference tracer
+//!
+//! Photon tracing in a stack of plane-parallel layers in the manner of MCML
+//! (Wang, Jacques & Zheng 1995) and Hanrahan & Krueger (1993): exponential
+//! free paths with exact crossing of layer boundaries, Henyey–Greenstein
+//! scattering, smooth Fresnel interfaces wherever the refractive index
+//! changes, Lambertian, black or clear substrates, collimated light at any
+//! angle or diffuse light. The theory and the precise definition of every
+//! tally are in `docs/montecarlo.md`.
+//!
+//! The principal items:
+//! * [`McOptions`] (samples, seed, threads, [`Estimator`], bins, budget) and
+//!   [`solve`]: a [`km_core::Solution`] with standard errors (key `stderr`).
+//! * [`run_shard`] / [`merge`] / [`Partial`]: a run split over processes,
+//!   merged bit-identically; [`write_atomic`] for their files.
+//! * [`radial_profile`]: `Rd(r)` of a pencil beam ([`RadialProfile`]).
+//! * [`McError`]: every refusal.
+//!
+//! Reproducibility: batch `b` of channel `c` draws from a PCG-64 stream seeded
+//! from `(seed, c, b)`; batches are summed in index order, so the result is a
+//! function of the seed and the options only, not of the thread count.
+#![deny(missing_docs)]
+
+pub mod bins;
+pub mod error;
+pub mod options;
+mod rng;
+pub mod run;
+pub mod shard;
+mod tally;
+mod transport;
+
+pub use error::McError;
+pub use options::{Estimator, McOptions, RadialBins};
+pub use run::{RadialProfile, radial_profile, run_shard, solve};
+pub use shard::{Partial, merge, shard_batches, write_atomic};

@@ -1,0 +1,181 @@
+//! Options of a Monte Carlo run ([`McOptions`]) and their validation.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::McError;
+
+/// How absorption is simulated (docs/montecarlo.md §4 states what each tallies).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Estimator {
+    /// Implicit capture (MCML): at each interaction the fraction `1 - albedo`
+    /// of the weight is deposited and the photon goes on with the rest; the
+    /// first-surface Fresnel reflection is split deterministically; Russian
+    /// roulette below [`McOptions::roulette_threshold`].
+    #[default]
+    SurvivalBiasing,
+    /// Analog: weight 1 throughout; absorption, Fresnel reflection and the
+    /// Lambertian albedo are all decided by a random number.
+    Analog,
+}
+
+impl Estimator {
+    /// Lower-case name used in JSON output.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Estimator::SurvivalBiasing => "survival-biasing",
+            Estimator::Analog => "analog",
+        }
+    }
+}
+
+/// Annuli for the radially resolved diffuse reflectance `Rd(r)` (MCML's `Rd_r`).
+///
+/// Annulus `i` covers `i dr <= r < (i + 1) dr`, `i < count`; photons escaping
+/// beyond `count dr` are counted in an overflow tally.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RadialBins {
+    /// Annulus width, in the length unit of the scene (`> 0`).
+    pub dr: f64,
+    /// Number of annuli (`>= 1`).
+    pub count: usize,
+}
+
+/// Options of a Monte Carlo run.
+///
+/// `Default` gives 10^6 photons, seed 1, survival biasing, all cores,
+/// 5 degree angular bins, no radial profile, no progress bar.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct McOptions {
+    /// Number of photons per channel (`>= 1`).
+    pub samples: u64,
+    /// Seed of the run; batch `b` of channel `c` uses a PCG stream seeded from `(seed, c, b)`.
+    pub seed: u64,
+    /// Worker threads (`None`: rayon's default, all cores). Never changes the result.
+    pub threads: Option<usize>,
+    /// Absorption estimator.
+    pub estimator: Estimator,
+    /// Photons per batch (`None`: `max(ceil(samples / 1000), min(100, ceil(samples / 2)))`,
+    /// i.e. about 1000 batches for large runs). Batches are the unit of
+    /// parallel work, of reproducibility and of the standard errors.
+    pub batch_size: Option<u64>,
+    /// Maximum number of steps (interactions plus interface crossings) of one
+    /// photon; a photon that reaches it is stopped and its weight is booked as
+    /// `lost_weight`, reported as the bias bound of every total (`>= 1`).
+    pub max_steps_per_photon: u64,
+    /// Budget of photon steps for the whole run (all channels); the run is
+    /// refused with [`McError::TooExpensive`] as soon as the projection from the
+    /// completed batches, or the count itself, exceeds it. `None`: no budget.
+    pub max_events: Option<u64>,
+    /// Survival biasing: Russian roulette is played when the weight falls below this (`(0, 1)`).
+    pub roulette_threshold: f64,
+    /// Survival biasing: survival probability of the roulette (`(0, 1]`).
+    pub roulette_survival: f64,
+    /// Half-angle of the cone around each output direction over which the
+    /// BRDF/BTDF is averaged, degrees (`(0, 45]`).
+    pub bin_half_angle_deg: f64,
+    /// Optional edges in `mu = cos(theta)` (increasing, within `[0, 1]`) of
+    /// azimuthal rings: the azimuth-averaged BRDF/BTDF per ring, to compare
+    /// with a discrete-ordinates solver bin by bin.
+    pub ring_mu_edges: Option<Vec<f64>>,
+    /// Optional radial bins for `Rd(r)`.
+    pub radial: Option<RadialBins>,
+    /// Show a progress bar on stderr when the run lasts more than a second.
+    pub progress: bool,
+}
+
+impl Default for McOptions {
+    fn default() -> Self {
+        McOptions {
+            samples: 1_000_000,
+            seed: 1,
+            threads: None,
+            estimator: Estimator::SurvivalBiasing,
+            batch_size: None,
+            max_steps_per_photon: 1_000_000,
+            max_events: Some(20_000_000_000),
+            roulette_threshold: 1e-4,
+            roulette_survival: 0.1,
+            bin_half_angle_deg: 5.0,
+            ring_mu_edges: None,
+            radial: None,
+            progress: false,
+        }
+    }
+}
+
+fn bad(name: &'static str, value: impl ToString, reason: &'static str) -> McError {
+    McError::Option { name, value: value.to_string(), reason }
+}
+
+impl McOptions {
+    /// Check every option against its domain.
+    ///
+    /// # Errors
+    /// [`McError::Option`] naming the first offending option.
+    pub fn validate(&self) -> Result<(), McError> {
+        if self.samples == 0 {
+            return Err(bad("samples", 0, "need at least one photon"));
+        }
+        if self.threads == Some(0) {
+            return Err(bad("threads", 0, "need at least one thread"));
+        }
+        if self.batch_size == Some(0) {
+            return Err(bad("batch_size", 0, "need at least one photon per batch"));
+        }
+        if self.max_steps_per_photon == 0 {
+            return Err(bad("max_steps_per_photon", 0, "must be >= 1"));
+        }
+        let t = self.roulette_threshold;
+        if !(t > 0.0 && t < 1.0) {
+            return Err(bad("roulette_threshold", t, "must lie in (0, 1)"));
+        }
+        let p = self.roulette_survival;
+        if !(p > 0.0 && p <= 1.0) {
+            return Err(bad("roulette_survival", p, "must lie in (0, 1]"));
+        }
+        let a = self.bin_half_angle_deg;
+        if !(a > 0.0 && a <= 45.0) {
+            return Err(bad("bin_half_angle_deg", a, "must lie in (0, 45] degrees"));
+        }
+        if let Some(e) = &self.ring_mu_edges {
+            let ok = e.len() >= 2
+                && e.iter().all(|x| (0.0..=1.0).contains(x))
+                && e.windows(2).all(|w| w[0] < w[1]);
+            if !ok {
+                return Err(bad(
+                    "ring_mu_edges",
+                    format!("{e:?}"),
+                    "need >= 2 increasing values in [0, 1]",
+                ));
+            }
+        }
+        if let Some(r) = self.radial {
+            if !(r.dr.is_finite() && r.dr > 0.0) {
+                return Err(bad("radial.dr", r.dr, "must be finite and > 0"));
+            }
+            if r.count == 0 {
+                return Err(bad("radial.count", 0, "need at least one annulus"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Photons per batch for this run (see [`McOptions::batch_size`]).
+    pub fn effective_batch_size(&self) -> u64 {
+        self.batch_size.unwrap_or_else(|| {
+            let n = self.samples.max(1);
+            n.div_ceil(1000).max(100.min(n.div_ceil(2)))
+        })
+    }
+
+    /// Number of batches `ceil(samples / batch_size)`.
+    pub fn batch_count(&self) -> u64 {
+        self.samples.div_ceil(self.effective_batch_size())
+    }
+
+    /// The options with the fields that never change the result (threads,
+    /// progress) cleared: what two runs must share to be merged.
+    pub fn result_key(&self) -> McOptions {
+        McOptions { threads: None, progress: false, ..self.clone() }
+    }
+}

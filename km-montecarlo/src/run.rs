@@ -1,0 +1,276 @@
+//! The driver: batches in parallel (rayon), work budget, progress bar, and
+//! the public entry points [`solve`], [`run_shard`] and [`radial_profile`].
+
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use km_core::{Light, Scene, Solution};
+use rayon::prelude::*;
+
+use crate::error::McError;
+use crate::options::{McOptions, RadialBins};
+use crate::rng::batch_rng;
+use crate::shard::{
+    BatchRecord, ChannelBatch, ChannelMeta, PARTIAL_FORMAT, Partial, accumulate, batch_photons,
+    build_solution, fnv1a_hex, shard_batches,
+};
+use crate::tally::Layout;
+use crate::transport::Tracer;
+
+/// Trace the whole scene: one [`Solution`] with one result per channel.
+///
+/// Per channel: totals (reflectance with its specular part, transmittance
+/// with its direct part, absorptance), absorptance per layer, BRDF/BTDF at
+/// the scene's `directions_deg` (averaged over cones of
+/// `opts.bin_half_angle_deg`, eq. B1), and `stderr` for each from batch
+/// statistics (eq. T1). `extra["mc"]` holds the settings, the counts
+/// (interactions, steps, photons stopped by the step cap and their weight,
+/// the bias bound) and, when asked, rings and `Rd(r)`. `seconds` is the
+/// tracing time only. Same seed and options give a bit-identical result
+/// whatever `opts.threads`.
+///
+/// Identical to `merge(&[run_shard(scene, opts, 0, 1)?])`.
+///
+/// # Errors
+/// Invalid options ([`McError::Option`]), an invalid scene, a run over its
+/// budget ([`McError::TooExpensive`]), a thread pool that cannot be built.
+///
+/// ```
+/// use km_montecarlo::{McOptions, solve};
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let sol = solve(&scene, &McOptions { samples: 20_000, ..Default::default() }).unwrap();
+/// let c = &sol.channels[0];
+/// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-9);
+/// ```
+pub fn solve(scene: &Scene, opts: &McOptions) -> Result<Solution, McError> {
+    let part = run_shard(scene, opts, 0, 1)?;
+    let parts = [part];
+    let m = accumulate(&parts)?;
+    Ok(build_solution(&parts, &m))
+}
+
+/// Trace shard `index` of `count` of the run `opts` (0-based): the
+/// contiguous batches `[floor(index B / count), floor((index + 1) B / count))`
+/// of the `B` batches of the whole run, returned as raw sums ([`Partial`]).
+/// [`crate::merge`] of all `count` shards gives exactly [`solve`]'s result.
+///
+/// # Errors
+/// [`McError::Shard`] when `count == 0` or `index >= count`, and those of [`solve`].
+pub fn run_shard(
+    scene: &Scene,
+    opts: &McOptions,
+    index: u64,
+    count: u64,
+) -> Result<Partial, McError> {
+    opts.validate()?;
+    if count == 0 || index >= count {
+        return Err(McError::Shard { index, count });
+    }
+    for ch in &scene.channels {
+        ch.validate()?;
+    }
+    if scene.channels.is_empty() {
+        return Err(km_core::CoreError::scene("scene", None, "the scene has no channel").into());
+    }
+    let tracers: Vec<Tracer> = scene.channels.iter().map(|c| Tracer::new(c, opts)).collect();
+    let metas: Vec<ChannelMeta> = scene
+        .channels
+        .iter()
+        .zip(&tracers)
+        .map(|(c, t)| {
+            let l: Layout = t.layout();
+            let n = Tracer::norms(c, opts);
+            ChannelMeta {
+                layers: l.layers,
+                dirs: l.dirs,
+                rings: l.rings,
+                radial: l.radial,
+                cone: n.cone,
+                ring: n.ring,
+                annulus: n.annulus,
+            }
+        })
+        .collect();
+    let batch_size = opts.effective_batch_size();
+    let batch_count = opts.batch_count();
+    let mine: Vec<u64> = shard_batches(batch_count, index, count).collect();
+
+    let t0 = Instant::now();
+    let run = || trace_batches(&tracers, opts, batch_size, batch_count, &mine, t0);
+    let batches = match opts.threads {
+        None => run()?,
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| McError::Threads { threads: n, reason: e.to_string() })?
+            .install(run)?,
+    };
+    let seconds = t0.elapsed().as_secs_f64();
+    Ok(Partial {
+        format: PARTIAL_FORMAT.into(),
+        scene_hash: fnv1a_hex(format!("{scene:?}").as_bytes()),
+        options: opts.result_key(),
+        shard_index: index,
+        shard_count: count,
+        batch_count,
+        batch_size,
+        labels: scene.labels.clone(),
+        channels: metas,
+        batches,
+        seconds,
+    })
+}
+
+/// Trace the listed batches in parallel; results in the listed order.
+fn trace_batches(
+    tracers: &[Tracer],
+    opts: &McOptions,
+    batch_size: u64,
+    batch_count: u64,
+    mine: &[u64],
+    t0: Instant,
+) -> Result<Vec<BatchRecord>, McError> {
+    let total = mine.len() as u64;
+    let steps_done = AtomicU64::new(0);
+    let batches_done = AtomicU64::new(0);
+    let abort = AtomicBool::new(false);
+    let refusal: Mutex<Option<McError>> = Mutex::new(None);
+    let show = opts.progress && std::io::stderr().is_terminal();
+    let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::hidden());
+    let shown = AtomicBool::new(false);
+    let threads = rayon::current_num_threads().max(1) as f64;
+
+    let records: Vec<Option<BatchRecord>> = mine
+        .par_iter()
+        .map(|&b| {
+            if abort.load(Ordering::Relaxed) {
+                return None;
+            }
+            let photons = batch_photons(opts.samples, batch_size, b);
+            let mut channels = Vec::with_capacity(tracers.len());
+            let mut steps = 0;
+            for (c, t) in tracers.iter().enumerate() {
+                let mut rng = batch_rng(opts.seed, c as u64, b);
+                let mut sums = vec![0.0; t.layout().len()];
+                let k = t.run_batch(&mut rng, photons, &mut sums);
+                steps += k.steps;
+                channels.push(ChannelBatch {
+                    sums,
+                    interactions: k.interactions,
+                    steps: k.steps,
+                    capped: k.capped,
+                });
+            }
+            // Work budget: refuse as soon as the count or its projection exceeds it.
+            let s = steps_done.fetch_add(steps, Ordering::Relaxed) + steps;
+            let d = batches_done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(budget) = opts.max_events {
+                let projected = s as f64 * total as f64 / d as f64;
+                if s > budget || (d >= total.min(4) && projected > budget as f64) {
+                    let secs = t0.elapsed().as_secs_f64() * threads;
+                    let rate = s as f64 / secs.max(1e-9);
+                    let mut r = refusal.lock().unwrap_or_else(|e| e.into_inner());
+                    if r.is_none() {
+                        *r = Some(McError::TooExpensive {
+                            expected_events: projected,
+                            budget: budget as f64,
+                            expected_seconds: projected / rate,
+                            hint: format!(
+                                "measured {:.1} steps per photon over {d} batch(es); lower \
+                                 samples, raise max_events or max_steps_per_photon is not \
+                                 needed: thick conservative layers take ~tau^2 steps",
+                                s as f64 / (d * batch_size) as f64 / tracers.len() as f64,
+                            ),
+                        });
+                    }
+                    abort.store(true, Ordering::Relaxed);
+                    return None;
+                }
+            }
+            // Progress bar, shown once the run has lasted a second.
+            if show {
+                if !shown.load(Ordering::Relaxed) && t0.elapsed().as_secs_f64() > 1.0 {
+                    shown.store(true, Ordering::Relaxed);
+                    bar.set_style(
+                        ProgressStyle::with_template("mc {bar:40} {pos}/{len} batches, eta {eta}")
+                            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                    );
+                    bar.set_draw_target(ProgressDrawTarget::stderr());
+                }
+                bar.inc(1);
+            }
+            Some(BatchRecord { index: b, photons, channels })
+        })
+        .collect();
+    bar.finish_and_clear();
+    if let Some(e) = refusal.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(e);
+    }
+    let _ = batch_count;
+    Ok(records.into_iter().flatten().collect())
+}
+
+/// The radially resolved diffuse reflectance of a pencil beam at normal incidence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadialProfile {
+    /// Annulus width, length unit of the scene.
+    pub dr: f64,
+    /// Mid radius of each annulus, `(i + 1/2) dr`.
+    pub r: Vec<f64>,
+    /// Per channel, `Rd(r_i)` in 1/length^2 (eq. R1 of docs/montecarlo.md).
+    pub rd: Vec<Vec<f64>>,
+    /// Per channel, the standard error of each `Rd(r_i)` (eq. T1).
+    pub stderr: Vec<Vec<f64>>,
+    /// Per channel, the diffuse reflectance escaping beyond the last annulus.
+    pub overflow: Vec<f64>,
+    /// The whole solution of the run (totals, BRDF, ...), for normal incidence.
+    pub solution: Solution,
+}
+
+/// `Rd(r)` as MCML (Wang, Jacques & Zheng 1995, eq. 4.9): the scattered
+/// reflected weight escaping in annulus `i` divided by `N` and its area
+/// `2 pi r_i dr` (`r_i = (i + 1/2) dr`):
+///
+/// `Rd(r_i) = W_i / (N 2 pi r_i dr)`   (eq. R1)
+///
+/// The light of every channel is replaced by a collimated beam at normal
+/// incidence (a pencil beam at the origin); everything else is the scene.
+///
+/// # Errors
+/// Those of [`solve`].
+pub fn radial_profile(
+    scene: &Scene,
+    opts: &McOptions,
+    bins: RadialBins,
+) -> Result<RadialProfile, McError> {
+    let mut scene = scene.clone();
+    for c in &mut scene.channels {
+        c.light = Light::Collimated { theta_deg: 0.0 };
+    }
+    let opts = McOptions { radial: Some(bins), ..opts.clone() };
+    let part = run_shard(&scene, &opts, 0, 1)?;
+    let parts = [part];
+    let m = accumulate(&parts)?;
+    let solution = build_solution(&parts, &m);
+    let meta = &parts[0].channels;
+    let mut rd = Vec::new();
+    let mut se = Vec::new();
+    let mut overflow = Vec::new();
+    for (c, s) in m.stats.iter().enumerate() {
+        let l = meta[c].layout();
+        rd.push((0..bins.count).map(|k| s.mean(l.radial(k)) / meta[c].annulus[k]).collect());
+        se.push((0..bins.count).map(|k| s.stderr(l.radial(k)) / meta[c].annulus[k]).collect());
+        overflow.push(s.mean(Layout::RD_OVERFLOW));
+    }
+    Ok(RadialProfile {
+        dr: bins.dr,
+        r: (0..bins.count).map(|i| (i as f64 + 0.5) * bins.dr).collect(),
+        rd,
+        stderr: se,
+        overflow,
+        solution,
+    })
+}
