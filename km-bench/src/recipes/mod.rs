@@ -2,11 +2,21 @@
 //! with the solvers, writing its charts and CSV files, and returning its
 //! section of the report.
 
+pub mod common;
+pub mod paper;
 pub mod stability;
 
 use crate::reproduce::Recipe;
 
 /// Every recipe, in report order.
 pub fn all() -> Vec<Recipe> {
-    vec![("stability", stability::recipe)]
+    vec![
+        ("fig3", paper::fig3),
+        ("fig4", paper::fig4),
+        ("fig6", paper::fig6),
+        ("fig7", paper::fig7),
+        ("fig9", paper::fig9),
+        ("fig10", paper::fig10),
+        ("stability", stability::recipe),
+    ]
 }

@@ -1,0 +1,140 @@
+//! Helpers shared by the recipes: distributions of the direction-set
+//! solver cut along the plane of incidence, and their polar charts.
+
+use km_multiflux::direction_set::{Distribution, StackResponse};
+
+use crate::chart::{PolarChart, PolarCurve, PolarSpike, format_number};
+use crate::data::{Csv, num};
+
+/// The nodes of a distribution nearest to the plane of incidence: for each
+/// ring (polar angle), the node of azimuth nearest 0 (back towards the
+/// source) and nearest 180 (forward). Returns `(psi, value, theta, phi)`
+/// sorted by `psi` (see [`crate::chart::PolarCurve`]); transmitted
+/// directions use `psi` in `(90, 270)` so the curve is continuous through
+/// the downward normal.
+pub fn plane_cut(
+    d: &Distribution,
+    reflected: bool,
+    node_values: bool,
+) -> Vec<(f64, f64, f64, f64)> {
+    let vals = if node_values { &d.node_value } else { &d.value };
+    // Group by ring: equal theta within 1e-9 degrees.
+    let mut rings: Vec<(f64, Option<usize>, Option<usize>)> = Vec::new();
+    for (i, &t) in d.theta_deg.iter().enumerate() {
+        let c = d.phi_deg[i].to_radians().cos();
+        let k = match rings.iter().position(|r| (r.0 - t).abs() < 1e-9) {
+            Some(k) => k,
+            None => {
+                rings.push((t, None, None));
+                rings.len() - 1
+            }
+        };
+        let cos_of = |j: usize| d.phi_deg[j].to_radians().cos();
+        // Back side: largest cos(phi); forward: smallest.
+        if rings[k].1.is_none_or(|j| c > cos_of(j)) {
+            rings[k].1 = Some(i);
+        }
+        if rings[k].2.is_none_or(|j| c < cos_of(j)) {
+            rings[k].2 = Some(i);
+        }
+    }
+    let mut out = Vec::new();
+    for (t, back, fwd) in rings {
+        for (j, forward) in [(back, false), (fwd, true)] {
+            let Some(j) = j else { continue };
+            let psi = match (reflected, forward) {
+                (true, true) => t,
+                (true, false) => -t,
+                (false, true) => 180.0 - t,
+                (false, false) => 180.0 + t,
+            };
+            out.push((psi, vals[j], t, d.phi_deg[j]));
+        }
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9);
+    out
+}
+
+/// A polar chart of a response: smooth BRDF above, smooth BTDF below,
+/// delta parts as labelled spikes (length: the delta fraction, in the
+/// chart's radial units, clipped).
+pub fn response_chart(
+    title: &str,
+    theta_deg: f64,
+    curves: &[(&str, &StackResponse, bool)],
+) -> PolarChart {
+    let mut chart = PolarChart {
+        title: title.into(),
+        incidence_deg: Some(theta_deg),
+        r_label: "BRDF above / BTDF below the surface, 1/sr (spikes: delta fractions)".into(),
+        surface: true,
+        ..Default::default()
+    };
+    for (k, (label, r, dashed)) in curves.iter().enumerate() {
+        let up: Vec<(f64, f64)> =
+            plane_cut(&r.reflected, true, false).iter().map(|p| (p.0, p.1)).collect();
+        chart.curves.push(PolarCurve {
+            label: format!("{label} (R)"),
+            points: up,
+            colour: 2 * k,
+            dashed: *dashed,
+        });
+        if let Some(t) = &r.transmitted {
+            let down: Vec<(f64, f64)> =
+                plane_cut(t, false, false).iter().map(|p| (p.0, p.1)).collect();
+            chart.curves.push(PolarCurve {
+                label: format!("{label} (T)"),
+                points: down,
+                colour: 2 * k + 1,
+                dashed: *dashed,
+            });
+        }
+        if k == 0 {
+            if r.reflectance_specular > 0.0 {
+                chart.spikes.push(PolarSpike {
+                    psi_deg: theta_deg,
+                    length: f64::INFINITY,
+                    label: format!("mirror {}", format_number(r.reflectance_specular)),
+                });
+            }
+            if r.transmittance_direct > 0.0 {
+                // Refracted beam direction below: from the transmitted node with the largest delta.
+                let psi = r
+                    .transmitted
+                    .as_ref()
+                    .and_then(|t| {
+                        let delta: Vec<f64> =
+                            t.node_value.iter().zip(&t.value).map(|(a, b)| a - b).collect();
+                        let j = (0..delta.len()).max_by(|&a, &b| delta[a].total_cmp(&delta[b]))?;
+                        Some(180.0 - t.theta_deg[j])
+                    })
+                    .unwrap_or(180.0 - theta_deg);
+                chart.spikes.push(PolarSpike {
+                    psi_deg: psi,
+                    length: f64::INFINITY,
+                    label: format!("beam {}", format_number(r.transmittance_direct)),
+                });
+            }
+        }
+    }
+    chart
+}
+
+/// Add the plane cuts of a response to a CSV with columns
+/// `case, side, psi_deg, theta_deg, phi_deg, value`.
+pub fn response_csv(csv: &mut Csv, case: &str, r: &StackResponse) {
+    for (p, side) in plane_cut(&r.reflected, true, false).iter().map(|p| (p, "R")) {
+        csv.push(vec![case.into(), side.into(), num(p.0), num(p.2), num(p.3), num(p.1)]);
+    }
+    if let Some(t) = &r.transmitted {
+        for p in plane_cut(t, false, false) {
+            csv.push(vec![case.into(), "T".into(), num(p.0), num(p.2), num(p.3), num(p.1)]);
+        }
+    }
+}
+
+/// A new CSV for [`response_csv`].
+pub fn response_csv_new() -> Csv {
+    Csv::new(&["case", "side", "psi_deg", "theta_deg", "phi_deg", "value_per_sr"])
+}
