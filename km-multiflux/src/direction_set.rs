@@ -621,8 +621,15 @@ impl DiscreteModes {
             .map_err(|e| numerical("symmetric eigen-decomposition", format!("{e:?}")))?;
         let Y = evd.U().to_owned();
         let nu = evd.S().column_vector().to_owned();
-        // lambda^2 >= 0 in exact arithmetic; clamp rounding (conservative case).
-        let lambda: Vec<f64> = (0..n).map(|k| nu[k].max(0.0).sqrt() * 1.0).collect();
+        // lambda^2 >= 0 in exact arithmetic: clamp rounding. Conservative
+        // scattering has exactly one null mode (the isotropic radiance; docs
+        // eq. D7): rounding would give it lambda ~ 1e-8 sigma_t / mu_min, which
+        // matters at tau ~ 1e4 and above, so its value is set to 0.
+        let mut nu: Vec<f64> = (0..n).map(|k| nu[k].max(0.0)).collect();
+        if sigma_a == 0.0 {
+            nu[0] = 0.0;
+        }
+        let lambda: Vec<f64> = nu.iter().map(|v| v.sqrt()).collect();
         let mut S = &L * &Y;
         let mut F = Y.clone();
         L.transpose().solve_upper_triangular_in_place(F.as_mut());
