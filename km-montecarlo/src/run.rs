@@ -99,7 +99,7 @@ pub fn run_shard(
     let mine: Vec<u64> = shard_batches(batch_count, index, count).collect();
 
     let t0 = Instant::now();
-    let run = || trace_batches(&tracers, opts, batch_size, batch_count, &mine, t0);
+    let run = || trace_batches(&tracers, opts, batch_size, &mine, t0);
     let batches = match opts.threads {
         None => run()?,
         Some(n) => rayon::ThreadPoolBuilder::new()
@@ -129,7 +129,6 @@ fn trace_batches(
     tracers: &[Tracer],
     opts: &McOptions,
     batch_size: u64,
-    batch_count: u64,
     mine: &[u64],
     t0: Instant,
 ) -> Result<Vec<BatchRecord>, McError> {
@@ -180,8 +179,8 @@ fn trace_batches(
                             expected_seconds: projected / rate,
                             hint: format!(
                                 "measured {:.1} steps per photon over {d} batch(es); lower \
-                                 samples, raise max_events or max_steps_per_photon is not \
-                                 needed: thick conservative layers take ~tau^2 steps",
+                                 samples or raise max_events (a thick, nearly conservative \
+                                 layer costs about tau^2 steps per photon that crosses it)",
                                 s as f64 / (d * batch_size) as f64 / tracers.len() as f64,
                             ),
                         });
@@ -209,7 +208,6 @@ fn trace_batches(
     if let Some(e) = refusal.into_inner().unwrap_or_else(|e| e.into_inner()) {
         return Err(e);
     }
-    let _ = batch_count;
     Ok(records.into_iter().flatten().collect())
 }
 

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{K, check, data, scene_from_json, se};
+use common::{check, data, scene_from_json, se};
 use km_core::Scene;
 use km_montecarlo::{Estimator, McOptions, solve};
 
