@@ -5,12 +5,14 @@
 mod methods;
 mod output;
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::{Context, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 
-/// The scene solved by `km` (and `cargo run`) without arguments.
+/// The scene solved by `km demo`.
 const DEMO_SCENE: &str = include_str!("../../examples/seed-three-layers.toml");
 
 #[derive(Parser)]
@@ -24,8 +26,10 @@ layers (paint, coatings, skin, milk, clouds), by four methods over one scene fil
   multiflux  multi-flux eigenvalue solver (discrete ordinates)\n\
   mc         Monte Carlo reference tracer\n\
   dipole     diffusion dipole for semi-infinite media\n\n\
-Without a subcommand, solves a built-in example scene (the seed paper's three-layer example).",
-    after_help = "Examples:\n  km solve examples/seed-three-layers.toml --method km --json\n  km check examples/paint-over-primer.toml\n  km"
+Without a subcommand, runs `km reproduce --quick` (the paper's figures and the \
+accuracy/time study, into out/).",
+    after_help = "Examples:\n  km solve examples/seed-three-layers.toml --method multiflux --json\n  \
+km plan examples/paint-over-primer.toml\n  km demo\n  km reproduce --quick --out out"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -35,10 +39,55 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Solve a scene file with one method and print the result.
-    #[command(after_help = "Examples:\n  km solve examples/fresnel-slab.toml --method km\n  \
+    #[command(
+        after_help = "Examples:\n  km solve examples/fresnel-slab.toml --method multiflux\n  \
 km solve examples/seed-three-layers.toml --method km --json\n  \
-km solve examples/paint-over-primer.toml --method km --km-mapping star-1988 --json")]
+km solve examples/fresnel-slab.toml --method mc --samples 1000000 --seed 7 --json\n  \
+km solve examples/fresnel-slab.toml --method mc --samples 4000000 --shard 0/4 --out part0.json\n  \
+km solve examples/marble-half-space.toml --method dipole\n  \
+km solve examples/cloud-deck.toml --method multiflux --tolerance 1e-4 --json"
+    )]
     Solve(SolveArgs),
+    /// Combine Monte Carlo shard files into the result of one run.
+    #[command(
+        after_help = "Example:\n  km merge part0.json part1.json part2.json part3.json --json"
+    )]
+    Merge {
+        /// Partial tally files written by `km solve --method mc --shard i/N --out FILE`.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Also write the JSON result to this file (atomically).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Radially resolved diffuse reflectance Rd(r) of a pencil beam at normal incidence.
+    #[command(after_help = "Examples:\n  km profile examples/marble-half-space.toml\n  \
+km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --json")]
+    Profile {
+        /// Scene file (its single layer must be a half-space for the dipole).
+        scene: PathBuf,
+        /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
+        #[arg(long, short, value_enum, default_value_t = Method::Dipole)]
+        method: Method,
+        /// Largest radius, in the scene's length unit (default: 10 transport lengths).
+        #[arg(long)]
+        r_max: Option<f64>,
+        /// Number of radii (dipole) or annuli (mc).
+        #[arg(long, default_value_t = 20)]
+        points: usize,
+        /// Monte Carlo photons.
+        #[arg(long, default_value_t = 1_000_000)]
+        samples: u64,
+        /// Monte Carlo seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Print what a scene calls for: effects present, work skipped and why.
     #[command(after_help = "Examples:\n  km plan examples/seed-three-layers.toml\n  \
 km plan examples/paint-over-primer.toml --method mc --json")]
@@ -61,6 +110,27 @@ km plan examples/paint-over-primer.toml --method mc --json")]
         /// Scene file (TOML, see docs/scene-file.md).
         scene: PathBuf,
     },
+    /// Solve the built-in example scene (the seed paper's three-layer example) by every method.
+    #[command(after_help = "Example:\n  km demo")]
+    Demo,
+    /// Regenerate the seed paper's figures and the accuracy/time study into DIR/report.md.
+    #[command(
+        after_help = "Examples:\n  km reproduce --quick\n  km reproduce --full --out out-full"
+    )]
+    Reproduce {
+        /// Output directory.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Quick run (under two minutes; the default).
+        #[arg(long, conflicts_with = "full")]
+        quick: bool,
+        /// Paper-scale run (10^5 Monte Carlo samples per direction, all directions).
+        #[arg(long)]
+        full: bool,
+        /// Seed of the Monte Carlo runs.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
 }
 
 /// Arguments of `km solve`.
@@ -69,14 +139,51 @@ pub struct SolveArgs {
     /// Scene file (TOML, see docs/scene-file.md).
     pub scene: PathBuf,
     /// Method.
-    #[arg(long, short, value_enum, default_value_t = Method::Km)]
+    #[arg(long, short, value_enum, default_value_t = Method::Multiflux)]
     pub method: Method,
     /// Print one JSON object (the contract of docs/cli.md) instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Two-flux coefficients from (sigma_a, sigma_s, g) [km].
+    /// Also write the JSON result (or, with --shard, the partial tally) to this file, atomically.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Accuracy target (absolute, on reflectance and transmittance): chooses streams or samples
+    /// and reports `error_estimate` [multiflux, mc].
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+    /// Compute every effect (planner off), for comparison.
+    #[arg(long)]
+    pub all_effects: bool,
+    /// Two-flux coefficients K, S from the scene [km].
     #[arg(long, value_enum, default_value_t = KmMappingArg::Seed)]
     pub km_mapping: KmMappingArg,
+    /// Gauss nodes per hemisphere [multiflux] (default 16).
+    #[arg(long)]
+    pub streams: Option<usize>,
+    /// Truncate adding after this Neumann order (seed eq. 21) [multiflux]; default exact.
+    #[arg(long)]
+    pub order: Option<usize>,
+    /// Photons per channel [mc].
+    #[arg(long, default_value_t = 1_000_000)]
+    pub samples: u64,
+    /// Seed [mc]; the same seed gives bit-identical results for any thread count.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads [mc] (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Absorption estimator [mc].
+    #[arg(long, value_enum, default_value_t = EstimatorArg::Survival)]
+    pub estimator: EstimatorArg,
+    /// Run shard I of N (0-based) and write its partial tally to --out [mc].
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// How F_dr is computed [dipole].
+    #[arg(long, value_enum, default_value_t = FdrArg::Exact)]
+    pub fdr: FdrArg,
+    /// Which dipole [dipole].
+    #[arg(long, value_enum, default_value_t = DipoleArg::Jensen2001)]
+    pub dipole: DipoleArg,
 }
 
 /// The methods of km.
@@ -84,11 +191,11 @@ pub struct SolveArgs {
 pub enum Method {
     /// Two-flux Kubelka–Munk (closed form).
     Km,
-    /// Multi-flux eigenvalue solver (coming).
+    /// Multi-flux eigenvalue solver (discrete ordinates, Fourier–Gauss).
     Multiflux,
-    /// Monte Carlo reference (coming).
+    /// Monte Carlo reference tracer.
     Mc,
-    /// Diffusion dipole for a semi-infinite layer (coming).
+    /// Diffusion dipole for a semi-infinite layer.
     Dipole,
 }
 
@@ -109,9 +216,38 @@ impl Method {
 pub enum KmMappingArg {
     /// K = sigma_a, S = sigma_s, as in the seed paper.
     Seed,
-    /// The named published mapping from (sigma_a, sigma_s, g), see docs/two-flux.md.
-    #[value(name = "star-1988")]
+    /// Star, Marijnissen & van Gemert 1988: K = 2 sigma_a, S = 3/4 sigma_s (1 - g) - 1/4 sigma_a.
     Star1988,
+    /// Gate 1974: K = 2 sigma_a, S = 3/4 sigma_s (1 - g).
+    Gate1974,
+}
+
+/// Monte Carlo absorption estimator.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EstimatorArg {
+    /// Survival biasing (implicit capture) with Russian roulette, as MCML.
+    Survival,
+    /// Analog absorption.
+    Analog,
+}
+
+/// How the dipole computes F_dr.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FdrArg {
+    /// Numerical integral of the exact Fresnel reflectance.
+    Exact,
+    /// Egan & Hilgeman's polynomial fit.
+    EganHilgeman,
+}
+
+/// Which dipole.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DipoleArg {
+    /// Jensen, Marschner, Levoy & Hanrahan 2001.
+    #[value(name = "jensen2001")]
+    Jensen2001,
+    /// d'Eon 2012, the better dipole.
+    Better,
 }
 
 fn main() -> ExitCode {
@@ -125,37 +261,85 @@ fn main() -> ExitCode {
     }
 }
 
+fn print_solution(
+    sol: &km_core::Solution,
+    scene: Option<&km_core::Scene>,
+    json: bool,
+) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(&sol.to_json())?);
+    } else {
+        print!("{}", output::table(sol, scene));
+    }
+    Ok(())
+}
+
+fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    km_montecarlo::write_atomic(path, text.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
-        None => {
-            // The built-in example: the seed's three-layer scene by two-flux KM.
+    let command = cli.command.unwrap_or(Command::Reproduce {
+        out: PathBuf::from("out"),
+        quick: true,
+        full: false,
+        seed: 1,
+    });
+    match command {
+        Command::Demo => {
             let scene = km_core::Scene::from_toml_str(DEMO_SCENE)?;
             println!("km: built-in example (examples/seed-three-layers.toml)\n");
-            for method in [Method::Km] {
-                let args = SolveArgs {
-                    scene: PathBuf::from("examples/seed-three-layers.toml"),
-                    method,
-                    json: false,
-                    km_mapping: KmMappingArg::Seed,
-                };
+            for method in [Method::Km, Method::Multiflux, Method::Mc] {
+                let args = SolveArgs::defaults(method);
                 let sol = methods::solve(&scene, &args)?;
-                print!("{}", output::table(&sol, &scene));
+                print!("{}", output::table(&sol, Some(&scene)));
                 println!();
             }
-            println!("Try: km solve examples/paint-over-primer.toml --method km --json");
             Ok(())
         }
-        Some(Command::Solve(args)) => {
+        Command::Solve(args) => {
             let scene = km_core::Scene::from_path(&args.scene)?;
-            let sol = methods::solve(&scene, &args)?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&sol.to_json())?);
-            } else {
-                print!("{}", output::table(&sol, &scene));
+            if let Some(shard) = &args.shard {
+                let (i, n) = methods::parse_shard(shard)?;
+                if args.method != Method::Mc {
+                    bail!("--shard applies to --method mc only");
+                }
+                let Some(out) = &args.out else {
+                    bail!("--shard {shard} needs --out FILE for the partial tally");
+                };
+                let part = methods::mc_shard(&scene, &args, i, n)?;
+                write_json(out, &serde_json::to_value(&part)?)?;
+                eprintln!("wrote shard {i}/{n} to {}", out.display());
+                return Ok(());
             }
-            Ok(())
+            let sol = methods::solve(&scene, &args)?;
+            if let Some(out) = &args.out {
+                write_json(out, &sol.to_json())?;
+            }
+            print_solution(&sol, Some(&scene), args.json)
         }
-        Some(Command::Plan { scene, method, json, all_effects }) => {
+        Command::Merge { parts, json, out } => {
+            let mut read = Vec::with_capacity(parts.len());
+            for p in &parts {
+                let text = std::fs::read_to_string(p)
+                    .with_context(|| format!("cannot read {}", p.display()))?;
+                let part: km_montecarlo::Partial = serde_json::from_str(&text)
+                    .with_context(|| format!("{} is not a km shard file", p.display()))?;
+                read.push(part);
+            }
+            let sol = km_montecarlo::merge(&read)?;
+            if let Some(out) = &out {
+                write_json(out, &sol.to_json())?;
+            }
+            print_solution(&sol, None, json)
+        }
+        Command::Profile { scene, method, r_max, points, samples, seed, json } => {
+            let s = km_core::Scene::from_path(&scene)?;
+            methods::profile(&s, method, r_max, points, samples, seed, json)
+        }
+        Command::Plan { scene, method, json, all_effects } => {
             let s = km_core::Scene::from_path(&scene)?;
             let request = km_core::plan::Request::from_scene(&s.channels[0]);
             let plan = km_core::plan::plan_scene(&s, request, all_effects);
@@ -168,10 +352,50 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Some(Command::Check { scene }) => {
+        Command::Check { scene } => {
             let s = km_core::Scene::from_path(&scene)?;
             print!("{}", output::describe(&s));
             Ok(())
         }
+        Command::Reproduce { out, quick: _, full, seed } => {
+            let mut opts = if full {
+                km_bench::ReproduceOptions::full(out)
+            } else {
+                km_bench::ReproduceOptions::quick(out)
+            };
+            opts.seed = seed;
+            let summary = km_bench::reproduce(&opts)?;
+            print!("{summary}");
+            Ok(())
+        }
+    }
+}
+
+impl SolveArgs {
+    /// Default arguments for `method` (used by `km demo`).
+    fn defaults(method: Method) -> SolveArgs {
+        SolveArgs {
+            scene: PathBuf::from("examples/seed-three-layers.toml"),
+            method,
+            json: false,
+            out: None,
+            tolerance: None,
+            all_effects: false,
+            km_mapping: KmMappingArg::Seed,
+            streams: None,
+            order: None,
+            samples: 1_000_000,
+            seed: 1,
+            threads: None,
+            estimator: EstimatorArg::Survival,
+            shard: None,
+            fdr: FdrArg::Exact,
+            dipole: DipoleArg::Jensen2001,
+        }
+    }
+
+    /// Whether a progress bar may be shown (no JSON, stderr is a terminal).
+    pub fn progress(&self) -> bool {
+        !self.json && std::io::stderr().is_terminal()
     }
 }

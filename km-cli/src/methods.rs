@@ -1,17 +1,174 @@
-//! Dispatch of `km solve` to the method libraries.
+//! Dispatch of `km solve` and `km profile` to the method libraries.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
+use km_core::plan::{Request, plan_scene};
 use km_core::{Scene, Solution};
 
-use crate::{KmMappingArg, Method, SolveArgs};
+use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, Method, SolveArgs};
 
-/// Solve `scene` with the method and options of `args`.
+/// Solve `scene` with the method and options of `args`; the plan used is
+/// added to the solution under `"plan"`.
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
-    match args.method {
+    let request = Request::from_scene(&scene.channels[0]);
+    let plan = plan_scene(scene, request, args.all_effects);
+    let mut sol = match args.method {
         Method::Km => {
-            let _ = args.km_mapping == KmMappingArg::Seed;
-            bail!("method km is coming: not available in this build")
+            no_tolerance(args)?;
+            let opts = km_core::two_flux::KmOptions { mapping: km_mapping(args.km_mapping) };
+            km_core::two_flux::solve(scene, &opts)?
         }
-        m => bail!("method {} is coming: not available in this build", m.name()),
+        Method::Multiflux => {
+            let opts = multiflux_options(args);
+            km_multiflux::solve(scene, &opts)?
+        }
+        Method::Mc => {
+            let opts = mc_options(args)?;
+            km_montecarlo::solve(scene, &opts)?
+        }
+        Method::Dipole => {
+            no_tolerance(args)?;
+            km_dipole::solve(scene, &dipole_options(args))?
+        }
+    };
+    sol.extra.insert("plan".into(), plan.to_json());
+    Ok(sol)
+}
+
+fn no_tolerance(args: &SolveArgs) -> Result<()> {
+    if let Some(t) = args.tolerance {
+        bail!(
+            "--tolerance {t}: method {} is a closed form with no accuracy knob; \
+             its error against transport theory is not bounded by any setting",
+            args.method.name()
+        );
     }
+    Ok(())
+}
+
+fn km_mapping(m: KmMappingArg) -> km_core::two_flux::KmMapping {
+    use km_core::two_flux::KmMapping;
+    match m {
+        KmMappingArg::Seed => KmMapping::Seed,
+        KmMappingArg::Star1988 => KmMapping::StarEtAl1988,
+        KmMappingArg::Gate1974 => KmMapping::Gate1974,
+    }
+}
+
+fn multiflux_options(args: &SolveArgs) -> km_multiflux::MultifluxOptions {
+    km_multiflux::MultifluxOptions {
+        streams: args.streams,
+        neumann_order: args.order,
+        ..Default::default()
+    }
+}
+
+fn mc_options(args: &SolveArgs) -> Result<km_montecarlo::McOptions> {
+    if args.samples == 0 {
+        bail!("--samples must be at least 1");
+    }
+    Ok(km_montecarlo::McOptions {
+        samples: args.samples,
+        seed: args.seed,
+        threads: args.threads,
+        estimator: match args.estimator {
+            EstimatorArg::Survival => km_montecarlo::Estimator::SurvivalBiasing,
+            EstimatorArg::Analog => km_montecarlo::Estimator::Analog,
+        },
+        progress: args.progress(),
+        ..Default::default()
+    })
+}
+
+fn dipole_options(args: &SolveArgs) -> km_dipole::DipoleOptions {
+    km_dipole::DipoleOptions {
+        fdr: match args.fdr {
+            FdrArg::Exact => km_dipole::FdrModel::Exact,
+            FdrArg::EganHilgeman => km_dipole::FdrModel::EganHilgeman,
+        },
+        model: match args.dipole {
+            DipoleArg::Jensen2001 => km_dipole::DipoleModel::Jensen2001,
+            DipoleArg::Better => km_dipole::DipoleModel::Better,
+        },
+    }
+}
+
+/// `I/N` with `0 <= I < N`.
+pub fn parse_shard(text: &str) -> Result<(u64, u64)> {
+    let (i, n) =
+        text.split_once('/').with_context(|| format!("--shard {text}: expected I/N, e.g. 0/4"))?;
+    let i: u64 = i.trim().parse().with_context(|| format!("--shard {text}: I is not a number"))?;
+    let n: u64 = n.trim().parse().with_context(|| format!("--shard {text}: N is not a number"))?;
+    if n == 0 || i >= n {
+        bail!("--shard {text}: need 0 <= I < N");
+    }
+    Ok((i, n))
+}
+
+/// One shard of a Monte Carlo run.
+pub fn mc_shard(scene: &Scene, args: &SolveArgs, i: u64, n: u64) -> Result<km_montecarlo::Partial> {
+    let opts = mc_options(args)?;
+    Ok(km_montecarlo::run_shard(scene, &opts, i, n)?)
+}
+
+/// `km profile`: Rd(r) by the dipole or Monte Carlo.
+pub fn profile(
+    scene: &Scene,
+    method: Method,
+    r_max: Option<f64>,
+    points: usize,
+    samples: u64,
+    seed: u64,
+    json: bool,
+) -> Result<()> {
+    if points == 0 {
+        bail!("--points must be at least 1");
+    }
+    // Default range: 10 transport mean free paths of the first channel's layer.
+    let l = &scene.channels[0].layers[0];
+    let sigma_t_prime = l.sigma_a + l.sigma_s * (1.0 - l.g());
+    let r_max = match r_max {
+        Some(r) if r.is_finite() && r > 0.0 => r,
+        Some(r) => bail!("--r-max {r}: must be finite and > 0"),
+        None if sigma_t_prime > 0.0 => 10.0 / sigma_t_prime,
+        None => bail!("the layer neither scatters nor absorbs: give --r-max"),
+    };
+    let (r, rd, se): (Vec<f64>, Vec<Vec<f64>>, Option<Vec<Vec<f64>>>) = match method {
+        Method::Dipole => {
+            let r: Vec<f64> =
+                (0..points).map(|i| r_max * (i as f64 + 0.5) / points as f64).collect();
+            let rd = km_dipole::profile(scene, &r, &Default::default())?;
+            (r, rd, None)
+        }
+        Method::Mc => {
+            let opts = km_montecarlo::McOptions { samples, seed, ..Default::default() };
+            let bins = km_montecarlo::RadialBins { dr: r_max / points as f64, count: points };
+            let p = km_montecarlo::radial_profile(scene, &opts, bins)?;
+            (p.r, p.rd, Some(p.stderr))
+        }
+        m => bail!("km profile supports --method dipole or mc, not {}", m.name()),
+    };
+    if json {
+        let v = serde_json::json!({
+            "method": method.name(),
+            "r": r,
+            "rd": if rd.len() == 1 { serde_json::json!(rd[0]) } else { serde_json::json!(rd) },
+            "stderr": se.map(|s| if s.len() == 1 { serde_json::json!(s[0]) } else { serde_json::json!(s) }),
+            "channels": scene.labels,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        print!("{:>12}", "r");
+        for l in &scene.labels {
+            print!("{:>16}", format!("Rd {l}"));
+        }
+        println!();
+        for (i, ri) in r.iter().enumerate() {
+            print!("{ri:>12.5}");
+            for c in &rd {
+                print!("{:>16.6e}", c[i]);
+            }
+            println!();
+        }
+    }
+    Ok(())
 }

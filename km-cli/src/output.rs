@@ -5,7 +5,7 @@ use std::fmt::Write;
 use km_core::{Light, Scene, Solution, Substrate};
 
 /// A table of the solution, one column per channel.
-pub fn table(sol: &Solution, scene: &Scene) -> String {
+pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "method: {}   solver time: {}", sol.method, seconds(sol.seconds));
     let _ = write!(s, "{:<24}", "");
@@ -27,7 +27,8 @@ pub fn table(sol: &Solution, scene: &Scene) -> String {
         }
         let _ = writeln!(s);
     }
-    let dirs = &scene.channels[0].directions_deg;
+    let no_dirs = Vec::new();
+    let dirs = scene.map(|s| &s.channels[0].directions_deg).unwrap_or(&no_dirs);
     for (what, pick) in [("BRDF", 0usize), ("BTDF", 1usize)] {
         if sol
             .channels
@@ -37,7 +38,7 @@ pub fn table(sol: &Solution, scene: &Scene) -> String {
             continue;
         }
         for (i, d) in dirs.iter().enumerate() {
-            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1}) 1/sr", d[0], d[1]));
+            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1})", d[0], d[1]));
             for c in &sol.channels {
                 let v = if pick == 0 { &c.brdf } else { &c.btdf };
                 let _ = write!(s, "{:>14.6}", v.get(i).copied().unwrap_or(f64::NAN));
