@@ -2,14 +2,42 @@
 //! can run "a method at a setting" on a scene and compare the answers.
 
 use std::fmt;
+use std::time::Instant;
 
-use km_core::{Scene, Solution};
+use km_core::{ChannelResult, Light, Scene, Solution};
+use km_multiflux::direction_set::{self, Combine};
+use serde_json::Value;
 
 /// A method at one accuracy setting.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Method {
     /// Two-flux Kubelka–Munk (km-core, seed 000 §2), the seed's identity mapping.
     TwoFlux,
+    /// Multi-flux, Fourier–Gauss mode (km-multiflux) with `streams` Gauss
+    /// nodes per hemisphere, exact adding.
+    Multiflux {
+        /// Gauss nodes per hemisphere.
+        streams: usize,
+    },
+    /// Multi-flux, Fourier–Gauss mode at the default streams, layers added
+    /// by the Neumann series of seed eq. 21 truncated after `order` round trips.
+    Neumann {
+        /// Truncation order `k` (0 = no round trip).
+        order: usize,
+    },
+    /// Multi-flux, the seed's direction-set mode on about `directions`
+    /// directions of the sphere (totals only: BRDF values live on its nodes).
+    DirectionSet {
+        /// Number of directions (both hemispheres).
+        directions: usize,
+    },
+    /// Monte Carlo (km-montecarlo), survival biasing, `samples` photons.
+    MonteCarlo {
+        /// Photons.
+        samples: u64,
+        /// Seed.
+        seed: u64,
+    },
     /// The diffusion dipole (semi-infinite media only; km-dipole).
     Dipole,
 }
@@ -18,6 +46,10 @@ impl fmt::Display for Method {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Method::TwoFlux => write!(f, "two-flux KM"),
+            Method::Multiflux { streams } => write!(f, "multi-flux {streams} streams"),
+            Method::Neumann { order } => write!(f, "adding, Neumann order {order}"),
+            Method::DirectionSet { directions } => write!(f, "direction set {directions}"),
+            Method::MonteCarlo { samples, .. } => write!(f, "Monte Carlo {samples:.0e}"),
             Method::Dipole => write!(f, "dipole"),
         }
     }
@@ -28,8 +60,43 @@ impl Method {
     pub fn family(&self) -> &'static str {
         match self {
             Method::TwoFlux => "km",
+            Method::Multiflux { .. } => "multiflux",
+            Method::Neumann { .. } => "neumann",
+            Method::DirectionSet { .. } => "direction-set",
+            Method::MonteCarlo { .. } => "montecarlo",
             Method::Dipole => "dipole",
         }
+    }
+
+    /// The setting as a number (streams, order, directions, samples; 0 otherwise).
+    pub fn setting(&self) -> f64 {
+        match *self {
+            Method::Multiflux { streams } => streams as f64,
+            Method::Neumann { order } => order as f64,
+            Method::DirectionSet { directions } => directions as f64,
+            Method::MonteCarlo { samples, .. } => samples as f64,
+            Method::TwoFlux | Method::Dipole => 0.0,
+        }
+    }
+
+    /// Whether the method gives BRDF values at the scene's output directions.
+    pub fn has_brdf(&self) -> bool {
+        matches!(
+            self,
+            Method::Multiflux { .. } | Method::Neumann { .. } | Method::MonteCarlo { .. }
+        )
+    }
+}
+
+/// Options of the Monte Carlo runs of the benchmarks: 5 degree cones, a
+/// per-photon step cap and a run budget so that hard cases are refused
+/// rather than run for hours (the tracer reports the lost weight).
+pub fn mc_options(samples: u64, seed: u64) -> km_montecarlo::McOptions {
+    km_montecarlo::McOptions {
+        samples,
+        seed,
+        max_events: Some(2_000_000_000),
+        ..Default::default()
     }
 }
 
@@ -42,8 +109,85 @@ pub fn solve(method: Method, scene: &Scene) -> anyhow::Result<Solution> {
         Method::TwoFlux => {
             Ok(km_core::two_flux::solve(scene, &km_core::two_flux::KmOptions::default())?)
         }
+        Method::Multiflux { streams } => Ok(km_multiflux::solve(
+            scene,
+            &km_multiflux::MultifluxOptions { streams: Some(streams), ..Default::default() },
+        )?),
+        Method::Neumann { order } => Ok(km_multiflux::solve(
+            scene,
+            &km_multiflux::MultifluxOptions { neumann_order: Some(order), ..Default::default() },
+        )?),
+        Method::DirectionSet { directions } => direction_set_solve(scene, directions),
+        Method::MonteCarlo { samples, seed } => {
+            Ok(km_montecarlo::solve(scene, &mc_options(samples, seed))?)
+        }
         Method::Dipole => Ok(km_dipole::solve(scene, &km_dipole::DipoleOptions::default())?),
     }
+}
+
+/// As [`solve`], with the Monte Carlo work bounded: at most `max_steps`
+/// steps per photon (the rest of its weight is reported as lost) and a run
+/// budget of `max_events` steps (beyond it the run is refused). Other
+/// methods are solved as by [`solve`].
+///
+/// # Errors
+/// Those of [`solve`], and the tracer's refusal of an over-budget run.
+pub fn solve_bounded(
+    method: Method,
+    scene: &Scene,
+    max_steps: u64,
+    max_events: u64,
+) -> anyhow::Result<Solution> {
+    match method {
+        Method::MonteCarlo { samples, seed } => {
+            let opts = km_montecarlo::McOptions {
+                max_steps_per_photon: max_steps,
+                max_events: Some(max_events),
+                ..mc_options(samples, seed)
+            };
+            Ok(km_montecarlo::solve(scene, &opts)?)
+        }
+        _ => solve(method, scene),
+    }
+}
+
+/// The direction-set solver as a [`Solution`] (totals and delta parts; no
+/// BRDF at the output directions).
+fn direction_set_solve(scene: &Scene, directions: usize) -> anyhow::Result<Solution> {
+    let start = Instant::now();
+    let mut channels = Vec::with_capacity(scene.channels.len());
+    for mono in &scene.channels {
+        let c = match mono.light {
+            Light::Collimated { .. } => {
+                let r = direction_set::brdf_for_incidence(mono, directions, Combine::Exact)?;
+                ChannelResult {
+                    reflectance: r.reflectance,
+                    reflectance_specular: r.reflectance_specular,
+                    transmittance: r.transmittance,
+                    transmittance_direct: r.transmittance_direct,
+                    absorptance: r.absorptance,
+                    ..Default::default()
+                }
+            }
+            Light::Diffuse => {
+                let (r, t) = direction_set::totals(mono, directions)?;
+                ChannelResult {
+                    reflectance: r,
+                    transmittance: t,
+                    absorptance: 1.0 - r - t,
+                    ..Default::default()
+                }
+            }
+        };
+        channels.push(c);
+    }
+    Ok(Solution {
+        method: "direction-set".into(),
+        channels,
+        labels: scene.labels.clone(),
+        seconds: start.elapsed().as_secs_f64(),
+        extra: Default::default(),
+    })
 }
 
 /// Time a solve: the best of `repeats` runs of the solver's own wall time
@@ -62,13 +206,47 @@ pub fn timed(method: Method, scene: &Scene, repeats: usize) -> anyhow::Result<(S
     Ok((sol, best))
 }
 
-/// The converged reference used for deviations, when a solver that can
-/// serve as one is available in this build.
+/// Repeats for timing a method: enough runs of a fast solver for a stable
+/// best-of time, one run of a slow one.
+pub fn repeats(method: Method) -> usize {
+    match method {
+        Method::MonteCarlo { .. } => 1,
+        Method::DirectionSet { directions } if directions > 400 => 1,
+        Method::Multiflux { streams } if streams >= 64 => 2,
+        _ => 5,
+    }
+}
+
+/// The standard error of a Monte Carlo number (`key` in the first channel's `stderr`).
+pub fn stderr_of(sol: &Solution, key: &str) -> Option<f64> {
+    sol.channels.first()?.stderr.as_ref()?.get(key)?.as_f64()
+}
+
+/// The standard errors of a Monte Carlo list (`brdf`, `btdf`).
+pub fn stderr_list(sol: &Solution, key: &str) -> Option<Vec<f64>> {
+    match sol.channels.first()?.stderr.as_ref()?.get(key)? {
+        Value::Array(a) => Some(a.iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()),
+        _ => None,
+    }
+}
+
+/// Streams of the converged reference of the studies.
+pub fn reference_streams(size: crate::reproduce::Size) -> usize {
+    size.pick(32, 128, 192)
+}
+
+/// The converged reference used for deviations.
 pub fn reference() -> Option<Method> {
-    None
+    Some(Method::Multiflux { streams: 64 })
 }
 
 /// The methods mapped by the stability study at this size.
-pub fn stability_methods(_size: crate::reproduce::Size) -> Vec<Method> {
-    vec![Method::TwoFlux, Method::Dipole]
+pub fn stability_methods(size: crate::reproduce::Size) -> Vec<Method> {
+    vec![
+        Method::TwoFlux,
+        Method::Multiflux { streams: km_multiflux::DEFAULT_STREAMS },
+        Method::DirectionSet { directions: size.pick(40, 100, 303) },
+        Method::MonteCarlo { samples: size.pick(200, 2000, 100_000), seed: 1 },
+        Method::Dipole,
+    ]
 }

@@ -183,7 +183,10 @@ pub fn map(
         for (ix, &x) in grid.x.iter().enumerate() {
             counts.cells += 1;
             let scene = (grid.scene)(x, y)?;
-            let cell = methods::solve(method, &scene).ok().and_then(|s| check(&s));
+            // Monte Carlo: 10^4 steps per photon and 2 10^7 per cell at most (refusal beyond).
+            let cell = methods::solve_bounded(method, &scene, 10_000, 20_000_000)
+                .ok()
+                .and_then(|s| check(&s));
             let r_ref = reference
                 .and_then(|m| methods::solve(m, &scene).ok())
                 .and_then(|s| s.channels.first().map(|c| c.reflectance));
