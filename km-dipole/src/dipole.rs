@@ -38,9 +38,19 @@ use crate::params::DiffusionParams;
 pub fn fluence(p: &DiffusionParams, r: f64, z: f64) -> f64 {
     let d_r = r.hypot(z - p.z_r);
     let d_v = r.hypot(z + p.z_v);
-    let real = (-p.sigma_tr * d_r).exp() / d_r;
-    let virt = (-p.sigma_tr * d_v).exp() / d_v;
-    p.alpha_prime / (4.0 * PI * p.d) * (real - virt)
+    // d_v^2 - d_r^2 = (z + z_v)^2 - (z - z_r)^2 = (z_v + z_r) (2 z + z_v - z_r).
+    let diff_sq = (p.z_v + p.z_r) * (2.0 * z + p.z_v - p.z_r);
+    p.alpha_prime / (4.0 * PI * p.d) * dipole_difference(p.sigma_tr, d_r, d_v, diff_sq)
+}
+
+/// `exp(-s d_r) / d_r - exp(-s d_v) / d_v` without cancellation when `d_r`
+/// and `d_v` are close (far from the sources), given `diff_sq = d_v^2 - d_r^2`:
+/// `e_r (d_v - d_r) / (d_r d_v) + e_r (1 - exp(-s (d_v - d_r))) / d_v`,
+/// `d_v - d_r = diff_sq / (d_v + d_r)`.
+pub(crate) fn dipole_difference(s: f64, d_r: f64, d_v: f64, diff_sq: f64) -> f64 {
+    let e_r = (-s * d_r).exp();
+    let dd = diff_sq / (d_v + d_r);
+    e_r * (dd / (d_r * d_v) - (-s * dd).exp_m1() / d_v)
 }
 
 /// Radial diffuse reflectance `Rd(r)` of the dipole (eq. D15), 1/length^2:

@@ -10,6 +10,7 @@
 //!   Fresnel integral or the Egan–Hilgeman fit).
 //! * [`dipole`]: fluence, `Rd(r)`, the closed-form total `Rd`, the BSSRDF
 //!   and its two normalisations.
+//! * [`better_dipole`]: the improved dipole of d'Eon (2012).
 //! * [`solve()`] / [`profile()`]: the scene entry points of `km solve --method
 //!   dipole` and `km profile` ([`DipoleOptions`]).
 //! * [`compare`]: the dipole as a function of (albedo, g, eta) and for the
@@ -20,6 +21,7 @@
 //! not included anywhere in this crate.
 #![deny(missing_docs)]
 
+pub mod better_dipole;
 pub mod compare;
 pub mod dipole;
 pub mod error;
@@ -29,4 +31,4 @@ pub mod solve;
 pub use dipole::BssrdfNormalisation;
 pub use error::DipoleError;
 pub use params::{DiffusionParams, FdrModel};
-pub use solve::{DipoleOptions, profile, solve};
+pub use solve::{DipoleModel, DipoleOptions, profile, solve};

@@ -22,6 +22,9 @@
 //!   (the dipole is the multiple-scattering term only);
 //! * `brdf` at the output directions: `diffuse * F_t(cos theta_o) / (pi C)`,
 //!   `C = 1 - F_ext(eta)`, so that `integral brdf cos dw = diffuse`; `btdf = 0`.
+//!
+//! [`DipoleOptions::model`] chooses the dipole of Jensen et al. 2001 (default)
+//! or d'Eon's better dipole ([`crate::better_dipole`]); the rest is the same.
 
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -30,15 +33,102 @@ use km_core::fresnel::{diffuse_reflectance, reflectance};
 use km_core::{ChannelResult, Light, MonoScene, Scene, Solution};
 use serde_json::{Map, Value, json};
 
+use crate::better_dipole::BetterDipole;
 use crate::dipole::{exit_constant, fresnel_transmittance, rd_radial, rd_total};
 use crate::error::DipoleError;
 use crate::params::{DiffusionParams, FdrModel};
+
+/// Which dipole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DipoleModel {
+    /// Jensen et al. 2001 (eq. D13–D16), with the chosen [`FdrModel`].
+    #[default]
+    Jensen2001,
+    /// d'Eon 2012's better dipole (eq. D19–D22); it uses the exact Fresnel
+    /// moments and ignores [`DipoleOptions::fdr`].
+    Better,
+}
+
+impl DipoleModel {
+    /// Name used in reports and on the command line (`jensen2001`, `better`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            DipoleModel::Jensen2001 => "jensen2001",
+            DipoleModel::Better => "better",
+        }
+    }
+}
+
+impl std::str::FromStr for DipoleModel {
+    type Err = String;
+    /// `jensen2001` (or `jensen`, `classic`) or `better` (or `deon2012`).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "jensen2001" | "jensen" | "classic" => Ok(DipoleModel::Jensen2001),
+            "better" | "deon2012" | "better-dipole" => Ok(DipoleModel::Better),
+            other => {
+                Err(format!("unknown dipole model \"{other}\" (expected jensen2001 or better)"))
+            }
+        }
+    }
+}
 
 /// Options of the dipole method.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DipoleOptions {
     /// How `F_dr` (hence `A`) is computed; default [`FdrModel::Exact`].
     pub fdr: FdrModel,
+    /// Which dipole; default [`DipoleModel::Jensen2001`].
+    pub model: DipoleModel,
+}
+
+/// The medium of one channel as the chosen dipole sees it.
+enum Medium {
+    Classic(DiffusionParams),
+    Better(BetterDipole),
+}
+
+impl Medium {
+    fn new(mono: &MonoScene, channel: usize, opts: &DipoleOptions) -> Result<Self, DipoleError> {
+        let p = channel_params(mono, channel, opts)?;
+        Ok(match opts.model {
+            DipoleModel::Jensen2001 => Medium::Classic(p),
+            DipoleModel::Better => {
+                let l = &mono.layers[0];
+                Medium::Better(BetterDipole::new(l.sigma_a, l.sigma_s, l.g(), p.eta)?)
+            }
+        })
+    }
+    fn rd_total(&self) -> f64 {
+        match self {
+            Medium::Classic(p) => rd_total(p),
+            Medium::Better(b) => b.rd_total(),
+        }
+    }
+    fn rd_radial(&self, r: f64) -> f64 {
+        match self {
+            Medium::Classic(p) => rd_radial(p, r),
+            Medium::Better(b) => b.rd_radial(r),
+        }
+    }
+    fn fdr(&self) -> f64 {
+        match self {
+            Medium::Classic(p) => p.fdr,
+            Medium::Better(b) => 2.0 * b.c1,
+        }
+    }
+    fn a(&self) -> f64 {
+        match self {
+            Medium::Classic(p) => p.a,
+            Medium::Better(b) => b.a,
+        }
+    }
+    fn alpha_prime(&self) -> f64 {
+        match self {
+            Medium::Classic(p) => p.alpha_prime,
+            Medium::Better(b) => b.alpha_prime,
+        }
+    }
 }
 
 /// The half-space of a channel, checked, and its diffusion quantities.
@@ -88,37 +178,42 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
     for mono in &scene.channels {
         mono.validate()?;
     }
-    let params = scene
+    let media = scene
         .channels
         .iter()
         .enumerate()
-        .map(|(c, mono)| channel_params(mono, c, opts))
+        .map(|(c, mono)| Medium::new(mono, c, opts))
         .collect::<Result<Vec<_>, _>>()?;
 
     let start = Instant::now();
-    let mut channels = Vec::with_capacity(params.len());
-    for (mono, p) in scene.channels.iter().zip(&params) {
-        channels.push(solve_channel(mono, p));
+    let mut channels = Vec::with_capacity(media.len());
+    for (mono, m) in scene.channels.iter().zip(&media) {
+        channels.push(solve_channel(mono, m));
     }
     let seconds = start.elapsed().as_secs_f64();
 
     // Report the diffusion quantities: a number for one channel, a list for several.
-    let one = params.len() == 1;
-    let list = |f: &dyn Fn(&DiffusionParams) -> f64| -> Value {
-        if one { json!(f(&params[0])) } else { json!(params.iter().map(f).collect::<Vec<_>>()) }
+    let one = media.len() == 1;
+    let list = |f: &dyn Fn(&Medium) -> f64| -> Value {
+        if one { json!(f(&media[0])) } else { json!(media.iter().map(f).collect::<Vec<_>>()) }
     };
     let mut extra = Map::new();
-    extra.insert("fdr_model".into(), json!(opts.fdr.name()));
-    extra.insert("fdr".into(), list(&|p| p.fdr));
-    extra.insert("A".into(), list(&|p| p.a));
-    extra.insert("reduced_albedo".into(), list(&|p| p.alpha_prime));
-    extra.insert("rd_dipole".into(), list(&rd_total));
+    extra.insert("dipole_model".into(), json!(opts.model.name()));
+    let fdr_model = match opts.model {
+        DipoleModel::Jensen2001 => opts.fdr.name(),
+        DipoleModel::Better => FdrModel::Exact.name(),
+    };
+    extra.insert("fdr_model".into(), json!(fdr_model));
+    extra.insert("fdr".into(), list(&|m| m.fdr()));
+    extra.insert("A".into(), list(&|m| m.a()));
+    extra.insert("reduced_albedo".into(), list(&|m| m.alpha_prime()));
+    extra.insert("rd_dipole".into(), list(&|m| m.rd_total()));
     extra.insert("notes".into(), json!(notes(scene)));
     Ok(Solution { method: "dipole".into(), channels, labels: scene.labels.clone(), seconds, extra })
 }
 
 /// One channel (eq. D16, D18).
-fn solve_channel(mono: &MonoScene, p: &DiffusionParams) -> ChannelResult {
+fn solve_channel(mono: &MonoScene, m: &Medium) -> ChannelResult {
     let n_layer = mono.layers[0].n;
     // Specular (delta) part and the fraction that enters the medium.
     let r_spec = match mono.light {
@@ -128,13 +223,14 @@ fn solve_channel(mono: &MonoScene, p: &DiffusionParams) -> ChannelResult {
         Light::Diffuse => diffuse_reflectance(mono.ambient_n, n_layer),
     };
     // Multiple scattering that comes back out (normal-incidence dipole).
-    let diffuse = (1.0 - r_spec) * rd_total(p);
+    let diffuse = (1.0 - r_spec) * m.rd_total();
     // Exit distribution F_t(cos theta_o) / (pi C), normalised to 1 over the hemisphere.
-    let c = exit_constant(p.eta);
+    let eta = n_layer / mono.ambient_n;
+    let c = exit_constant(eta);
     let brdf = mono
         .directions_deg
         .iter()
-        .map(|d| diffuse * fresnel_transmittance(p.eta, d[0].to_radians().cos()) / (PI * c))
+        .map(|d| diffuse * fresnel_transmittance(eta, d[0].to_radians().cos()) / (PI * c))
         .collect::<Vec<_>>();
     let btdf = vec![0.0; brdf.len()];
     let reflectance = r_spec + diffuse;
@@ -209,8 +305,8 @@ pub fn profile(
     let mut out = Vec::with_capacity(scene.channels.len());
     for (c, mono) in scene.channels.iter().enumerate() {
         mono.validate()?;
-        let p = channel_params(mono, c, opts)?;
-        out.push(r.iter().map(|&x| rd_radial(&p, x)).collect());
+        let m = Medium::new(mono, c, opts)?;
+        out.push(r.iter().map(|&x| m.rd_radial(x)).collect());
     }
     Ok(out)
 }

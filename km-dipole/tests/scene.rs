@@ -95,7 +95,8 @@ fn diffuse_light_uses_the_hemispherical_fresnel_reflectance() {
 fn presets_give_three_channels_and_the_fdr_model_matters() {
     let s = scene("[[layer]]\npreset = \"skimmilk\"\n");
     let exact = solve(&s, &DipoleOptions::default()).unwrap();
-    let eh = solve(&s, &DipoleOptions { fdr: FdrModel::EganHilgeman }).unwrap();
+    let eh =
+        solve(&s, &DipoleOptions { fdr: FdrModel::EganHilgeman, ..Default::default() }).unwrap();
     assert_eq!(exact.channels.len(), 3);
     let json = exact.to_json();
     assert_eq!(json["fdr"].as_array().unwrap().len(), 3);
@@ -157,7 +158,8 @@ fn refuses_the_fit_below_index_one() {
     // Layer less dense than the ambient: the Egan–Hilgeman fit is undefined,
     // the exact F_dr works.
     let s = scene("[ambient]\nn = 1.5\n[[layer]]\ntau = \"inf\"\nalbedo = 0.9\nn = 1.0\n");
-    let e = solve(&s, &DipoleOptions { fdr: FdrModel::EganHilgeman }).unwrap_err();
+    let e = solve(&s, &DipoleOptions { fdr: FdrModel::EganHilgeman, ..Default::default() })
+        .unwrap_err();
     assert!(matches!(e, DipoleError::FitOutOfRange { .. }), "{e}");
     assert!(solve(&s, &DipoleOptions::default()).is_ok());
 }
