@@ -10,7 +10,7 @@ use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, Method, SolveArgs};
 /// added to the solution under `"plan"`.
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     let request = Request::from_scene(&scene.channels[0]);
-    let plan = plan_scene(scene, request, args.all_effects);
+    let plan = plan_scene(scene, request, args.all_effects).for_method(args.method.name());
     let mut sol = match args.method {
         Method::Km => {
             no_tolerance(args)?;

@@ -261,6 +261,29 @@ impl Plan {
         }
     }
 
+    /// Keep only the simplifications that concern `method` (`km`, `multiflux`,
+    /// `mc`, `dipole`): e.g. `angular-tallies` is a Monte Carlo matter and
+    /// `azimuth` a Fourier-mode matter.
+    pub fn for_method(mut self, method: &str) -> Plan {
+        let relevant: &[&str] = match method {
+            "km" => &["interface", "substrate", "duplicate-channels"],
+            "multiflux" => &[
+                "interface",
+                "scattering",
+                "azimuth",
+                "transmission",
+                "substrate",
+                "duplicate-channels",
+            ],
+            "mc" => &["interface", "angular-tallies", "substrate", "duplicate-channels"],
+            _ => &["duplicate-channels"],
+        };
+        self.skipped.retain(|s| relevant.contains(&s.as_str()));
+        let kept = self.skipped.clone();
+        self.reasons.retain(|k, _| kept.contains(k));
+        self
+    }
+
     /// Whether the simplification `name` was taken.
     pub fn skips(&self, name: &str) -> bool {
         self.skipped.iter().any(|s| s == name)

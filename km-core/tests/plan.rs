@@ -83,3 +83,16 @@ fn angular_tallies_only_when_directions_are_asked() {
     assert!(plan("[[layer]]\ntau = 1\nalbedo = 0.5\n", false).skips("angular-tallies"));
     assert!(!plan("[[layer]]\ntau = 1\nalbedo = 0.5\n", true).skips("angular-tallies"));
 }
+
+#[test]
+fn each_method_sees_only_its_simplifications() {
+    let s = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
+    let p = plan_scene(&s, Request::default(), false);
+    assert!(p.skipped.contains(&"azimuth".to_string()));
+    assert!(p.skipped.contains(&"angular-tallies".to_string()));
+    let mf = p.clone().for_method("multiflux");
+    assert!(mf.skips("azimuth") && !mf.skips("angular-tallies"));
+    let mc = p.for_method("mc");
+    assert!(!mc.skips("azimuth") && mc.skips("angular-tallies"));
+    assert!(mc.reasons.contains_key("angular-tallies") && !mc.reasons.contains_key("azimuth"));
+}
