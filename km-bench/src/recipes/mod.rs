@@ -2,8 +2,10 @@
 //! with the solvers, writing its charts and CSV files, and returning its
 //! section of the report.
 
+pub mod accuracy;
 pub mod common;
 pub mod paper;
+pub mod speed;
 pub mod stability;
 
 use crate::reproduce::Recipe;
@@ -13,10 +15,12 @@ pub fn all() -> Vec<Recipe> {
     vec![
         ("fig3", paper::fig3),
         ("fig4", paper::fig4),
+        ("fig5", speed::fig5),
         ("fig6", paper::fig6),
         ("fig7", paper::fig7),
         ("fig9", paper::fig9),
         ("fig10", paper::fig10),
+        ("speedup", speed::speedup),
         ("stability", stability::recipe),
     ]
 }
