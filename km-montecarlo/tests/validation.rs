@@ -131,6 +131,9 @@ fn slabs(samples: u64, brdf: bool) -> (usize, f64) {
             for (key, mc) in [("reflectance", r.reflectance), ("transmittance", r.transmittance)] {
                 let s = se(&sol, key);
                 let z = check(id, key, mc, s, expect[key].as_f64().unwrap(), floor);
+                if z.abs() > 3.0 {
+                    eprintln!("{id} {key}: z = {z:.2}");
+                }
                 if s > 0.0 {
                     zmax = zmax.max(z.abs());
                 }
@@ -144,6 +147,12 @@ fn slabs(samples: u64, brdf: bool) -> (usize, f64) {
                     // (1.2 % of the value for these phase functions and incidences).
                     let v = v.as_f64().unwrap();
                     let z = check(id, &format!("brdf[{k}]"), r.brdf[k], s, v, 1.2e-2 * v);
+                    if z.abs() > 3.0 {
+                        eprintln!(
+                            "{id} brdf[{k}]: mc {} +- {s:.2e}, ref {v}, z = {z:.2}",
+                            r.brdf[k]
+                        );
+                    }
                     if s > 0.0 {
                         zmax = zmax.max(z.abs());
                     }
