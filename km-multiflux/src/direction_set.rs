@@ -1185,7 +1185,9 @@ pub struct RmsError {
     /// included (`rms(approx - exact) / rms(exact)`): the seed's measure, whose
     /// denominator is dominated by the mirror and unscattered nodes.
     pub with_delta: f64,
-    /// The same over the smooth parts only.
+    /// Over the reflected node radiances only, mirror node included.
+    pub with_delta_brdf: f64,
+    /// The same as `with_delta` over the smooth parts only.
     pub smooth: f64,
     /// Over the smooth BRDF alone.
     pub smooth_brdf: f64,
@@ -1240,6 +1242,7 @@ fn rms_error(a: &StackResponse, e: &StackResponse) -> RmsError {
     };
     RmsError {
         with_delta: rel(&cat(a, false), &cat(e, false)),
+        with_delta_brdf: rel(&a.reflected.node_value, &e.reflected.node_value),
         smooth: rel(&cat(a, true), &cat(e, true)),
         smooth_brdf: rel(&a.reflected.value, &e.reflected.value),
         reflectance: a.reflectance - e.reflectance,
