@@ -112,30 +112,48 @@ fn h_of(lambda: f64, d: f64) -> f64 {
     }
 }
 
-/// Scaled single-layer quantities: `(R, T, A, ln T)` for finite `d`.
+/// Scaled single-layer quantities for finite `d` (eq. K2–K3).
 ///
-/// With `x = lambda d`, `e = exp(-2x)`, `h` of [`h_of`] (eq. K2):
+/// With `x = lambda d`, `e = exp(-2x)`, `h` of eq. K1:
 /// `R = S h / (1 + e + (K+S) h)`, `T = 2 exp(-x) / (1 + e + (K+S) h)`,
 /// `A = (K h + (1 - exp(-x))^2) / (1 + e + (K+S) h)`; for `h > 1` numerator and
-/// denominator are divided by `h` so nothing overflows.
-fn layer_parts(k: f64, s: f64, d: f64) -> (f64, f64, f64, f64) {
+/// denominator are divided by `h` so nothing overflows. Two transcendental
+/// calls: `1 - e = (1 - exp(-x)) (1 + exp(-x))` and `e = exp(-x)^2`.
+struct Parts {
+    r: f64,
+    t: f64,
+    a: f64,
+    /// `ln T`, from `x`, `h` and the denominator without forming `T`.
+    ln_t: f64,
+}
+
+fn layer_parts(k: f64, s: f64, d: f64, want_ln: bool) -> Parts {
     if s == 0.0 {
         // No scattering: Beer–Lambert exactly, R = 0, T = exp(-K z0).
-        return (0.0, (-k * d).exp(), -(-k * d).exp_m1(), -k * d);
+        return Parts { r: 0.0, t: (-k * d).exp(), a: -(-k * d).exp_m1(), ln_t: -k * d };
     }
     let sigma_t = k + s;
     let lambda = lambda_of(k, s);
     let x = lambda * d;
-    let h = h_of(lambda, d);
-    let e = (-2.0 * x).exp();
     let ex = (-x).exp();
     let em1 = -(-x).exp_m1();
+    let e = ex * ex;
+    // h of eq. K1, with 1 - exp(-2x) = em1 (1 + ex).
+    let h = if x > 20.0 {
+        1.0 / lambda
+    } else if x < 1e-150 {
+        2.0 * d
+    } else {
+        d * (em1 * (1.0 + ex)) / x
+    };
     if h <= 1.0 {
         let den = 1.0 + e + sigma_t * h;
-        (s * h / den, 2.0 * ex / den, (k * h + em1 * em1) / den, LN_2 - x - den.ln())
+        let ln_t = if want_ln { LN_2 - x - den.ln() } else { 0.0 };
+        Parts { r: s * h / den, t: 2.0 * ex / den, a: (k * h + em1 * em1) / den, ln_t }
     } else {
         let den = (1.0 + e) / h + sigma_t;
-        (s / den, 2.0 * ex / h / den, (k + em1 * em1 / h) / den, LN_2 - x - h.ln() - den.ln())
+        let ln_t = if want_ln { LN_2 - x - h.ln() - den.ln() } else { 0.0 };
+        Parts { r: s / den, t: 2.0 * ex / h / den, a: (k + em1 * em1 / h) / den, ln_t }
     }
 }
 
@@ -183,8 +201,8 @@ pub fn layer_rt(k: f64, s: f64, thickness: f64) -> Result<Rt, CoreError> {
         let lambda = lambda_of(k, s);
         return Ok(Rt { r, t: 0.0, a: (k + lambda) / (sigma_t + lambda) });
     }
-    let (r, t, a, _) = layer_parts(k, s, thickness);
-    Ok(Rt { r, t, a })
+    let p = layer_parts(k, s, thickness, false);
+    Ok(Rt { r: p.r, t: p.t, a: p.a })
 }
 
 /// Reflectance of a half-space `R_inf = a - b` (seed §2, the limit of eq. 10).
@@ -424,11 +442,7 @@ impl Slab {
     /// # Errors
     /// Indices not finite or below 1.
     pub fn interface_diffuse(n_above: f64, n_below: f64) -> Result<Slab, CoreError> {
-        check_n("n_above", n_above)?;
-        check_n("n_below", n_below)?;
-        let r_top = fresnel::diffuse_reflectance(n_above, n_below);
-        let r_bottom = fresnel::diffuse_reflectance(n_below, n_above);
-        Ok(Slab::interface(r_top, r_bottom))
+        HemisphericalCache::default().interface(n_above, n_below)
     }
 
     /// Saunderson's top interface (Saunderson 1942): external reflectance
@@ -441,14 +455,7 @@ impl Slab {
     /// # Errors
     /// Indices not finite or below 1.
     pub fn saunderson_top(light: Light, n_ambient: f64, n_layer: f64) -> Result<Slab, CoreError> {
-        check_n("n_ambient", n_ambient)?;
-        check_n("n_layer", n_layer)?;
-        let r_e = match light.mu0() {
-            Some(mu0) => fresnel::reflectance(mu0, n_ambient, n_layer),
-            None => fresnel::diffuse_reflectance(n_ambient, n_layer),
-        };
-        let r_i = fresnel::diffuse_reflectance(n_layer, n_ambient);
-        Ok(Slab::interface(r_e, r_i))
+        HemisphericalCache::default().saunderson_top(light, n_ambient, n_layer)
     }
 
     /// A lossless interface of reflectances `r_top`, `r_bottom` (`t = 1 - r`).
@@ -625,8 +632,9 @@ impl Transfer {
                 "a half-space has no transfer matrix; use it as the ground",
             ));
         }
-        let (r, t, _, ln_t) = layer_parts(k, s, thickness);
-        Ok(Transfer { m: [[t * t - r * r, r], [-r, 1.0]], log_scale: -ln_t, log_det: 0.0 }
+        let p = layer_parts(k, s, thickness, true);
+        let (r, t) = (p.r, p.t);
+        Ok(Transfer { m: [[t * t - r * r, r], [-r, 1.0]], log_scale: -p.ln_t, log_det: 0.0 }
             .normalised())
     }
 
@@ -890,7 +898,48 @@ struct Built {
     open_bottom: bool,
 }
 
-fn build(mono: &MonoScene, mapping: KmMapping) -> Result<Built, CoreError> {
+/// Hemispherical Fresnel reflectances already computed in this solve: the
+/// integral of [`fresnel::diffuse_reflectance`] dominates the cost of a
+/// channel, and spectral channels usually share their indices.
+#[derive(Default)]
+struct HemisphericalCache {
+    memo: Vec<(f64, f64, f64)>,
+}
+
+impl HemisphericalCache {
+    fn get(&mut self, n_i: f64, n_t: f64) -> f64 {
+        if let Some(&(_, _, r)) = self.memo.iter().find(|m| m.0 == n_i && m.1 == n_t) {
+            return r;
+        }
+        let r = fresnel::diffuse_reflectance(n_i, n_t);
+        self.memo.push((n_i, n_t, r));
+        r
+    }
+
+    /// The diffuse interface slab of [`Slab::interface_diffuse`].
+    fn interface(&mut self, n_above: f64, n_below: f64) -> Result<Slab, CoreError> {
+        check_n("n_above", n_above)?;
+        check_n("n_below", n_below)?;
+        Ok(Slab::interface(self.get(n_above, n_below), self.get(n_below, n_above)))
+    }
+
+    /// Saunderson's top interface of [`Slab::saunderson_top`].
+    fn saunderson_top(&mut self, light: Light, n0: f64, n: f64) -> Result<Slab, CoreError> {
+        check_n("n_ambient", n0)?;
+        check_n("n_layer", n)?;
+        let r_e = match light.mu0() {
+            Some(mu0) => fresnel::reflectance(mu0, n0, n),
+            None => self.get(n0, n),
+        };
+        Ok(Slab::interface(r_e, self.get(n, n0)))
+    }
+}
+
+fn build(
+    mono: &MonoScene,
+    mapping: KmMapping,
+    cache: &mut HemisphericalCache,
+) -> Result<Built, CoreError> {
     let mut slabs = Vec::with_capacity(2 * mono.layers.len() + 2);
     let mut layer_slab = Vec::with_capacity(mono.layers.len());
     let first_n = mono.layers[0].n;
@@ -898,7 +947,7 @@ fn build(mono: &MonoScene, mapping: KmMapping) -> Result<Built, CoreError> {
     let mut t_direct = if mono.light.mu0().is_some() { 1.0 } else { 0.0 };
     // Saunderson's top interface (eq. K12).
     if first_n != mono.ambient_n {
-        let top = Slab::saunderson_top(mono.light, mono.ambient_n, first_n)?;
+        let top = cache.saunderson_top(mono.light, mono.ambient_n, first_n)?;
         r_specular = top.r_top;
         t_direct *= top.t_tb;
         slabs.push(top);
@@ -908,7 +957,7 @@ fn build(mono: &MonoScene, mapping: KmMapping) -> Result<Built, CoreError> {
     for (i, layer) in mono.layers.iter().enumerate() {
         // Interfaces between layers of different index: diffuse flux both sides.
         if layer.n != n_above {
-            let iface = Slab::interface_diffuse(n_above, layer.n)?;
+            let iface = cache.interface(n_above, layer.n)?;
             t_direct *= iface.t_tb;
             slabs.push(iface);
         }
@@ -936,7 +985,7 @@ fn build(mono: &MonoScene, mapping: KmMapping) -> Result<Built, CoreError> {
     match mono.substrate {
         Substrate::Transparent { n } => {
             if n != n_above {
-                let iface = Slab::interface_diffuse(n_above, n)?;
+                let iface = cache.interface(n_above, n)?;
                 t_direct *= iface.t_tb;
                 slabs.push(iface);
             }
@@ -961,8 +1010,16 @@ fn build(mono: &MonoScene, mapping: KmMapping) -> Result<Built, CoreError> {
 /// # Errors
 /// An invalid scene ([`MonoScene::validate`]) or a mapping that cannot treat a layer.
 pub fn solve_mono(mono: &MonoScene, opts: &KmOptions) -> Result<ChannelResult, CoreError> {
+    solve_channel(mono, opts, &mut HemisphericalCache::default())
+}
+
+fn solve_channel(
+    mono: &MonoScene,
+    opts: &KmOptions,
+    cache: &mut HemisphericalCache,
+) -> Result<ChannelResult, CoreError> {
     mono.validate()?;
-    let b = build(mono, opts.mapping)?;
+    let b = build(mono, opts.mapping, cache)?;
     let f = stack_adding(&b.slabs);
     let t = if b.open_bottom { f.t } else { 0.0 };
     // Everything not reflected or transmitted is absorbed, in a layer or in the ground.
@@ -1017,8 +1074,14 @@ pub fn solve_mono(mono: &MonoScene, opts: &KmOptions) -> Result<ChannelResult, C
 /// ```
 pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
     let start = Instant::now();
-    let channels =
-        scene.channels.iter().map(|m| solve_mono(m, opts)).collect::<Result<Vec<_>, _>>()?;
+    let channels = {
+        let mut cache = HemisphericalCache::default();
+        scene
+            .channels
+            .iter()
+            .map(|m| solve_channel(m, opts, &mut cache))
+            .collect::<Result<Vec<_>, _>>()?
+    };
     let seconds = start.elapsed().as_secs_f64();
     let mut notes = vec![
         "two-flux fluxes are diffuse: a collimated beam's angle enters only through the Fresnel \
