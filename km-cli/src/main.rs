@@ -342,7 +342,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Plan { scene, method, json, all_effects } => {
             let s = km_core::Scene::from_path(&scene)?;
             let request = km_core::plan::Request::from_scene(&s.channels[0]);
-            let plan = km_core::plan::plan_scene(&s, request, all_effects).for_method(method.name());
+            let plan =
+                km_core::plan::plan_scene(&s, request, all_effects).for_method(method.name());
             if json {
                 let mut v = plan.to_json();
                 v["method"] = serde_json::json!(method.name());

@@ -19,11 +19,20 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
         }
         Method::Multiflux => {
             let opts = multiflux_options(args);
-            km_multiflux::solve(scene, &opts)?
+            match args.tolerance {
+                Some(tol) if args.streams.is_none() => {
+                    km_cli::tolerance::multiflux(scene, &opts, tol)?
+                }
+                Some(_) => bail!("give either --streams or --tolerance, not both"),
+                None => km_multiflux::solve(scene, &opts)?,
+            }
         }
         Method::Mc => {
             let opts = mc_options(args)?;
-            km_montecarlo::solve(scene, &opts)?
+            match args.tolerance {
+                Some(tol) => km_cli::tolerance::monte_carlo(scene, &opts, tol)?,
+                None => km_montecarlo::solve(scene, &opts)?,
+            }
         }
         Method::Dipole => {
             no_tolerance(args)?;
