@@ -14,8 +14,9 @@
 //!   Fresnel boundary.
 
 use std::f64::consts::PI;
+use std::sync::OnceLock;
 
-use km_core::fresnel::{critical_cos, integrate_gl, reflectance};
+use km_core::fresnel::{critical_cos, gauss_legendre, reflectance};
 
 use crate::error::DipoleError;
 
@@ -40,11 +41,16 @@ pub fn fresnel_moment(eta: f64, k: i32) -> f64 {
     let mu_c = critical_cos(eta, 1.0);
     let mut sum = mu_c.powi(k + 1) / f64::from(k + 1);
     // Above it, the square-root onset at mu_c: geometric panels towards it.
+    // 24-point Gauss–Legendre nodes, computed once.
+    static NODES: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
+    let (x, w) = NODES.get_or_init(|| gauss_legendre(24));
     let span = 1.0 - mu_c;
     let mut a = mu_c;
     for c in [1e-6, 1e-4, 1e-3, 1e-2, 0.05, 0.2, 0.5, 1.0] {
         let b = mu_c + span * c;
-        sum += integrate_gl(|mu| reflectance(mu, eta, 1.0) * mu.powi(k), a, b, 24);
+        let (h, m) = (0.5 * (b - a), 0.5 * (b + a));
+        let f = |mu: f64| reflectance(mu, eta, 1.0) * mu.powi(k);
+        sum += h * x.iter().zip(w).map(|(xi, wi)| wi * f(m + h * xi)).sum::<f64>();
         a = b;
     }
     sum
@@ -113,17 +119,22 @@ impl BetterDipole {
         if !eta.is_finite() || eta <= 0.0 {
             return Err(DipoleError::invalid("eta", eta, "relative index must be finite and > 0"));
         }
+        let (c1, c2) = (fresnel_moment(eta, 1), fresnel_moment(eta, 2));
+        Ok(Self::assemble(sigma_a, sigma_s_prime, c1, c2))
+    }
+
+    /// As [`BetterDipole::from_reduced`] with the moments `C_1`, `C_2` at
+    /// hand (the caller caches them per `eta`; arguments already checked).
+    pub(crate) fn assemble(sigma_a: f64, sigma_s_prime: f64, c1: f64, c2: f64) -> Self {
         // D19: Grosjean's diffusion coefficient and the transport coefficient.
         let sigma_t_prime = sigma_a + sigma_s_prime;
         let d_g = (2.0 * sigma_a + sigma_s_prime) / (3.0 * sigma_t_prime * sigma_t_prime);
         let sigma_tr = (sigma_a / d_g).sqrt();
-        // D20-D21: Fresnel moments, boundary, source positions.
-        let c1 = fresnel_moment(eta, 1);
-        let c2 = fresnel_moment(eta, 2);
+        // D20-D21: boundary from the Fresnel moments, source positions.
         let a = (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1);
         let z_b = 2.0 * a * d_g;
         let z_r = 1.0 / sigma_t_prime;
-        Ok(BetterDipole {
+        BetterDipole {
             alpha_prime: sigma_s_prime / sigma_t_prime,
             sigma_t_prime,
             d_g,
@@ -136,7 +147,7 @@ impl BetterDipole {
             z_v: z_r + 2.0 * z_b,
             c_phi: 0.25 * (1.0 - 2.0 * c1),
             c_e: 0.5 * (1.0 - 3.0 * c2),
-        })
+        }
     }
 
     /// Radial exitance `R(r)` per unit power entering at the origin (eq. D22),

@@ -135,7 +135,15 @@ pub fn fresnel_transmittance(eta: f64, cos_theta: f64) -> f64 {
 /// assert!((c - 0.9389).abs() < 1e-4);
 /// ```
 pub fn exit_constant(eta: f64) -> f64 {
-    1.0 - diffuse_reflectance(1.0, eta)
+    exit_constant_from_fdr(eta, diffuse_reflectance(eta, 1.0))
+}
+
+/// [`exit_constant`] from the exact `F_dr(eta)` already at hand:
+/// `C = eta^2 (1 - F_dr)`, the flux balance of diffuse light across the
+/// interface (`n_i^2 (1 - R_h(i -> t)) = n_t^2 (1 - R_h(t -> i))`). Only
+/// valid with the exact `F_dr` ([`crate::FdrModel::Exact`]), not with a fit.
+pub fn exit_constant_from_fdr(eta: f64, fdr_exact: f64) -> f64 {
+    eta * eta * (1.0 - fdr_exact)
 }
 
 /// How the BSSRDF's angular factors are normalised (eq. D17).

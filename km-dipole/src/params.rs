@@ -192,6 +192,18 @@ impl DiffusionParams {
             return Err(DipoleError::NoScattering { layer: 1, channel: 0, sigma_s: 0.0 });
         }
         let fdr = fdr_model.fdr(eta)?;
+        Ok(Self::assemble(sigma_a, sigma_s_prime, eta, fdr, fdr_model))
+    }
+
+    /// As [`DiffusionParams::from_reduced`] with `F_dr` already computed by
+    /// `fdr_model` (the caller caches it per `eta`; arguments already checked).
+    pub(crate) fn assemble(
+        sigma_a: f64,
+        sigma_s_prime: f64,
+        eta: f64,
+        fdr: f64,
+        fdr_model: FdrModel,
+    ) -> Self {
         // D5: reduced coefficients (similarity relation of seed 003 eq. 4).
         let sigma_t_prime = sigma_a + sigma_s_prime;
         let alpha_prime = sigma_s_prime / sigma_t_prime;
@@ -203,7 +215,7 @@ impl DiffusionParams {
         let z_b = 2.0 * a * d;
         let z_r = 1.0 / sigma_t_prime;
         let z_v = z_r + 4.0 * a * d;
-        Ok(DiffusionParams {
+        DiffusionParams {
             sigma_a,
             sigma_s_prime,
             sigma_t_prime,
@@ -217,7 +229,7 @@ impl DiffusionParams {
             z_b,
             z_r,
             z_v,
-        })
+        }
     }
 
     /// From a `km-core` layer below an ambient medium of index `ambient_n`

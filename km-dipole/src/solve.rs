@@ -33,8 +33,8 @@ use km_core::fresnel::{diffuse_reflectance, reflectance};
 use km_core::{ChannelResult, Light, MonoScene, Scene, Solution};
 use serde_json::{Map, Value, json};
 
-use crate::better_dipole::BetterDipole;
-use crate::dipole::{exit_constant, fresnel_transmittance, rd_radial, rd_total};
+use crate::better_dipole::{BetterDipole, fresnel_moment};
+use crate::dipole::{exit_constant_from_fdr, fresnel_transmittance, rd_radial, rd_total};
 use crate::error::DipoleError;
 use crate::params::{DiffusionParams, FdrModel};
 
@@ -82,51 +82,100 @@ pub struct DipoleOptions {
     pub model: DipoleModel,
 }
 
-/// The medium of one channel as the chosen dipole sees it.
+/// The medium of one channel as the chosen dipole sees it, with the exit
+/// normalisation `C` of its BRDF (eq. D17).
 enum Medium {
-    Classic(DiffusionParams),
-    Better(BetterDipole),
+    Classic(DiffusionParams, f64),
+    Better(BetterDipole, f64),
+}
+
+/// Fresnel integrals per relative index `eta` (channels usually share it):
+/// `(eta, exact F_dr, F_dr of the chosen model, C_2 if computed)`.
+#[derive(Default)]
+struct FresnelCache(Vec<(f64, f64, f64, Option<f64>)>);
+
+impl FresnelCache {
+    /// The entry of `eta`, computing it on first use (eq. D9, D10, D20).
+    fn get(&mut self, eta: f64, opts: &DipoleOptions) -> Result<(f64, f64, f64), DipoleError> {
+        let better = opts.model == DipoleModel::Better;
+        if let Some(e) = self.0.iter_mut().find(|e| e.0 == eta) {
+            if better && e.3.is_none() {
+                e.3 = Some(fresnel_moment(eta, 2));
+            }
+            return Ok((e.1, e.2, e.3.unwrap_or(f64::NAN)));
+        }
+        let exact = FdrModel::Exact.fdr(eta)?;
+        let model = if opts.fdr == FdrModel::Exact { exact } else { opts.fdr.fdr(eta)? };
+        let c2 = if better { Some(fresnel_moment(eta, 2)) } else { None };
+        self.0.push((eta, exact, model, c2));
+        Ok((exact, model, c2.unwrap_or(f64::NAN)))
+    }
 }
 
 impl Medium {
-    fn new(mono: &MonoScene, channel: usize, opts: &DipoleOptions) -> Result<Self, DipoleError> {
-        let p = channel_params(mono, channel, opts)?;
-        Ok(match opts.model {
-            DipoleModel::Jensen2001 => Medium::Classic(p),
+    fn new(
+        mono: &MonoScene,
+        channel: usize,
+        opts: &DipoleOptions,
+        cache: &mut FresnelCache,
+    ) -> Result<Self, DipoleError> {
+        let layer = half_space(mono, channel)?;
+        let eta = layer.n / mono.ambient_n;
+        let (fdr_exact, fdr, c2) = match opts.model {
+            // The better dipole uses the exact moments only.
             DipoleModel::Better => {
-                let l = &mono.layers[0];
-                Medium::Better(BetterDipole::new(l.sigma_a, l.sigma_s, l.g(), p.eta)?)
+                let o = DipoleOptions { fdr: FdrModel::Exact, ..*opts };
+                cache.get(eta, &o)?
             }
+            DipoleModel::Jensen2001 => cache.get(eta, opts)?,
+        };
+        // D17: C = 1 - F_ext = eta^2 (1 - F_dr) with the exact F_dr.
+        let c = exit_constant_from_fdr(eta, fdr_exact);
+        let sigma_s_prime = (1.0 - layer.g()) * layer.sigma_s;
+        Ok(match opts.model {
+            DipoleModel::Jensen2001 => Medium::Classic(
+                DiffusionParams::assemble(layer.sigma_a, sigma_s_prime, eta, fdr, opts.fdr),
+                c,
+            ),
+            DipoleModel::Better => Medium::Better(
+                BetterDipole::assemble(layer.sigma_a, sigma_s_prime, 0.5 * fdr_exact, c2),
+                c,
+            ),
         })
+    }
+    fn exit_c(&self) -> f64 {
+        match self {
+            Medium::Classic(_, c) | Medium::Better(_, c) => *c,
+        }
     }
     fn rd_total(&self) -> f64 {
         match self {
-            Medium::Classic(p) => rd_total(p),
-            Medium::Better(b) => b.rd_total(),
+            Medium::Classic(p, _) => rd_total(p),
+            Medium::Better(b, _) => b.rd_total(),
         }
     }
     fn rd_radial(&self, r: f64) -> f64 {
         match self {
-            Medium::Classic(p) => rd_radial(p, r),
-            Medium::Better(b) => b.rd_radial(r),
+            Medium::Classic(p, _) => rd_radial(p, r),
+            Medium::Better(b, _) => b.rd_radial(r),
         }
     }
     fn fdr(&self) -> f64 {
         match self {
-            Medium::Classic(p) => p.fdr,
-            Medium::Better(b) => 2.0 * b.c1,
+            Medium::Classic(p, _) => p.fdr,
+            Medium::Better(b, _) => 2.0 * b.c1,
         }
     }
     fn a(&self) -> f64 {
         match self {
-            Medium::Classic(p) => p.a,
-            Medium::Better(b) => b.a,
+            Medium::Classic(p, _) => p.a,
+            Medium::Better(b, _) => b.a,
         }
     }
     fn alpha_prime(&self) -> f64 {
         match self {
-            Medium::Classic(p) => p.alpha_prime,
-            Medium::Better(b) => b.alpha_prime,
+            Medium::Classic(p, _) => p.alpha_prime,
+            Medium::Better(b, _) => b.alpha_prime,
         }
     }
 }
@@ -141,6 +190,12 @@ pub fn channel_params(
     channel: usize,
     opts: &DipoleOptions,
 ) -> Result<DiffusionParams, DipoleError> {
+    let layer = half_space(mono, channel)?;
+    DiffusionParams::from_layer(layer, mono.ambient_n, opts.fdr)
+}
+
+/// The single half-space layer of a channel, or the reason it is not one.
+fn half_space(mono: &MonoScene, channel: usize) -> Result<&km_core::Layer, DipoleError> {
     if mono.layers.len() != 1 {
         return Err(DipoleError::LayerCount { count: mono.layers.len() });
     }
@@ -151,7 +206,7 @@ pub fn channel_params(
     if layer.sigma_s <= 0.0 {
         return Err(DipoleError::NoScattering { layer: 1, channel, sigma_s: layer.sigma_s });
     }
-    DiffusionParams::from_layer(layer, mono.ambient_n, opts.fdr)
+    Ok(layer)
 }
 
 /// Solve a scene whose single layer is a half-space with the dipole
@@ -175,17 +230,21 @@ pub fn channel_params(
 /// ```
 pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleError> {
     // Check every channel before timing.
-    for mono in &scene.channels {
+    for (c, mono) in scene.channels.iter().enumerate() {
         mono.validate()?;
+        half_space(mono, c)?;
     }
+
+    // Timed: the Fresnel integrals (once per relative index), the diffusion
+    // quantities and the dipole of every channel.
+    let start = Instant::now();
+    let mut cache = FresnelCache::default();
     let media = scene
         .channels
         .iter()
         .enumerate()
-        .map(|(c, mono)| Medium::new(mono, c, opts))
+        .map(|(c, mono)| Medium::new(mono, c, opts, &mut cache))
         .collect::<Result<Vec<_>, _>>()?;
-
-    let start = Instant::now();
     let mut channels = Vec::with_capacity(media.len());
     for (mono, m) in scene.channels.iter().zip(&media) {
         channels.push(solve_channel(mono, m));
@@ -226,7 +285,7 @@ fn solve_channel(mono: &MonoScene, m: &Medium) -> ChannelResult {
     let diffuse = (1.0 - r_spec) * m.rd_total();
     // Exit distribution F_t(cos theta_o) / (pi C), normalised to 1 over the hemisphere.
     let eta = n_layer / mono.ambient_n;
-    let c = exit_constant(eta);
+    let c = m.exit_c();
     let brdf = mono
         .directions_deg
         .iter()
@@ -303,9 +362,10 @@ pub fn profile(
         return Err(DipoleError::invalid("r", bad, "distances must be finite and >= 0"));
     }
     let mut out = Vec::with_capacity(scene.channels.len());
+    let mut cache = FresnelCache::default();
     for (c, mono) in scene.channels.iter().enumerate() {
         mono.validate()?;
-        let m = Medium::new(mono, c, opts)?;
+        let m = Medium::new(mono, c, opts, &mut cache)?;
         out.push(r.iter().map(|&x| m.rd_radial(x)).collect());
     }
     Ok(out)
