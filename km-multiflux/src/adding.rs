@@ -193,12 +193,14 @@ pub fn add(
     // X = I - R1' R2: the operator of the round trips between the two layers.
     let mut x = Mat::<f64>::identity(d_b, d_b);
     x -= r1p * r2;
+    let r1t2 = r1p * t2p;
+    decouple_trapped(&mut x, t1, &r1t2);
     let lu = x.partial_piv_lu();
 
     // X^-1 T1: light from above, after all round trips, going down at the boundary.
     let xt1 = lu.solve(t1);
     // X^-1 R1' T2': light from below, reflected by layer 1, after all round trips.
-    let xr = lu.solve(r1p * t2p);
+    let xr = lu.solve(&r1t2);
 
     let out = LayerOperators {
         r_top: r1 + t1p * (r2 * &xt1),
@@ -267,6 +269,26 @@ pub fn add_truncated(
         r_bottom: r2p + t2 * &xr,
         t_up: t1p * &yt2,
     })
+}
+
+/// Directions trapped between two total reflections with nothing between
+/// (a clear layer of higher index between interfaces) give a row and column
+/// of `X` that are zero: no light can enter them (their rows of `T1` and
+/// `R1' T2'` are zero too), so their stream is 0 and the equation is
+/// replaced by `d_i = 0` (diagonal set to 1). Anything else stays singular.
+fn decouple_trapped(x: &mut Mat<f64>, t1: &Mat<f64>, r1t2: &Mat<f64>) {
+    let n = x.nrows();
+    for i in 0..n {
+        if x[(i, i)] != 0.0 {
+            continue;
+        }
+        let isolated = (0..n).all(|j| j == i || (x[(i, j)] == 0.0 && x[(j, i)] == 0.0))
+            && (0..t1.ncols()).all(|j| t1[(i, j)] == 0.0)
+            && (0..r1t2.ncols()).all(|j| r1t2[(i, j)] == 0.0);
+        if isolated {
+            x[(i, i)] = 1.0;
+        }
+    }
 }
 
 /// Refuse non-finite operators (a singular `X` gives infinities or NaN).
@@ -355,12 +377,23 @@ mod tests {
     #[test]
     fn facing_perfect_mirrors_are_refused_not_panicking() {
         let one = |v: f64| Mat::from_fn(1, 1, |_, _| v);
+        // Light enters a lossless cavity and can never leave: refused.
+        let leaky = LayerOperators {
+            r_top: one(0.5),
+            t_down: one(0.5),
+            r_bottom: one(1.0),
+            t_up: one(0.0),
+        };
         let mirror = LayerOperators {
             r_top: one(1.0),
             t_down: one(0.0),
             r_bottom: one(1.0),
             t_up: one(0.0),
         };
-        assert!(add(&mirror, &mirror).is_err());
+        assert!(add(&leaky, &mirror).is_err());
+        // Nothing can enter the cavity: it is decoupled, the top mirror reflects all.
+        let s = add(&mirror, &mirror).unwrap();
+        assert_eq!(s.r_top[(0, 0)], 1.0);
+        assert_eq!(s.t_down[(0, 0)], 0.0);
     }
 }

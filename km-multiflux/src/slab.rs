@@ -64,6 +64,23 @@ pub struct Extra {
     /// horizontal plane and it scatters); false for a probe (a radiance of
     /// zero quadrature weight, which receives but does not scatter).
     pub beam: bool,
+    /// Azimuth of a probe in degrees (BRDF convention: 180 = mirror side);
+    /// used by the single-scattering correction only.
+    pub phi_deg: f64,
+}
+
+/// Exact single-scattering correction of the beam into the probes (TMS,
+/// Nakajima & Tanaka 1988, eq. S8 of `docs/multiflux.md`), applied in the
+/// `m = 0` operators: the single scattering computed with the truncated,
+/// delta-M scaled phase function is replaced by `omega p(cos Theta) / (1 - omega f)`
+/// with the exact phase function, along the scaled optical path.
+pub struct Tms<'a> {
+    /// The exact phase function `p(cos Theta)` (1/sr).
+    pub phase: &'a dyn Fn(f64) -> f64,
+    /// Unscaled single-scattering albedo.
+    pub omega: f64,
+    /// Delta-M truncation fraction `f`.
+    pub f: f64,
 }
 
 /// The optical properties of a layer for one Fourier order.
@@ -168,7 +185,7 @@ impl SlabSolution {
                 let (mut se, mut so) = (0.0, 0.0);
                 for l in m..nl {
                     let x = chi[l] * lam[(i, l)] * lam[(j, l)];
-                    if (l + m) % 2 == 0 { se += x } else { so += x }
+                    if (l + m).is_multiple_of(2) { se += x } else { so += x }
                 }
                 pe[(i, j)] = se;
                 po[(i, j)] = so;
@@ -317,7 +334,7 @@ impl SlabSolution {
             let (mut se, mut so) = (0.0, 0.0);
             for l in self.m..self.chi.len() {
                 let x = self.chi[l] * lam_x[l] * self.lam[(j, l)];
-                if (l + self.m) % 2 == 0 { se += x } else { so += x }
+                if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
             }
             ev[j] = se;
             od[j] = so;
@@ -366,18 +383,6 @@ impl SlabSolution {
         let zp = (0..n).map(|i| 0.5 * (sigma[i] + delta[i]) / self.t[i]).collect();
         let zm = (0..n).map(|i| 0.5 * (sigma[i] - delta[i]) / self.t[i]).collect();
         (zp, zm)
-    }
-
-    /// Particular solution, away from resonances `k_j mu_b = 1` where eq. S6 is
-    /// singular: there the mean of `mu_b (1 ± 2e-4)` is used (error O(1e-7)).
-    fn particular_safe(&self, mu_b: f64) -> (Vec<f64>, Vec<f64>) {
-        let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-4);
-        if !near {
-            return self.particular(mu_b);
-        }
-        let (a, b) = (self.particular(mu_b * (1.0 - 2e-4)), self.particular(mu_b * (1.0 + 2e-4)));
-        let avg = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect();
-        (avg(&a.0, &b.0), avg(&a.1, &b.1))
     }
 
     /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
@@ -437,10 +442,100 @@ impl SlabSolution {
         (rx, tx)
     }
 
+    /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 + S7):
+    /// particular solution, homogeneous part fixed by the boundary values
+    /// `-Z+` at the top and `-Z- e^{-tau/mu_b}` at the bottom, and the source
+    /// integral along each probe.
+    fn beam_columns(
+        &self,
+        mu_b: f64,
+        extras: &[Extra],
+        rows: &[Option<(Vec<f64>, Vec<f64>)>],
+        tms: Option<&Tms<'_>>,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let dim = n + extras.len();
+        let (mut cr, mut ct) = (vec![0.0; dim], vec![0.0; dim]);
+        let (zp, zm) = self.particular(mu_b);
+        let eb_att = atten(self.tau, mu_b);
+        // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
+        let a: Vec<f64> = zp.iter().map(|x| -x).collect();
+        let b: Vec<f64> = zm.iter().map(|x| -x * eb_att).collect();
+        for i in 0..n {
+            let (mut ru, mut td) = (zm[i], zp[i] * eb_att);
+            for j in 0..n {
+                ru += self.r[(i, j)] * a[j] + self.tr[(i, j)] * b[j];
+                td += self.tr[(i, j)] * a[j] + self.r[(i, j)] * b[j];
+            }
+            cr[i] = ru;
+            ct[i] = td;
+        }
+        // Beam -> probes: homogeneous rows plus the particular source integral.
+        let lam_b = self.lam_at(mu_b);
+        let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
+        for (ex_i, exx) in extras.iter().enumerate() {
+            let (Some((rx, tx)), Some(mu_x)) = (&rows[ex_i], exx.mu) else { continue };
+            let lam_x = self.lam_at(mu_x);
+            let (ev, od) = self.kernels(&lam_x);
+            // Direct single scattering of the beam into ±mu_x.
+            let (mut se, mut so) = (0.0, 0.0);
+            for l in self.m..self.chi.len() {
+                let x = self.chi[l] * lam_x[l] * lam_b[l];
+                if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
+            }
+            // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
+            let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
+            let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
+            // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
+            let (mut up, mut dn) = (direct_up, direct_dn);
+            for j in 0..n {
+                let f = self.omega * self.w[j] * 0.5;
+                // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
+                up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
+                dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
+            }
+            let beta = 1.0 / mu_x;
+            let kb = 1.0 / mu_b;
+            if let (Some(t), 0) = (tms, self.m) {
+                // Eq. S8: exact minus truncated single scattering (real space).
+                let (sx, sb) =
+                    ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
+                let cphi = (exx.phi_deg - 180.0).to_radians().cos();
+                let fix = |cos_t: f64| {
+                    let cos_t = cos_t.clamp(-1.0, 1.0);
+                    let exact = t.omega * (t.phase)(cos_t) / (1.0 - t.omega * t.f);
+                    // Truncated: omega* sum_l (2l+1) chi*_l P_l / (4 pi).
+                    let (mut p0, mut p1, mut sum) = (1.0, cos_t, self.chi[0]);
+                    if self.chi.len() > 1 {
+                        sum += self.chi[1] * p1;
+                    }
+                    for l in 2..self.chi.len() {
+                        let p2 = ((2 * l - 1) as f64 * cos_t * p1 - (l - 1) as f64 * p0) / l as f64;
+                        sum += self.chi[l] * p2;
+                        p0 = p1;
+                        p1 = p2;
+                    }
+                    (exact - self.omega * sum / (4.0 * std::f64::consts::PI)) / mu_b
+                };
+                up += fix(-mu_x * mu_b + sx * sb * cphi);
+                dn += fix(mu_x * mu_b + sx * sb * cphi);
+            }
+            let mut out_up = up * beta * phi(kb + beta, self.tau);
+            let mut out_dn = dn * beta * e2(kb, beta, self.tau);
+            for j in 0..n {
+                out_up += rx[j] * a[j] + tx[j] * b[j];
+                out_dn += tx[j] * a[j] + rx[j] * b[j];
+            }
+            cr[n + ex_i] = out_up;
+            ct[n + ex_i] = out_dn;
+        }
+        (cr, ct)
+    }
+
     /// The operators on the augmented space `[nodes, extras]` (same layout for
     /// down- and up-going vectors; the layer is symmetric, so `r_bottom = r_top`
     /// and `t_up = t_down`).
-    pub fn operators(&self, extras: &[Extra]) -> LayerOperators {
+    pub fn operators(&self, extras: &[Extra], tms: Option<&Tms<'_>>) -> LayerOperators {
         let n = self.n;
         let dim = n + extras.len();
         let mut rr = Mat::<f64>::zeros(dim, dim);
@@ -472,54 +567,31 @@ impl SlabSolution {
         }
         for (eb, ex) in extras.iter().enumerate() {
             let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
-            let (zp, zm) = self.particular_safe(mu_b);
-            let eb_att = atten(self.tau, mu_b);
-            // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
-            let a: Vec<f64> = zp.iter().map(|x| -x).collect();
-            let b: Vec<f64> = zm.iter().map(|x| -x * eb_att).collect();
-            for i in 0..n {
-                let (mut ru, mut td) = (zm[i], zp[i] * eb_att);
-                for j in 0..n {
-                    ru += self.r[(i, j)] * a[j] + self.tr[(i, j)] * b[j];
-                    td += self.tr[(i, j)] * a[j] + self.r[(i, j)] * b[j];
+            // Eq. S6 is singular at k_j mu_b = 1 (the full response is not): at
+            // an exact resonance (|k mu_b - 1| < 1e-9, a set of measure zero)
+            // the response is the mean at mu_b (1 ± 1e-6) (error ~1e-12; one-sided
+            // 1e-6 at mu_b = 1). Near it, the cancellation costs only
+            // log10(1/|k mu_b - 1|) digits.
+            let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-9);
+            let (cr, ct) = if !near {
+                self.beam_columns(mu_b, extras, &rows, tms)
+            } else if mu_b * (1.0 + 1e-6) < 1.0 {
+                let (a, b) = (
+                    self.beam_columns(mu_b * (1.0 - 1e-6), extras, &rows, tms),
+                    self.beam_columns(mu_b * (1.0 + 1e-6), extras, &rows, tms),
+                );
+                let avg = |x: &[f64], y: &[f64]| -> Vec<f64> {
+                    x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect()
+                };
+                (avg(&a.0, &b.0), avg(&a.1, &b.1))
+            } else {
+                self.beam_columns(mu_b * (1.0 - 1e-6), extras, &rows, tms)
+            };
+            for i in 0..dim {
+                if i < n || rows[i - n].is_some() {
+                    rr[(i, n + eb)] = cr[i];
+                    tt[(i, n + eb)] = ct[i];
                 }
-                rr[(i, n + eb)] = ru;
-                tt[(i, n + eb)] = td;
-            }
-            // Beam -> probes: homogeneous rows plus the particular source integral.
-            let lam_b = self.lam_at(mu_b);
-            let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
-            for (ex_i, exx) in extras.iter().enumerate() {
-                let (Some((rx, tx)), Some(mu_x)) = (&rows[ex_i], exx.mu) else { continue };
-                let lam_x = self.lam_at(mu_x);
-                let (ev, od) = self.kernels(&lam_x);
-                // Direct single scattering of the beam into ±mu_x.
-                let (mut se, mut so) = (0.0, 0.0);
-                for l in self.m..self.chi.len() {
-                    let x = self.chi[l] * lam_x[l] * lam_b[l];
-                    if (l + self.m) % 2 == 0 { se += x } else { so += x }
-                }
-                // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
-                let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
-                let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
-                // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
-                let (mut up, mut dn) = (direct_up, direct_dn);
-                for j in 0..n {
-                    let f = self.omega * self.w[j] * 0.5;
-                    // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
-                    up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
-                    dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
-                }
-                let beta = 1.0 / mu_x;
-                let kb = 1.0 / mu_b;
-                let mut out_up = up * beta * phi(kb + beta, self.tau);
-                let mut out_dn = dn * beta * e2(kb, beta, self.tau);
-                for j in 0..n {
-                    out_up += rx[j] * a[j] + tx[j] * b[j];
-                    out_dn += tx[j] * a[j] + rx[j] * b[j];
-                }
-                rr[(n + ex_i, n + eb)] = out_up;
-                tt[(n + ex_i, n + eb)] = out_dn;
             }
         }
         LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt }
@@ -559,11 +631,12 @@ pub fn slab_operators(
     w: &[f64],
     extras: &[Extra],
     p: &SlabOrder<'_>,
+    tms: Option<&Tms<'_>>,
 ) -> Result<LayerOperators, MultifluxError> {
     let scatters =
         p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
     if !scatters {
         return Ok(absorber_operators(mu, extras, p.tau));
     }
-    Ok(SlabSolution::new(mu, w, p)?.operators(extras))
+    Ok(SlabSolution::new(mu, w, p)?.operators(extras, tms))
 }

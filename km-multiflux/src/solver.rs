@@ -26,7 +26,7 @@ use crate::adding::{LayerOperators, add, add_truncated};
 use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::legendre::delta_m;
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
-use crate::slab::{Extra, SlabOrder, slab_operators};
+use crate::slab::{Extra, SlabOrder, Tms, slab_operators};
 
 /// Default number of Gauss nodes per hemisphere (per Snell segment): meets
 /// the 1e-4 accuracy target on the reference cases (see `docs/multiflux.md`).
@@ -110,6 +110,9 @@ struct Scaled {
     omega: f64,
     chi: Vec<f64>,
     n: f64,
+    omega_true: f64,
+    f: f64,
+    phase: km_core::phase::Phase,
 }
 
 /// Solve one channel; returns the result and the number of Fourier orders used.
@@ -144,30 +147,38 @@ pub fn solve_mono(
     let grid = AngularGrid::new(&all_n, streams);
 
     // Extras: the beam, then probes (by Snell invariant s).
-    let mut ex_s: Vec<(f64, bool)> = Vec::new();
+    // (s, is_beam, phi): probes share an extra when s (and, for the
+    // single-scattering correction of a beam, phi) agree.
+    let mut ex_s: Vec<(f64, bool, f64)> = Vec::new();
     let beam = match scene.light {
         Light::Collimated { theta_deg } => {
-            ex_s.push((n0 * theta_deg.to_radians().sin(), true));
+            ex_s.push((n0 * theta_deg.to_radians().sin(), true, 0.0));
             Some(0)
         }
         Light::Diffuse => None,
     };
-    let probe = |s: f64, ex_s: &mut Vec<(f64, bool)>| -> usize {
-        if let Some(i) = ex_s.iter().position(|&(t, b)| !b && t == s) {
+    let tms_on = opts.delta_m && beam.is_some();
+    let probe = |s: f64, phi: f64, ex_s: &mut Vec<(f64, bool, f64)>| -> usize {
+        let phi = if tms_on { phi } else { 0.0 };
+        if let Some(i) = ex_s.iter().position(|&(t, b, p)| !b && t == s && p == phi) {
             return i;
         }
-        ex_s.push((s, false));
+        ex_s.push((s, false, phi));
         ex_s.len() - 1
     };
     let dirs = &scene.directions_deg;
     let brdf_ix: Vec<usize> =
-        dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), &mut ex_s)).collect();
+        dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
     let btdf_ix: Vec<usize> = match n_sub {
-        Some(ns) => dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), &mut ex_s)).collect(),
+        Some(ns) => {
+            dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), d[1], &mut ex_s)).collect()
+        }
         None => Vec::new(),
     };
     let extras_in = |n: f64| -> Vec<Extra> {
-        ex_s.iter().map(|&(s, beam)| Extra { mu: mu_of_invariant(s, n), beam }).collect()
+        ex_s.iter()
+            .map(|&(s, beam, phi_deg)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg })
+            .collect()
     };
 
     // Delta-M scaling of each layer.
@@ -183,7 +194,17 @@ pub fn solve_mono(
                 (chi[..n_keep].to_vec(), omega, 1.0)
             };
             let tau = l.tau();
-            Scaled { tau: tau * factor, tau_true: tau, omega: omega_s, chi: chi_s, n: l.n }
+            let f = if opts.delta_m { chi[n_keep] } else { 0.0 };
+            Scaled {
+                tau: tau * factor,
+                tau_true: tau,
+                omega: omega_s,
+                chi: chi_s,
+                n: l.n,
+                omega_true: omega,
+                f,
+                phase: l.phase,
+            }
         })
         .collect();
 
@@ -192,10 +213,10 @@ pub fn solve_mono(
     let m_max = if need_angles && beam.is_some() {
         let mut m = 0;
         for l in &layers {
-            if l.omega > 0.0 {
-                if let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12) {
-                    m = m.max(last);
-                }
+            if l.omega > 0.0
+                && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
+            {
+                m = m.max(last);
             }
         }
         m.min(opts.max_fourier_order.unwrap_or(usize::MAX))
@@ -215,13 +236,32 @@ pub fn solve_mono(
     let (mut r_tot, mut t_tot) = (0.0, 0.0);
 
     for m in 0..=m_max {
-        let ops = stack_operators(scene, &grid, &layers, n_sub, &extras_in, m, opts.neumann_order)?;
+        let ops = stack_operators(
+            scene,
+            &grid,
+            &layers,
+            n_sub,
+            &extras_in,
+            m,
+            opts.neumann_order,
+            tms_on && !dirs.is_empty(),
+        )?;
         // Input at the top.
         let a = {
             let mut a = vec![0.0; na0 + e0.len()];
             match beam {
                 Some(b) => a[na0 + b] = 1.0,
-                None if m == 0 => a[..na0].iter_mut().for_each(|x| *x = 1.0 / std::f64::consts::PI),
+                None if m == 0 => {
+                    // Uniform radiance 1/pi (unit irradiance) in every down-going
+                    // direction: the nodes and the probes (whose direct
+                    // transmission and mirror reflection are smooth in angle
+                    // for diffuse light, so they belong to the BRDF/BTDF).
+                    for (i, x) in a.iter_mut().enumerate() {
+                        if i < na0 || e0[i - na0].mu.is_some() {
+                            *x = 1.0 / std::f64::consts::PI;
+                        }
+                    }
+                }
                 None => {}
             }
             a
@@ -302,6 +342,7 @@ fn combine(
 }
 
 /// The operators of the whole stack for Fourier order `m`, substrate included.
+#[allow(clippy::too_many_arguments)]
 fn stack_operators(
     scene: &MonoScene,
     grid: &AngularGrid,
@@ -310,6 +351,7 @@ fn stack_operators(
     extras_in: &dyn Fn(f64) -> Vec<Extra>,
     m: usize,
     neumann: Option<usize>,
+    tms: bool,
 ) -> Result<LayerOperators, MultifluxError> {
     let mut acc: Option<LayerOperators> = None;
     let mut n_above = scene.ambient_n;
@@ -323,7 +365,10 @@ fn stack_operators(
         let nodes = grid.medium(l.n);
         let ex = extras_in(l.n);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-        acc = Some(combine(acc, slab_operators(&nodes.mu, &nodes.w, &ex, &p)?, neumann)?);
+        let eval = |c: f64| l.phase.eval(c);
+        let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
+        let t = (tms && m == 0).then_some(&t);
+        acc = Some(combine(acc, slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)?, neumann)?);
         n_above = l.n;
     }
     let mut acc = acc.expect("validated scenes have at least one layer");
