@@ -284,6 +284,56 @@ pub fn profile(k: f64, s: f64, thickness: f64, z: f64) -> Result<Fluxes, CoreErr
     Ok(Fluxes { down, up })
 }
 
+/// The fluxes inside one layer lit from both faces: `down_top` enters at
+/// `z = 0` going down, `up_bottom` enters at `z = z0` going up. By linearity
+/// and the layer's up–down symmetry (eq. K5b):
+/// `i+(z) = down_top P+(z) + up_bottom P-(z0 - z)`,
+/// `i-(z) = down_top P-(z) + up_bottom P+(z0 - z)`, with `P` of [`profile`].
+///
+/// Inside a stack, `down_top` and `up_bottom` of layer `k` are the junction
+/// fluxes `down[k]` and `up[k + 1]` of [`stack_adding`] (index of its slab).
+///
+/// # Errors
+/// Those of [`profile`]; a half-space with `up_bottom != 0`; non-finite or
+/// negative incident fluxes.
+///
+/// # Reference
+/// Seed 000 eq. 9 (superposed).
+///
+/// ```
+/// use km_core::two_flux::{layer_rt, profile_two_sided};
+/// // Lit from below only: the top sees T going up.
+/// let p = profile_two_sided(0.1, 0.4, 2.0, 0.0, 0.0, 1.0).unwrap();
+/// assert!((p.up - layer_rt(0.1, 0.4, 2.0).unwrap().t).abs() < 1e-15);
+/// ```
+pub fn profile_two_sided(
+    k: f64,
+    s: f64,
+    thickness: f64,
+    z: f64,
+    down_top: f64,
+    up_bottom: f64,
+) -> Result<Fluxes, CoreError> {
+    for (name, v) in [("down_top", down_top), ("up_bottom", up_bottom)] {
+        if !v.is_finite() || v < 0.0 {
+            return Err(CoreError::invalid(name, v, "incident flux must be finite and >= 0"));
+        }
+    }
+    let from_top = profile(k, s, thickness, z)?;
+    if up_bottom == 0.0 {
+        return Ok(Fluxes { down: down_top * from_top.down, up: down_top * from_top.up });
+    }
+    if thickness.is_infinite() {
+        return Err(CoreError::invalid("up_bottom", up_bottom, "a half-space has no bottom face"));
+    }
+    // Mirror image: light from below sees the layer upside down.
+    let from_bottom = profile(k, s, thickness, (thickness - z).max(0.0))?;
+    Ok(Fluxes {
+        down: down_top * from_top.down + up_bottom * from_bottom.up,
+        up: down_top * from_top.up + up_bottom * from_bottom.down,
+    })
+}
+
 // ---------------------------------------------------------------------------
 // The seed's eigen form (eq. 3–8).
 
