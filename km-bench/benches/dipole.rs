@@ -1,6 +1,7 @@
 //! Criterion benchmarks of the diffusion dipole (km-dipole): one `Rd(r)`
 //! evaluation, the closed-form total, the diffusion quantities with the
-//! exact and the fitted `F_dr`, and a whole three-channel scene.
+//! exact and the fitted `F_dr`, a whole three-channel scene, and the better
+//! dipole of d'Eon 2012.
 //!
 //! Short run: `cargo bench -p km-bench --bench dipole -- --warm-up-time 1 --measurement-time 2`.
 
@@ -8,6 +9,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use km_core::Scene;
+use km_dipole::better_dipole::BetterDipole;
 use km_dipole::dipole::{rd_radial, rd_total};
 use km_dipole::{DiffusionParams, DipoleOptions, FdrModel, profile, solve};
 
@@ -35,6 +37,17 @@ fn bench(c: &mut Criterion) {
     let opts = DipoleOptions::default();
     c.bench_function("dipole solve marble 3 channels", |b| {
         b.iter(|| solve(black_box(&scene), &opts))
+    });
+    let eh = DipoleOptions { fdr: FdrModel::EganHilgeman, ..Default::default() };
+    c.bench_function("dipole solve marble 3 channels Egan-Hilgeman", |b| {
+        b.iter(|| solve(black_box(&scene), &eh))
+    });
+    let better = BetterDipole::from_reduced(0.0021, 2.19, 1.5).expect("valid");
+    c.bench_function("better dipole rd_radial one r", |b| {
+        b.iter(|| black_box(&better).rd_radial(black_box(1.0)))
+    });
+    c.bench_function("better dipole params (two Fresnel moments)", |b| {
+        b.iter(|| BetterDipole::from_reduced(black_box(0.0021), 2.19, 1.5))
     });
     let r: Vec<f64> = (0..100).map(|i| 0.1 * i as f64).collect();
     c.bench_function("dipole profile marble 3 x 100 r", |b| {

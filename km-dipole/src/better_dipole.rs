@@ -14,47 +14,10 @@
 //!   Fresnel boundary.
 
 use std::f64::consts::PI;
-use std::sync::OnceLock;
-
-use km_core::fresnel::{critical_cos, gauss_legendre, reflectance};
 
 use crate::error::DipoleError;
 
-/// `C_k(eta) = integral_0^1 F_r(mu; eta -> 1) mu^k dmu` (eq. D20): the k-th
-/// angular moment of the Fresnel reflectance for light inside a medium of
-/// relative index `eta = n_inside / n_outside` meeting its surface
-/// (total internal reflection included). `2 C_1` is `F_dr` (eq. D9).
-/// Gauss–Legendre on sub-intervals graded towards the critical cosine
-/// (as [`km_core::fresnel::diffuse_reflectance`]).
-///
-/// ```
-/// let c1 = km_dipole::better_dipole::fresnel_moment(1.3, 1);
-/// let fdr = km_core::fresnel::diffuse_reflectance(1.3, 1.0);
-/// assert!((2.0 * c1 - fdr).abs() < 1e-13);
-/// assert_eq!(km_dipole::better_dipole::fresnel_moment(1.0, 2), 0.0);
-/// ```
-pub fn fresnel_moment(eta: f64, k: i32) -> f64 {
-    if eta == 1.0 {
-        return 0.0;
-    }
-    // Below the critical cosine F_r = 1: integral_0^mu_c mu^k dmu.
-    let mu_c = critical_cos(eta, 1.0);
-    let mut sum = mu_c.powi(k + 1) / f64::from(k + 1);
-    // Above it, the square-root onset at mu_c: geometric panels towards it.
-    // 24-point Gauss–Legendre nodes, computed once.
-    static NODES: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
-    let (x, w) = NODES.get_or_init(|| gauss_legendre(24));
-    let span = 1.0 - mu_c;
-    let mut a = mu_c;
-    for c in [1e-6, 1e-4, 1e-3, 1e-2, 0.05, 0.2, 0.5, 1.0] {
-        let b = mu_c + span * c;
-        let (h, m) = (0.5 * (b - a), 0.5 * (b + a));
-        let f = |mu: f64| reflectance(mu, eta, 1.0) * mu.powi(k);
-        sum += h * x.iter().zip(w).map(|(xi, wi)| wi * f(m + h * xi)).sum::<f64>();
-        a = b;
-    }
-    sum
-}
+pub use crate::params::fresnel_moment;
 
 /// The better dipole of one medium (one channel), eq. D19–D22.
 #[derive(Debug, Clone, Copy, PartialEq)]

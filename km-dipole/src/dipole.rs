@@ -12,7 +12,7 @@
 
 use std::f64::consts::PI;
 
-use km_core::fresnel::{diffuse_reflectance, reflectance};
+use km_core::fresnel::reflectance;
 
 use crate::params::DiffusionParams;
 
@@ -135,7 +135,7 @@ pub fn fresnel_transmittance(eta: f64, cos_theta: f64) -> f64 {
 /// assert!((c - 0.9389).abs() < 1e-4);
 /// ```
 pub fn exit_constant(eta: f64) -> f64 {
-    exit_constant_from_fdr(eta, diffuse_reflectance(eta, 1.0))
+    exit_constant_from_fdr(eta, 2.0 * crate::params::fresnel_moment(eta, 1))
 }
 
 /// [`exit_constant`] from the exact `F_dr(eta)` already at hand:

@@ -33,10 +33,10 @@ use km_core::fresnel::{diffuse_reflectance, reflectance};
 use km_core::{ChannelResult, Light, MonoScene, Scene, Solution};
 use serde_json::{Map, Value, json};
 
-use crate::better_dipole::{BetterDipole, fresnel_moment};
+use crate::better_dipole::BetterDipole;
 use crate::dipole::{exit_constant_from_fdr, fresnel_transmittance, rd_radial, rd_total};
 use crate::error::DipoleError;
-use crate::params::{DiffusionParams, FdrModel};
+use crate::params::{DiffusionParams, FdrModel, fresnel_moment};
 
 /// Which dipole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

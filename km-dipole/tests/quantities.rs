@@ -121,3 +121,14 @@ fn bad_parameters_are_refused_with_their_name() {
     let e = FdrModel::Exact.fdr(f64::NAN).unwrap_err();
     assert!(e.to_string().contains("eta"), "{e}");
 }
+
+#[test]
+fn exact_fdr_is_the_core_integral() {
+    // FdrModel::Exact runs the quadrature of km_core::fresnel::diffuse_reflectance
+    // (same panels and rule, nodes cached): equal to rounding, both sides of eta = 1.
+    for eta in [0.5, 0.8, 1.0, 1.1, 1.3, 1.33, 1.5, 2.5] {
+        let a = FdrModel::Exact.fdr(eta).unwrap();
+        let b = km_core::fresnel::diffuse_reflectance(eta, 1.0);
+        assert!((a - b).abs() < 1e-14, "eta {eta}: {a} vs {b}");
+    }
+}
