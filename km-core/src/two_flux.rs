@@ -175,7 +175,7 @@ fn layer_parts(k: f64, s: f64, d: f64, want_ln: bool) -> Parts {
 /// Negative or non-finite `K`, `S`; negative or NaN thickness.
 ///
 /// # Reference
-/// Seed 000 eq. 10; Kubelka (1948) eq. 4a–b.
+/// Seed 000 eq. 10; Kubelka (1948).
 ///
 /// ```
 /// use km_core::two_flux::layer_rt;
@@ -214,7 +214,7 @@ pub fn layer_rt(k: f64, s: f64, thickness: f64) -> Result<Rt, CoreError> {
 /// Negative or non-finite `K`, `S`.
 ///
 /// # Reference
-/// Kubelka & Munk (1931); Kubelka (1948) eq. 5.
+/// Kubelka & Munk (1931); Kubelka (1948).
 ///
 /// ```
 /// let r = km_core::two_flux::r_infinity(0.1, 0.4).unwrap();
