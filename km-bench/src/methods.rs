@@ -232,12 +232,12 @@ pub fn stderr_list(sol: &Solution, key: &str) -> Option<Vec<f64>> {
 
 /// Streams of the converged reference of the studies.
 pub fn reference_streams(size: crate::reproduce::Size) -> usize {
-    size.pick(32, 128, 192)
+    size.pick(32, 64, 192)
 }
 
 /// The converged reference used for deviations.
 pub fn reference() -> Option<Method> {
-    Some(Method::Multiflux { streams: 64 })
+    Some(Method::Multiflux { streams: 32 })
 }
 
 /// The methods mapped by the stability study at this size.
@@ -246,7 +246,7 @@ pub fn stability_methods(size: crate::reproduce::Size) -> Vec<Method> {
         Method::TwoFlux,
         Method::Multiflux { streams: km_multiflux::DEFAULT_STREAMS },
         Method::DirectionSet { directions: size.pick(40, 100, 303) },
-        Method::MonteCarlo { samples: size.pick(200, 2000, 100_000), seed: 1 },
+        Method::MonteCarlo { samples: size.pick(200, 1000, 100_000), seed: 1 },
         Method::Dipole,
     ]
 }

@@ -5,6 +5,7 @@
 pub mod accuracy;
 pub mod common;
 pub mod paper;
+pub mod pareto;
 pub mod speed;
 pub mod stability;
 
@@ -21,6 +22,7 @@ pub fn all() -> Vec<Recipe> {
         ("fig9", paper::fig9),
         ("fig10", paper::fig10),
         ("speedup", speed::speedup),
+        ("pareto", pareto::recipe),
         ("stability", stability::recipe),
     ]
 }
