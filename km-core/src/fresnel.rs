@@ -106,10 +106,21 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 
 /// `integral_a^b f` by `n`-point Gauss–Legendre.
 pub fn integrate_gl(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
-    let (x, w) = gauss_legendre(n);
     let (h, c) = (0.5 * (b - a), 0.5 * (b + a));
-    x.iter().zip(&w).map(|(xi, wi)| wi * f(c + h * xi)).sum::<f64>() * h
+    let sum =
+        |x: &[f64], w: &[f64]| x.iter().zip(w).map(|(xi, wi)| wi * f(c + h * xi)).sum::<f64>();
+    if n == DIFFUSE_NODES {
+        // The rule of the hemispherical integrals is computed once per process.
+        let (x, w) = DIFFUSE_RULE.get_or_init(|| gauss_legendre(DIFFUSE_NODES));
+        return sum(x, w) * h;
+    }
+    let (x, w) = gauss_legendre(n);
+    sum(&x, &w) * h
 }
+
+/// Nodes per sub-interval of [`diffuse_reflectance`].
+const DIFFUSE_NODES: usize = 24;
+static DIFFUSE_RULE: std::sync::OnceLock<(Vec<f64>, Vec<f64>)> = std::sync::OnceLock::new();
 
 /// Hemispherical (diffuse) reflectance `2 integral_0^1 R(mu) mu dmu` (eq. F4)
 /// for Lambertian light incident from index `n_i` on an interface to `n_t`.
@@ -138,7 +149,7 @@ pub fn diffuse_reflectance(n_i: f64, n_t: f64) -> f64 {
     let cuts = [1e-6, 1e-4, 1e-3, 1e-2, 0.05, 0.2, 0.5, 1.0];
     for &c in &cuts {
         let b = mu_c + span * c;
-        sum += integrate_gl(|mu| 2.0 * mu * reflectance(mu, n_i, n_t), a, b, 24);
+        sum += integrate_gl(|mu| 2.0 * mu * reflectance(mu, n_i, n_t), a, b, DIFFUSE_NODES);
         a = b;
     }
     sum
