@@ -246,7 +246,7 @@ pub fn stability_methods(size: crate::reproduce::Size) -> Vec<Method> {
         Method::TwoFlux,
         Method::Multiflux { streams: km_multiflux::DEFAULT_STREAMS },
         Method::DirectionSet { directions: size.pick(40, 100, 303) },
-        Method::MonteCarlo { samples: size.pick(200, 1000, 100_000), seed: 1 },
+        Method::MonteCarlo { samples: size.pick(200, 1000, 10_000), seed: 1 },
         Method::Dipole,
     ]
 }

@@ -4,6 +4,7 @@
 
 pub mod accuracy;
 pub mod common;
+pub mod dipole;
 pub mod paper;
 pub mod pareto;
 pub mod speed;
@@ -22,6 +23,7 @@ pub fn all() -> Vec<Recipe> {
         ("fig9", paper::fig9),
         ("fig10", paper::fig10),
         ("speedup", speed::speedup),
+        ("dipole", dipole::recipe),
         ("pareto", pareto::recipe),
         ("stability", stability::recipe),
     ]
