@@ -236,7 +236,14 @@ impl Tracer {
         }
         if self.layout.rings > 0 {
             let mu = v[2];
-            if let Some(k) = self.ring_edges.windows(2).position(|e| mu >= e[0] && mu < e[1]) {
+            // Half-open rings [lo, hi); the last ring also takes mu = hi (normal exit).
+            let last = self.layout.rings - 1;
+            let hit = self
+                .ring_edges
+                .windows(2)
+                .enumerate()
+                .position(|(k, e)| mu >= e[0] && (mu < e[1] || (k == last && mu <= e[1])));
+            if let Some(k) = hit {
                 let j = if top { self.layout.ring_r(k) } else { self.layout.ring_t(k) };
                 sums[j] += w;
             }

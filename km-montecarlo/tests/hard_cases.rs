@@ -38,6 +38,33 @@ fn grazing_89_degrees_on_an_absorbing_clear_slab() {
     }
 }
 
+/// Grazing light on a scattering Fresnel slab: finishes, balances, and the
+/// specular part is at least the first-surface Fresnel reflection.
+#[test]
+fn grazing_89_degrees_on_a_scattering_fresnel_slab() {
+    let s = Scene::from_toml_str(
+        "[light]\ntheta_deg = 89.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.8\nn = 1.3\n\
+         [output]\ndirections_deg = [[89.0, 180.0], [60.0, 180.0]]\n",
+    )
+    .unwrap();
+    let rf = reflectance(89f64.to_radians().cos(), 1.0, 1.3);
+    for est in [Estimator::SurvivalBiasing, Estimator::Analog] {
+        let sol = solve(&s, &McOptions { samples: 100_000, estimator: est, ..Default::default() })
+            .unwrap();
+        let c = &sol.channels[0];
+        assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-11);
+        check(
+            "grazing-scat",
+            "R_spec >= R_F",
+            c.reflectance_specular.max(rf),
+            se(&sol, "reflectance_specular"),
+            c.reflectance_specular,
+            0.0,
+        );
+        assert!(c.brdf.iter().all(|f| f.is_finite() && *f >= 0.0));
+    }
+}
+
 /// tau = 1e-6: the direct beam is exp(-tau) to rounding, scattering is a
 /// ~1e-6 effect, and nothing breaks.
 #[test]
@@ -110,7 +137,7 @@ fn thick_conservative_slab_is_refused_with_its_cost() {
 #[test]
 fn radial_profile_adds_up_to_the_diffuse_reflectance() {
     let s = Scene::from_toml_str(
-        "[[layer]]\nsigma_a = 0.1\nsigma_s = 10.0\nthickness = \"inf\"\ng = 0.9\nn = 1.4\n",
+        "[[layer]]\nsigma_a = 0.5\nsigma_s = 10.0\nthickness = \"inf\"\ng = 0.9\nn = 1.4\n",
     )
     .unwrap();
     let bins = RadialBins { dr: 0.05, count: 100 };
