@@ -16,6 +16,7 @@
 use std::f64::consts::PI;
 
 use crate::error::DipoleError;
+use crate::params::NEEDS_SCATTERING;
 
 pub use crate::params::fresnel_moment;
 
@@ -59,8 +60,8 @@ impl BetterDipole {
         if !g.is_finite() || g.abs() >= 1.0 {
             return Err(DipoleError::invalid("g", g, "must be finite with |g| < 1"));
         }
-        if !sigma_s.is_finite() || sigma_s < 0.0 {
-            return Err(DipoleError::invalid("sigma_s", sigma_s, "must be finite and >= 0"));
+        if !sigma_s.is_finite() || sigma_s <= 0.0 {
+            return Err(DipoleError::invalid("sigma_s", sigma_s, NEEDS_SCATTERING));
         }
         Self::from_reduced(sigma_a, (1.0 - g) * sigma_s, eta)
     }
@@ -73,11 +74,8 @@ impl BetterDipole {
         if !sigma_a.is_finite() || sigma_a < 0.0 {
             return Err(DipoleError::invalid("sigma_a", sigma_a, "must be finite and >= 0"));
         }
-        if !sigma_s_prime.is_finite() || sigma_s_prime < 0.0 {
-            return Err(DipoleError::invalid("sigma_s'", sigma_s_prime, "must be finite and >= 0"));
-        }
-        if sigma_s_prime == 0.0 {
-            return Err(DipoleError::NoScattering { layer: 1, channel: 0, sigma_s: 0.0 });
+        if !sigma_s_prime.is_finite() || sigma_s_prime <= 0.0 {
+            return Err(DipoleError::invalid("sigma_s'", sigma_s_prime, NEEDS_SCATTERING));
         }
         if !eta.is_finite() || eta <= 0.0 {
             return Err(DipoleError::invalid("eta", eta, "relative index must be finite and > 0"));

@@ -135,6 +135,10 @@ pub fn fresnel_moment(eta: f64, k: i32) -> f64 {
     sum
 }
 
+/// The domain of the scattering coefficients.
+pub(crate) const NEEDS_SCATTERING: &str =
+    "must be finite and > 0 (the diffusion approximation needs scattering)";
+
 /// `A = (1 + F_dr) / (1 - F_dr)` (eq. D11), the boundary mismatch factor of
 /// the diffusion boundary condition `phi + 2 A D (n . grad phi) = 0`.
 /// `F_dr` must lie in `[0, 1)`.
@@ -205,8 +209,8 @@ impl DiffusionParams {
         if !g.is_finite() || g.abs() >= 1.0 {
             return Err(DipoleError::invalid("g", g, "must be finite with |g| < 1"));
         }
-        if !sigma_s.is_finite() || sigma_s < 0.0 {
-            return Err(DipoleError::invalid("sigma_s", sigma_s, "must be finite and >= 0"));
+        if !sigma_s.is_finite() || sigma_s <= 0.0 {
+            return Err(DipoleError::invalid("sigma_s", sigma_s, NEEDS_SCATTERING));
         }
         Self::from_reduced(sigma_a, (1.0 - g) * sigma_s, eta, fdr_model)
     }
@@ -225,11 +229,8 @@ impl DiffusionParams {
         if !sigma_a.is_finite() || sigma_a < 0.0 {
             return Err(DipoleError::invalid("sigma_a", sigma_a, "must be finite and >= 0"));
         }
-        if !sigma_s_prime.is_finite() || sigma_s_prime < 0.0 {
-            return Err(DipoleError::invalid("sigma_s'", sigma_s_prime, "must be finite and >= 0"));
-        }
-        if sigma_s_prime == 0.0 {
-            return Err(DipoleError::NoScattering { layer: 1, channel: 0, sigma_s: 0.0 });
+        if !sigma_s_prime.is_finite() || sigma_s_prime <= 0.0 {
+            return Err(DipoleError::invalid("sigma_s'", sigma_s_prime, NEEDS_SCATTERING));
         }
         let fdr = fdr_model.fdr(eta)?;
         Ok(Self::assemble(sigma_a, sigma_s_prime, eta, fdr, fdr_model))
