@@ -16,6 +16,21 @@
 //! * [`radial_profile`]: `Rd(r)` of a pencil beam ([`RadialProfile`]).
 //! * [`McError`]: every refusal.
 //!
+//! A run split in two shards and merged (what `km solve --shard i/N` and
+//! `km merge` do, with files in between):
+//!
+//! ```
+//! use km_montecarlo::{McOptions, Partial, merge, run_shard, solve};
+//! let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+//! let opts = McOptions { samples: 5_000, seed: 42, ..Default::default() };
+//! let files: Vec<String> = (0..2)
+//!     .map(|i| serde_json::to_string(&run_shard(&scene, &opts, i, 2).unwrap()).unwrap())
+//!     .collect();
+//! let parts: Vec<Partial> = files.iter().map(|f| serde_json::from_str(f).unwrap()).collect();
+//! let merged = merge(&parts).unwrap();
+//! assert_eq!(merged.channels, solve(&scene, &opts).unwrap().channels);
+//! ```
+//!
 //! Reproducibility: batch `b` of channel `c` draws from a PCG-64 stream seeded
 //! from `(seed, c, b)`; batches are summed in index order, so the result is a
 //! function of the seed and the options only, not of the thread count.
