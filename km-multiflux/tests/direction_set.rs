@@ -494,3 +494,35 @@ fn stack_brdf_with_interface_and_substrate_is_reciprocal() {
         }
     }
 }
+
+#[test]
+fn brdf_and_btdf_agree_with_the_fourier_gauss_mode() {
+    // Peer check at the level of angular distributions: the crate's Fourier–Gauss
+    // solver (32 streams, independent discretisation, probes at any angle)
+    // evaluated at the direction set's own nodes. Measured worst relative
+    // differences at 303 directions: 1.9e-3 (g = 0.5, index-matched; the
+    // azimuthal resolution of the set dominates), 9.5e-5 (g = 0.5, n = 1.3);
+    // both shrink at 1000 directions (7.5e-4, 5e-7). Tolerances 3e-3 and 3e-4.
+    use km_multiflux::{MultifluxOptions, solve_mono};
+    for (g, n, tol) in [(0.5, 1.0, 3e-3), (0.5, 1.3, 3e-4)] {
+        let l = Layer::from_tau_albedo(1.0, 0.9, g, n).unwrap();
+        let mut sc = scene(
+            Light::Collimated { theta_deg: 45.0 },
+            1.0,
+            vec![l],
+            Substrate::Transparent { n: 1.0 },
+        );
+        let r = brdf_for_incidence(&sc, 303, Combine::Exact).unwrap();
+        let opts = MultifluxOptions { streams: Some(32), ..Default::default() };
+        let t = r.transmitted.as_ref().unwrap();
+        for (dist, reflected) in [(&r.reflected, true), (t, false)] {
+            sc.directions_deg =
+                dist.theta_deg.iter().zip(&dist.phi_deg).map(|(t, p)| [*t, *p]).collect();
+            let (c, _) = solve_mono(&sc, &opts).unwrap();
+            let peer = if reflected { &c.brdf } else { &c.btdf };
+            for (k, (a, b)) in dist.value.iter().zip(peer).enumerate() {
+                assert!((a - b).abs() < tol * b.abs(), "g={g} n={n} node {k}: {a} vs {b}");
+            }
+        }
+    }
+}
