@@ -51,12 +51,15 @@ impl Table {
 pub enum Block {
     /// A paragraph of Markdown text.
     Text(String),
-    /// A chart written as `stem.png` and `stem.svg` next to the report, with a caption.
+    /// A chart written as `stem.png` and `stem.svg` next to the report, with a
+    /// caption and the stem of the CSV holding its data.
     Figure {
         /// File stem of the chart.
         stem: String,
         /// Caption.
         caption: String,
+        /// File stem of its data (`data.csv`).
+        data: String,
     },
     /// A table.
     Table(Table),
@@ -81,9 +84,24 @@ impl Section {
         self.blocks.push(Block::Text(t.into()));
         self
     }
-    /// Append a figure.
+    /// Append a figure whose data is `stem.csv`.
     pub fn figure(&mut self, stem: impl Into<String>, caption: impl Into<String>) -> &mut Self {
-        self.blocks.push(Block::Figure { stem: stem.into(), caption: caption.into() });
+        let stem = stem.into();
+        self.blocks.push(Block::Figure { data: stem.clone(), stem, caption: caption.into() });
+        self
+    }
+    /// Append a figure whose data is in `data.csv`.
+    pub fn figure_data(
+        &mut self,
+        stem: impl Into<String>,
+        caption: impl Into<String>,
+        data: impl Into<String>,
+    ) -> &mut Self {
+        self.blocks.push(Block::Figure {
+            stem: stem.into(),
+            caption: caption.into(),
+            data: data.into(),
+        });
         self
     }
     /// Append a table.
@@ -126,10 +144,10 @@ impl Report {
                     Block::Text(t) => {
                         let _ = writeln!(s, "{t}\n");
                     }
-                    Block::Figure { stem, caption } => {
+                    Block::Figure { stem, caption, data } => {
                         let _ = writeln!(
                             s,
-                            "![{caption}]({stem}.png)\n\n*{caption}* ([SVG]({stem}.svg), [data]({stem}.csv))\n"
+                            "![{caption}]({stem}.png)\n\n*{caption}* ([SVG]({stem}.svg), [data]({data}.csv))\n"
                         );
                     }
                     Block::Table(t) => {

@@ -77,6 +77,11 @@ fn every_recipe_writes_its_charts_at_tiny_size() {
         }
     }
     assert!(svgs > 0);
+    // Every data link of the report names a CSV that exists.
+    for part in report.split("[data](").skip(1) {
+        let name = &part[..part.find(')').unwrap()];
+        assert!(dir.join(name).is_file(), "report links missing data {name}");
+    }
     // KM_BENCH_KEEP=1 keeps the output for inspection.
     if std::env::var_os("KM_BENCH_KEEP").is_none() {
         let _ = std::fs::remove_dir_all(&dir);

@@ -103,7 +103,7 @@ pub fn fig3(ctx: &mut Ctx) -> anyhow::Result<Section> {
          vector is scaled to a largest absolute value of 1; the polar chart shows |v|."
     ))
     .figure("fig3", "Fig. 3: the first eigenvectors against direction")
-    .figure("fig3-polar", "Fig. 3: the same, as polar plots")
+    .figure_data("fig3-polar", "Fig. 3: the same, as polar plots", "fig3")
     .table(table);
     ctx.headline = format!("{shown} modes, lambda_1 = {}", format_number(e.eigenvalues[0]));
     Ok(sec)
@@ -178,7 +178,11 @@ pub fn fig4(ctx: &mut Ctx) -> anyhow::Result<Section> {
         };
         let stem = format!("fig4-z{k}");
         ctx.chart(&stem, &chart)?;
-        sec.figure(&stem, format!("Fig. 4: z = {} / sigma_t", format_number(p.z * sigma_t)));
+        sec.figure_data(
+            &stem,
+            format!("Fig. 4: z = {} / sigma_t", format_number(p.z * sigma_t)),
+            "fig4",
+        );
         table.push(vec![
             format_number(p.z),
             format_number(p.direct),
@@ -186,7 +190,7 @@ pub fn fig4(ctx: &mut Ctx) -> anyhow::Result<Section> {
             format_number(up),
         ]);
     }
-    ctx.csv("fig4-z0", &mut csv)?;
+    ctx.csv("fig4", &mut csv)?;
     sec.text("Fluxes through the horizontal plane at each depth (per unit incident flux):")
         .table(table);
     ctx.headline = format!("{} depths, {n} directions", depths.len());
@@ -387,7 +391,7 @@ pub fn fig9(ctx: &mut Ctx) -> anyhow::Result<Section> {
     for (stem, label, r) in panels {
         let chart = response_chart(&format!("Fig. 9 {label}"), 45.0, &[(label, r, false)]);
         ctx.chart(stem, &chart)?;
-        sec.figure(stem, format!("Fig. 9 {label}"));
+        sec.figure_data(stem, format!("Fig. 9 {label}"), "fig9");
         response_csv(&mut csv, label, r);
         table.push(vec![
             label.into(),
@@ -399,7 +403,7 @@ pub fn fig9(ctx: &mut Ctx) -> anyhow::Result<Section> {
             r.n_directions.to_string(),
         ]);
     }
-    ctx.csv("fig9a", &mut csv)?;
+    ctx.csv("fig9", &mut csv)?;
     sec.table(table);
     ctx.headline = format!("combined R = {}", format_number(ex.combined.reflectance));
     Ok(sec)

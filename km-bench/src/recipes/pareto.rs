@@ -200,9 +200,10 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
                 chart.series.push(Series::new(*fam, pts, Mark::LinePoints, k));
             }
             ctx.chart(&format!("{stem}-{suffix}"), &chart)?;
-            sec.figure(
+            sec.figure_data(
                 format!("{stem}-{suffix}"),
                 format!("{}: {measure} against wall time", sc.description),
+                &stem,
             );
         }
         // Time to reach each threshold, per family.

@@ -202,7 +202,7 @@ pub fn fig5(ctx: &mut Ctx) -> anyhow::Result<Section> {
          on this machine. The paper's column is quoted from the seed (AMD Athlon 64, 2 GHz)."
     ))
     .figure("fig5", "Fig. 5: BRDF against the exit angle")
-    .figure("fig5-polar", "Fig. 5: the same as a polar plot")
+    .figure_data("fig5-polar", "Fig. 5: the same as a polar plot", "fig5")
     .table(t);
     ctx.headline = format!(
         "MF {} s, MC {samples:.0e} {} s, MC rel. RMS {}",

@@ -312,8 +312,9 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         let (c, stems) = map(ctx, *m, reference, grid)?;
         bad += c.non_finite + c.negative + c.above_one;
         cells += c.cells;
+        let data = format!("stability-{}-{}", m.family(), grid.name);
         for s in stems {
-            sec.figure(
+            sec.figure_data(
                 &s,
                 format!(
                     "{m} over {}: {}",
@@ -324,6 +325,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
                         "deviation from the reference"
                     }
                 ),
+                &data,
             );
         }
         table.push(vec![
