@@ -87,7 +87,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let ref_streams = methods::reference_streams(ctx.size);
     // Monte Carlo ladder: x10 per step while the next step fits the per-scene budget.
     let (mc_cap, mc_budget) =
-        ctx.size.pick((10_000u64, 0.3), (10_000_000, 2.5), (100_000_000, 300.0));
+        ctx.size.pick((10_000u64, 0.3), (10_000_000, 5.0), (100_000_000, 300.0));
     let mut sec = Section::new("What accuracy costs in time");
     sec.text(format!(
         "For each scene, every method at each of its settings is compared with a converged \
