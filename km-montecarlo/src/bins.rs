@@ -17,7 +17,9 @@
 //!   of 15 across a 5 degree cone at 84 degrees (measured: -2.5 %).
 //!   To keep the variance of `w / mu` finite the cone must stay clear of the
 //!   horizon: `alpha_d = min(alpha, (90 deg - theta_d) / 2)` (eq. B2), so
-//!   `mu >= sin((90 deg - theta_d) / 2)` in the bin.
+//!   `mu >= sin((90 deg - theta_d) / 2)` in the bin. Likewise it stays on one
+//!   side of the critical angle of refraction into a denser exit medium,
+//!   where the BRDF/BTDF drops to zero (eq. B2', [`cone_half_angle_with_edge`]).
 //! * Rings: `mu_lo <= cos(theta) < mu_hi`, all azimuths; each photon scores
 //!   `w`, normalised by the projected solid angle `P = pi (mu_hi^2 - mu_lo^2)`
 //!   (eq. B3): the flux per projected solid angle, as a discrete-ordinates
@@ -33,14 +35,37 @@ pub fn direction_vector(theta_deg: f64, phi_deg: f64) -> [f64; 3] {
 }
 
 /// Half-angle of the cone bin of a direction at polar angle `theta_d`
-/// (radians) for a requested half-angle `alpha` (eq. B2).
+/// (radians) for a requested half-angle `alpha` (eq. B2), with no edge
+/// other than the horizon.
 ///
 /// ```
 /// let a = km_montecarlo::bins::cone_half_angle(89f64.to_radians(), 5f64.to_radians());
 /// assert!((a - 0.5f64.to_radians()).abs() < 1e-12);
 /// ```
 pub fn cone_half_angle(theta_d: f64, alpha: f64) -> f64 {
-    alpha.min(0.5 * (PI / 2.0 - theta_d))
+    cone_half_angle_with_edge(theta_d, alpha, PI / 2.0)
+}
+
+/// Half-angle of the cone bin when exit directions can only reach polar
+/// angles below `theta_edge` (radians): the critical angle of refraction
+/// into a denser medium, `asin(n_inside / n_outside)`, beyond which the
+/// BRDF/BTDF is exactly zero. The cone stays on one side of the edge and
+/// of the horizon (eq. B2'):
+/// `alpha_d = min(alpha, (90 deg - theta_d) / 2, |theta_edge - theta_d| / 2)`,
+/// but at least 0.05 degree (a direction on the edge itself).
+///
+/// ```
+/// use km_montecarlo::bins::cone_half_angle_with_edge;
+/// let edge = (1.2f64 / 1.5).asin(); // 53.13 degrees
+/// let a = cone_half_angle_with_edge(50f64.to_radians(), 5f64.to_radians(), edge);
+/// assert!((a - 0.5 * (edge - 50f64.to_radians())).abs() < 1e-12);
+/// ```
+pub fn cone_half_angle_with_edge(theta_d: f64, alpha: f64, theta_edge: f64) -> f64 {
+    let mut a = alpha.min(0.5 * (PI / 2.0 - theta_d));
+    if theta_edge < PI / 2.0 {
+        a = a.min(0.5 * (theta_edge - theta_d).abs());
+    }
+    a.max(0.05f64.to_radians())
 }
 
 /// Solid angle of a cone of half-angle `alpha`, `2 pi (1 - cos alpha)` (eq. B1),

@@ -89,6 +89,7 @@ pub fn run_shard(
                 rings: l.rings,
                 radial: l.radial,
                 cone: n.cone,
+                cone_t: n.cone_t,
                 ring: n.ring,
                 annulus: n.annulus,
             }

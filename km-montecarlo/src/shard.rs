@@ -50,9 +50,12 @@ pub struct ChannelMeta {
     pub rings: usize,
     /// Number of radial annuli.
     pub radial: usize,
-    /// Solid angle of each direction's cone (eq. B1, B2), sr.
+    /// Solid angle of each direction's reflection cone (eq. B1, B2'), sr.
     #[serde(with = "bits")]
     pub cone: Vec<f64>,
+    /// Solid angle of each direction's transmission cone (eq. B1, B2'), sr.
+    #[serde(with = "bits")]
+    pub cone_t: Vec<f64>,
     /// Projected solid angle of each ring (eq. B3), sr.
     #[serde(with = "bits")]
     pub ring: Vec<f64>,
@@ -321,7 +324,7 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
         let se = |j: usize| s.stderr(j);
         let ones = vec![1.0; l.layers];
         let brdf = per(&|k| l.brdf(k), l.dirs, &meta.cone, &mean);
-        let btdf = per(&|k| l.btdf(k), l.dirs, &meta.cone, &mean);
+        let btdf = per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &mean);
         let layers = per(&|k| l.a_layer(k), l.layers, &ones, &mean);
         let mut err = Map::new();
         err.insert("reflectance".into(), num(se(Layout::R)));
@@ -331,7 +334,7 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
         err.insert("absorptance".into(), num(se(Layout::A)));
         err.insert("absorptance_layers".into(), nums(per(&|k| l.a_layer(k), l.layers, &ones, &se)));
         err.insert("brdf".into(), nums(per(&|k| l.brdf(k), l.dirs, &meta.cone, &se)));
-        err.insert("btdf".into(), nums(per(&|k| l.btdf(k), l.dirs, &meta.cone, &se)));
+        err.insert("btdf".into(), nums(per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &se)));
         channels.push(ChannelResult {
             reflectance: mean(Layout::R),
             reflectance_specular: mean(Layout::R_SPEC),

@@ -30,7 +30,7 @@ use km_core::{Light, MonoScene, Substrate};
 use rand_pcg::Pcg64;
 
 use crate::bins::{
-    cone_half_angle, cone_solid_angle, direction_vector, ring_projected_solid_angle,
+    cone_half_angle_with_edge, cone_solid_angle, direction_vector, ring_projected_solid_angle,
 };
 use crate::options::{Estimator, McOptions, RadialBins};
 use crate::rng::uniform;
@@ -81,8 +81,13 @@ pub(crate) struct Tracer {
     layout: Layout,
     /// Output directions as unit vectors in the exit hemisphere's frame.
     dirs: Vec<[f64; 3]>,
-    /// Cosine of each direction's cone half-angle (eq. B2).
-    cos_alpha: Vec<f64>,
+    /// Cosine of each direction's cone half-angle (eq. B2'), reflection side.
+    cos_alpha_r: Vec<f64>,
+    /// The same, transmission side.
+    cos_alpha_t: Vec<f64>,
+    /// Diffuse light: the unscattered parts are smooth in angle and are
+    /// binned too (they stay in the specular/direct totals as well).
+    bin_unscattered: bool,
     ring_edges: Vec<f64>,
     radial: Option<RadialBins>,
     max_steps: u64,
@@ -93,8 +98,10 @@ pub(crate) struct Tracer {
 /// Normalisers that turn tallies into BRDF/BTDF values (eq. B1, B3) and `Rd(r)`.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Norms {
-    /// Solid angle of each direction's cone (eq. B1, B2).
+    /// Solid angle of each direction's reflection cone (eq. B1, B2').
     pub cone: Vec<f64>,
+    /// Solid angle of each direction's transmission cone (eq. B1, B2').
+    pub cone_t: Vec<f64>,
     /// Projected solid angle of each ring.
     pub ring: Vec<f64>,
     /// Area of each annulus `pi ((i+1)^2 - i^2) dr^2` (MCML eq. 4.9 uses
@@ -141,13 +148,9 @@ impl Tracer {
             estimator: opts.estimator,
             layout,
             dirs: scene.directions_deg.iter().map(|d| direction_vector(d[0], d[1])).collect(),
-            cos_alpha: scene
-                .directions_deg
-                .iter()
-                .map(|d| {
-                    cone_half_angle(d[0].to_radians(), opts.bin_half_angle_deg.to_radians()).cos()
-                })
-                .collect(),
+            cos_alpha_r: cone_half_angles(scene, opts, true).iter().map(|a| a.cos()).collect(),
+            cos_alpha_t: cone_half_angles(scene, opts, false).iter().map(|a| a.cos()).collect(),
+            bin_unscattered: scene.light == Light::Diffuse,
             ring_edges,
             radial: opts.radial,
             max_steps: opts.max_steps_per_photon,
@@ -163,12 +166,9 @@ impl Tracer {
 
     /// Normalisers of the angular and radial bins.
     pub fn norms(scene: &MonoScene, opts: &McOptions) -> Norms {
-        let alpha = opts.bin_half_angle_deg.to_radians();
-        let cone = scene
-            .directions_deg
-            .iter()
-            .map(|d| cone_solid_angle(cone_half_angle(d[0].to_radians(), alpha)))
-            .collect();
+        let solid = |top| cone_half_angles(scene, opts, top).into_iter().map(cone_solid_angle);
+        let cone = solid(true).collect();
+        let cone_t = solid(false).collect();
         let ring = opts
             .ring_mu_edges
             .as_ref()
@@ -178,7 +178,7 @@ impl Tracer {
             .radial
             .map(|r| (0..r.count).map(|i| PI * (2.0 * i as f64 + 1.0) * r.dr * r.dr).collect())
             .unwrap_or_default();
-        Norms { cone, ring, annulus }
+        Norms { cone, cone_t, ring, annulus }
     }
 
     /// Trace `photons` photons and add their weights to `sums` (length
@@ -196,12 +196,15 @@ impl Tracer {
     #[inline]
     fn escape_top(&self, sums: &mut [f64], w: f64, u: [f64; 3], scattered: bool, x: f64, y: f64) {
         sums[Layout::R] += w;
-        if !scattered {
-            sums[Layout::R_SPEC] += w;
-            return;
-        }
         // Exit direction in the upper hemisphere's frame: z along the upward normal.
         let v = [u[0], u[1], -u[2]];
+        if !scattered {
+            sums[Layout::R_SPEC] += w;
+            if self.bin_unscattered {
+                self.angular(sums, w, v, true);
+            }
+            return;
+        }
         self.angular(sums, w, v, true);
         if let Some(r) = self.radial {
             let k = ((x * x + y * y).sqrt() / r.dr) as usize;
@@ -219,16 +222,20 @@ impl Tracer {
         sums[Layout::T] += w;
         if !scattered {
             sums[Layout::T_DIRECT] += w;
+            if self.bin_unscattered {
+                self.angular(sums, w, u, false);
+            }
             return;
         }
         self.angular(sums, w, u, false);
     }
 
-    /// Cone bins and rings of a scattered exit direction `v` (exit frame).
+    /// Cone bins and rings of an exit direction `v` (exit frame).
     #[inline]
     fn angular(&self, sums: &mut [f64], w: f64, v: [f64; 3], top: bool) {
+        let cos_alpha = if top { &self.cos_alpha_r } else { &self.cos_alpha_t };
         for (k, d) in self.dirs.iter().enumerate() {
-            if v[0] * d[0] + v[1] * d[1] + v[2] * d[2] >= self.cos_alpha[k] {
+            if v[0] * d[0] + v[1] * d[1] + v[2] * d[2] >= cos_alpha[k] {
                 // Solid-angle estimator of eq. B1: score w / mu.
                 let j = if top { self.layout.brdf(k) } else { self.layout.btdf(k) };
                 sums[j] += w / v[2];
@@ -477,6 +484,38 @@ impl Tracer {
         }
         counts.steps += steps;
     }
+}
+
+/// Critical polar angle (radians) beyond which no light can leave on one
+/// side: refraction from index `n_in` into a denser `n_out` reaches only
+/// `asin(n_in / n_out)`; otherwise 90 degrees (no edge).
+fn exit_edge(n_in: f64, n_out: f64) -> f64 {
+    if n_out > n_in { (n_in / n_out).asin() } else { PI / 2.0 }
+}
+
+/// Half-angles of the cone bins of the output directions (eq. B2') on the
+/// reflection side (`top`) or the transmission side.
+fn cone_half_angles(scene: &MonoScene, opts: &McOptions, top: bool) -> Vec<f64> {
+    let layers = &scene.layers;
+    let last = &layers[layers.len() - 1];
+    let edge = if top {
+        exit_edge(layers[0].n, scene.ambient_n)
+    } else if last.is_half_space() && last.sigma_t() == 0.0 {
+        // A clear half-space layer: light enters it from the layer above (or the ambient).
+        let above = if layers.len() >= 2 { layers[layers.len() - 2].n } else { scene.ambient_n };
+        exit_edge(above, last.n)
+    } else {
+        match scene.substrate {
+            Substrate::Transparent { n } => exit_edge(last.n, n),
+            _ => PI / 2.0,
+        }
+    };
+    let alpha = opts.bin_half_angle_deg.to_radians();
+    scene
+        .directions_deg
+        .iter()
+        .map(|d| cone_half_angle_with_edge(d[0].to_radians(), alpha, edge))
+        .collect()
 }
 
 /// New direction after scattering by polar cosine `cos_t` and azimuth `psi`
