@@ -79,7 +79,8 @@ pub struct McOptions {
     pub ring_mu_edges: Option<Vec<f64>>,
     /// Optional radial bins for `Rd(r)`.
     pub radial: Option<RadialBins>,
-    /// Show a progress bar on stderr when the run lasts more than a second.
+    /// Show a progress bar (indicatif) on stderr once the run has lasted a
+    /// second; never when stderr is not a terminal. Never changes the result.
     pub progress: bool,
 }
 

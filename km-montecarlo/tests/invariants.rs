@@ -237,3 +237,13 @@ fn partial_files_keep_awkward_options_exact() {
         .collect();
     assert_eq!(json_without_seconds(&merge(&parts).unwrap()), json_without_seconds(&single));
 }
+
+#[test]
+fn progress_flag_does_not_change_the_result() {
+    // Under the test harness stderr is captured (not a terminal): the bar stays hidden.
+    let s = Scene::from_toml_str(STACK).unwrap();
+    let o = McOptions { samples: 5_000, ..Default::default() };
+    let a = solve(&s, &o).unwrap();
+    let b = solve(&s, &McOptions { progress: true, ..o }).unwrap();
+    assert_eq!(json_without_seconds(&a), json_without_seconds(&b));
+}
