@@ -46,6 +46,48 @@ pub fn normalized_legendre(m: usize, mu: f64, out: &mut [f64]) {
     }
 }
 
+/// `Lambda_l^m(mu_i)` for every `mu_i` and `l = 0..nl`, node-major
+/// (`out[i * nl + l]`), with the recurrence coefficients of
+/// [`normalized_legendre`] computed once.
+pub fn legendre_table(m: usize, mu: &[f64], nl: usize) -> Vec<f64> {
+    let mut out = vec![0.0; mu.len() * nl];
+    if m >= nl {
+        return out;
+    }
+    let mf = m as f64;
+    let a: Vec<f64> = (0..nl)
+        .map(|l| {
+            let lf = l as f64;
+            if l >= m + 2 { (2.0 * lf - 1.0) / (lf * lf - mf * mf).sqrt() } else { 0.0 }
+        })
+        .collect();
+    let b: Vec<f64> = (0..nl)
+        .map(|l| {
+            let lf = l as f64;
+            if l >= m + 2 {
+                ((lf - 1.0) * (lf - 1.0) - mf * mf).sqrt() / (lf * lf - mf * mf).sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let c0: f64 = (1..=m).map(|i| ((2 * i - 1) as f64 / (2 * i) as f64).sqrt()).product();
+    let c1 = ((2 * m + 1) as f64).sqrt();
+    for (i, &x) in mu.iter().enumerate() {
+        let row = &mut out[i * nl..(i + 1) * nl];
+        let sin = ((1.0 - x) * (1.0 + x)).max(0.0).sqrt();
+        let pmm = c0 * sin.powi(m as i32);
+        row[m] = pmm;
+        if m + 1 < nl {
+            row[m + 1] = c1 * x * pmm;
+        }
+        for l in m + 2..nl {
+            row[l] = a[l] * x * row[l - 1] - b[l] * row[l - 2];
+        }
+    }
+    out
+}
+
 /// Delta-M scaled `(chi*, omega*, tau_factor)` of eq. L3 with `f = chi[n_keep]`
 /// (`chi` holds at least `n_keep + 1` moments): returns the first `n_keep`
 /// scaled moments, the scaled albedo and `1 - omega f` (the factor on `tau`).
@@ -63,6 +105,21 @@ pub fn delta_m(chi: &[f64], omega: f64, n_keep: usize) -> (Vec<f64>, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn table_matches_the_single_recurrence() {
+        let mus = [0.0, 0.1, 0.5, 0.99, 1.0];
+        for m in [0, 1, 7] {
+            let t = legendre_table(m, &mus, 20);
+            let mut b = vec![0.0; 20];
+            for (i, &x) in mus.iter().enumerate() {
+                normalized_legendre(m, x, &mut b);
+                for l in 0..20 {
+                    assert!((t[i * 20 + l] - b[l]).abs() < 1e-14);
+                }
+            }
+        }
+    }
 
     #[test]
     fn addition_theorem_reproduces_henyey_greenstein() {

@@ -53,7 +53,7 @@ use faer::{Mat, Side};
 
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
-use crate::legendre::normalized_legendre;
+use crate::legendre::{legendre_table, normalized_legendre};
 
 /// An extra direction carried besides the quadrature nodes, in one medium.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -133,8 +133,8 @@ pub struct SlabSolution {
     w: Vec<f64>,
     /// Weighted moments `(2l+1) chi_l` for `l = m..L`.
     chi: Vec<f64>,
-    /// `Lambda_l^m(mu_i)`, row `i`, column `l`.
-    lam: Mat<f64>,
+    /// `Lambda_l^m(mu_i)`, node-major: `lam[i * L + l]`.
+    lam: Vec<f64>,
     /// Eigenvalues `k_j >= 0`.
     pub k: Vec<f64>,
     /// `v~` (columns), transformed coordinates.
@@ -161,6 +161,20 @@ impl SlabSolution {
     /// [`MultifluxError::Numerical`] if the Cholesky factorisation of `H+` or the
     /// eigen-solver fails, or the operators are not finite.
     pub fn new(mu: &[f64], w: &[f64], p: &SlabOrder<'_>) -> Result<Self, MultifluxError> {
+        Self::build(mu, w, p, true)
+    }
+
+    /// [`SlabSolution::new`]; `inverses = false` skips `Cp^-1`, `Cm^-1` (needed
+    /// only for probes and the internal field) and gets `R ± T` by two solves.
+    ///
+    /// # Errors
+    /// As [`SlabSolution::new`].
+    pub fn build(
+        mu: &[f64],
+        w: &[f64],
+        p: &SlabOrder<'_>,
+        inverses: bool,
+    ) -> Result<Self, MultifluxError> {
         let n = mu.len();
         let (tau, omega, m) = (p.tau, p.omega, p.m);
         let nl = p.chi.len();
@@ -168,41 +182,46 @@ impl SlabSolution {
         let chi: Vec<f64> =
             (0..nl).map(|l| if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] }).collect();
 
-        // Legendre table Lambda_l^m(mu_i).
-        let mut lam = Mat::<f64>::zeros(n, nl);
-        let mut buf = vec![0.0; nl];
+        // Legendre table Lambda_l^m(mu_i), node-major.
+        let lam = legendre_table(m, mu, nl);
+        // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
+        // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
+        let mut ae = Mat::<f64>::zeros(n, nl);
+        let mut ao = Mat::<f64>::zeros(n, nl);
+        let mut lt = Mat::<f64>::zeros(nl, n);
         for i in 0..n {
-            normalized_legendre(m, mu[i], &mut buf);
-            for l in 0..nl {
-                lam[(i, l)] = buf[l];
-            }
+            let c = lt.col_as_slice_mut(i);
+            c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
         }
-        // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu').
-        let mut pe = Mat::<f64>::zeros(n, n);
-        let mut po = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
+        for l in m..nl {
+            let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
+            let even = (l + m).is_multiple_of(2);
             for i in 0..n {
-                let (mut se, mut so) = (0.0, 0.0);
-                for l in m..nl {
-                    let x = chi[l] * lam[(i, l)] * lam[(j, l)];
-                    if (l + m).is_multiple_of(2) { se += x } else { so += x }
-                }
-                pe[(i, j)] = se;
-                po[(i, j)] = so;
+                let x = chi[l] * lam[i * nl + l];
+                if even { ce[i] = x } else { co[i] = x }
             }
         }
+        let mut pe = &ae * &lt;
+        let mut po = &ao * &lt;
         // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
         // (energy conservation of the discrete scattering; DESIGN §4.1). Symmetric
         // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
         let renorm_m0 = m == 0;
         if renorm_m0 {
             let mut d = vec![1.0; n];
+            let mut r = vec![0.0; n];
             for _ in 0..60 {
+                r.iter_mut().for_each(|x| *x = 0.0);
+                for j in 0..n {
+                    let c = pe.col_as_slice(j);
+                    let f = w[j] * d[j];
+                    for i in 0..n {
+                        r[i] += c[i] * f;
+                    }
+                }
                 let mut worst = 0.0f64;
-                let mut r = vec![0.0; n];
                 for i in 0..n {
-                    let s: f64 = (0..n).map(|j| pe[(i, j)] * w[j] * d[j]).sum();
-                    r[i] = d[i] * s;
+                    r[i] *= d[i];
                     worst = worst.max((r[i] - 1.0).abs());
                 }
                 if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
@@ -213,23 +232,30 @@ impl SlabSolution {
                 }
             }
             for j in 0..n {
+                let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
                 for i in 0..n {
-                    let s = d[i] * d[j];
-                    pe[(i, j)] *= s;
-                    po[(i, j)] *= s;
+                    ce[i] *= d[i] * d[j];
+                    co[i] *= d[i] * d[j];
                 }
             }
         }
         // H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)   (eq. S3).
         let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
-        let hp = Mat::from_fn(n, n, |i, j| {
-            let diag = if i == j { 1.0 / mu[i] } else { 0.0 };
-            diag - omega * sq[i] * po[(i, j)] * sq[j]
-        });
-        let hm = Mat::from_fn(n, n, |i, j| {
-            let diag = if i == j { 1.0 / mu[i] } else { 0.0 };
-            diag - omega * sq[i] * pe[(i, j)] * sq[j]
-        });
+        let mut hp = Mat::<f64>::zeros(n, n);
+        let mut hm = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
+            let hpc = hp.col_as_slice_mut(j);
+            for i in 0..n {
+                hpc[i] = -omega * sq[i] * co[i] * sq[j];
+            }
+            hpc[j] += 1.0 / mu[j];
+            let hmc = hm.col_as_slice_mut(j);
+            for i in 0..n {
+                hmc[i] = -omega * sq[i] * ce[i] * sq[j];
+            }
+            hmc[j] += 1.0 / mu[j];
+        }
 
         let fail = |what: &'static str| MultifluxError::Numerical {
             what,
@@ -237,7 +263,7 @@ impl SlabSolution {
         };
         let llt = hp.llt(Side::Lower).map_err(|_| fail("Cholesky of H+"))?;
         let lf = llt.L().to_owned();
-        let sym = lf.transpose() * &hm * &lf;
+        let sym = lf.transpose() * (&hm * &lf);
         let evd = sym.self_adjoint_eigen(Side::Lower).map_err(|_| fail("eigen-solver"))?;
         let s = evd.S().column_vector().to_owned();
         let y = evd.U().to_owned();
@@ -250,39 +276,74 @@ impl SlabSolution {
         let v = &lf * &y;
         let z = llt.solve(&v);
 
-        // Eq. S4-S5.
+        // Eq. S4-S5, column by column.
         let half = tau.is_infinite();
         let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
-        let cp = Mat::from_fn(n, n, |i, j| {
-            0.5 * (v[(i, j)] * (1.0 + e[j]) + k[j] * z[(i, j)] * (1.0 - e[j]))
-        });
-        let cp_out = Mat::from_fn(n, n, |i, j| {
-            0.5 * (v[(i, j)] * (1.0 + e[j]) - k[j] * z[(i, j)] * (1.0 - e[j]))
-        });
-        let eye = Mat::<f64>::identity(n, n);
-        let cp_inv = cp.partial_piv_lu().solve(&eye);
-        let rpt = &cp_out * &cp_inv;
-        let (cm_inv, rmt) = if half {
-            (Mat::zeros(0, 0), rpt.clone())
+        let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
+        let mut cp = Mat::<f64>::zeros(n, n);
+        let mut cp_out = Mat::<f64>::zeros(n, n);
+        let mut cm = Mat::<f64>::zeros(n, n);
+        let mut cm_out = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
+            let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
+            let c = cp.col_as_slice_mut(j);
+            for i in 0..n {
+                c[i] = a * vc[i] + b * zc[i];
+            }
+            let c = cp_out.col_as_slice_mut(j);
+            for i in 0..n {
+                c[i] = a * vc[i] - b * zc[i];
+            }
+            if !half {
+                let (a, b) = (0.5 * ph[j], 0.5 * (1.0 + e[j]));
+                let c = cm.col_as_slice_mut(j);
+                for i in 0..n {
+                    c[i] = a * vc[i] + b * zc[i];
+                }
+                let c = cm_out.col_as_slice_mut(j);
+                for i in 0..n {
+                    c[i] = a * vc[i] - b * zc[i];
+                }
+            }
+        }
+        // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
+        let lu_p = cp.partial_piv_lu();
+        let (cp_inv, rpt_t) = if inverses {
+            let inv = lu_p.solve(Mat::<f64>::identity(n, n));
+            let x = (&cp_out * &inv).transpose().to_owned();
+            (inv, x)
         } else {
-            let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
-            let cm =
-                Mat::from_fn(n, n, |i, j| 0.5 * (v[(i, j)] * ph[j] + z[(i, j)] * (1.0 + e[j])));
-            let cm_out =
-                Mat::from_fn(n, n, |i, j| 0.5 * (v[(i, j)] * ph[j] - z[(i, j)] * (1.0 + e[j])));
-            let cm_inv = cm.partial_piv_lu().solve(&eye);
-            let rmt = &cm_out * &cm_inv;
-            (cm_inv, rmt)
+            (Mat::zeros(0, 0), lu_p.solve_transpose(cp_out.transpose()))
         };
-        // Back to radiances: R_ij = R~_ij t_j / t_i.
-        let r = Mat::from_fn(n, n, |i, j| 0.5 * (rpt[(i, j)] + rmt[(i, j)]) * t[j] / t[i]);
-        let tr = if half {
-            Mat::zeros(n, n)
+        let (cm_inv, rmt_t) = if half {
+            (Mat::zeros(0, 0), rpt_t.clone())
         } else {
-            Mat::from_fn(n, n, |i, j| 0.5 * (rpt[(i, j)] - rmt[(i, j)]) * t[j] / t[i])
+            let lu_m = cm.partial_piv_lu();
+            if inverses {
+                let inv = lu_m.solve(Mat::<f64>::identity(n, n));
+                let x = (&cm_out * &inv).transpose().to_owned();
+                (inv, x)
+            } else {
+                (Mat::zeros(0, 0), lu_m.solve_transpose(cm_out.transpose()))
+            }
         };
-        let finite =
-            (0..n).all(|j| (0..n).all(|i| r[(i, j)].is_finite() && tr[(i, j)].is_finite()));
+        // Back to radiances: R_ij = R~_ij t_j / t_i (R~ = transpose of the solves).
+        let mut r = Mat::<f64>::zeros(n, n);
+        let mut tr = Mat::<f64>::zeros(n, n);
+        let mut finite = true;
+        for j in 0..n {
+            let (xp, xm) = (rpt_t.col_as_slice(j), rmt_t.col_as_slice(j));
+            // Column j of X^T is row j of X: X_ji for i = 0..n.
+            for i in 0..n {
+                let f = t[i] / t[j];
+                let rv = 0.5 * (xp[i] + xm[i]) * f;
+                let tv = if half { 0.0 } else { 0.5 * (xp[i] - xm[i]) * f };
+                finite &= rv.is_finite() && tv.is_finite();
+                r[(j, i)] = rv;
+                tr[(j, i)] = tv;
+            }
+        }
         if !finite {
             return Err(fail("layer operators (non-finite)"));
         }
@@ -333,7 +394,7 @@ impl SlabSolution {
         for j in 0..self.n {
             let (mut se, mut so) = (0.0, 0.0);
             for l in self.m..self.chi.len() {
-                let x = self.chi[l] * lam_x[l] * self.lam[(j, l)];
+                let x = self.chi[l] * lam_x[l] * self.lam[j * self.chi.len() + l];
                 if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
             }
             ev[j] = se;
@@ -638,5 +699,6 @@ pub fn slab_operators(
     if !scatters {
         return Ok(absorber_operators(mu, extras, p.tau));
     }
-    Ok(SlabSolution::new(mu, w, p)?.operators(extras, tms))
+    let probes = extras.iter().any(|e| !e.beam && e.mu.is_some());
+    Ok(SlabSolution::build(mu, w, p, probes)?.operators(extras, tms))
 }

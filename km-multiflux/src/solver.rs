@@ -64,7 +64,7 @@ impl Default for MultifluxOptions {
 /// `directions_deg` (collimated light: per unit irradiance on the surface;
 /// azimuth 180 is the mirror side; BTDF only with a transparent substrate).
 /// `seconds` is the solver's own wall time; `extra` has `streams` and
-/// `fourier_orders`.
+/// `fourier_orders`. Sets faer's global parallelism to sequential.
 ///
 /// # Errors
 /// Invalid options or scene ([`MultifluxError::Option`], [`MultifluxError::Scene`]),
@@ -78,6 +78,9 @@ impl Default for MultifluxOptions {
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-12);
 /// ```
 pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, MultifluxError> {
+    // The matrices are small (tens of rows): faer runs sequentially, one core
+    // per solve (parallelise over channels or scenes outside).
+    faer::set_global_parallelism(faer::Par::Seq);
     let start = Instant::now();
     let mut channels = Vec::with_capacity(scene.channels.len());
     let mut orders = 0;
@@ -132,7 +135,6 @@ pub fn solve_mono(
             reason: "must lie in 1..=512",
         });
     }
-    let n_keep = 2 * streams;
 
     // Media, top to bottom: ambient, layers, substrate (if transparent).
     let n0 = scene.ambient_n;
@@ -145,6 +147,8 @@ pub fn solve_mono(
     all_n.extend(scene.layers.iter().map(|l| l.n));
     all_n.extend(n_sub);
     let grid = AngularGrid::new(&all_n, streams);
+    // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
+    let n_keep = 2 * streams;
 
     // Extras: the beam, then probes (by Snell invariant s).
     // (s, is_beam, phi): probes share an extra when s (and, for the
