@@ -213,3 +213,40 @@ fn random_scenes_balance_energy() {
     }
     assert_eq!(count, 40);
 }
+
+/// The internal field (seed eq. 19) meets its boundary values and the
+/// layer's operators: at the top `I+ = a`, `I- = R a + T b (+ beam)`, at the
+/// bottom `I- = b`, `I+ = T a + R b (+ beam)`; 1e-10.
+#[test]
+fn internal_field_matches_the_operators_at_the_boundaries() {
+    use km_multiflux::slab::SlabSolution;
+    let mut rng = Pcg64::seed_from_u64(5);
+    let n = 8;
+    let nodes = AngularGrid::new(&[1.0], n).medium(1.0);
+    for _ in 0..20 {
+        let (tau, omega, chi) = random_layer(&mut rng, n);
+        let mu_b: f64 = rng.random_range(0.1..1.0);
+        let m = rng.random_range(0..3usize);
+        let p = SlabOrder { tau, omega, chi: &chi, m };
+        let sol = SlabSolution::new(&nodes.mu, &nodes.w, &p).unwrap();
+        let extras = [Extra { mu: Some(mu_b), beam: true, phi_deg: 0.0 }];
+        let ops = sol.operators(&extras, None);
+        let a: Vec<f64> = (0..n).map(|_| rng.random_range(0.0..1.0)).collect();
+        let b: Vec<f64> = (0..n).map(|_| rng.random_range(0.0..1.0)).collect();
+        let (d0, u0) = sol.field(0.0, &a, &b, Some((mu_b, 1.0))).unwrap();
+        let (d1, u1) = sol.field(tau, &a, &b, Some((mu_b, 1.0))).unwrap();
+        for i in 0..n {
+            let ru: f64 = ops.r_top[(i, n)]
+                + (0..n).map(|j| ops.r_top[(i, j)] * a[j] + ops.t_up[(i, j)] * b[j]).sum::<f64>();
+            let td: f64 = ops.t_down[(i, n)]
+                + (0..n)
+                    .map(|j| ops.t_down[(i, j)] * a[j] + ops.r_bottom[(i, j)] * b[j])
+                    .sum::<f64>();
+            let scale = 1.0 + ru.abs() + td.abs();
+            assert!((d0[i] - a[i]).abs() < 1e-10 * scale, "top in {} vs {}", d0[i], a[i]);
+            assert!((u1[i] - b[i]).abs() < 1e-10 * scale, "bottom in {} vs {}", u1[i], b[i]);
+            assert!((u0[i] - ru).abs() < 1e-10 * scale, "top out {} vs {ru}", u0[i]);
+            assert!((d1[i] - td).abs() < 1e-10 * scale, "bottom out {} vs {td}", d1[i]);
+        }
+    }
+}
