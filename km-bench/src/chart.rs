@@ -699,6 +699,38 @@ mod tests {
     }
 
     #[test]
+    fn charts_survive_empty_and_non_finite_data() {
+        let dir = std::env::temp_dir().join(format!("km-bench-chart-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let line = LineChart {
+            series: vec![Series::new(
+                "a",
+                vec![(f64::NAN, 1.0), (1.0, f64::INFINITY), (-1.0, 2.0)],
+                Mark::LinePoints,
+                0,
+            )],
+            x_log: true,
+            y_log: true,
+            ..Default::default()
+        };
+        write_chart(&dir, "line", &line).unwrap();
+        write_chart(&dir, "polar", &PolarChart::default()).unwrap();
+        let hm = HeatMap {
+            x: vec![1.0, 2.0],
+            y: vec![0.0],
+            z: vec![vec![Some(f64::NAN), None]],
+            z_log: true,
+            z_floor: 1e-16,
+            ..Default::default()
+        };
+        assert_eq!((hm.invalid_cells(), hm.refused_cells()), (1, 1));
+        write_chart(&dir, "heat", &hm).unwrap();
+        let svg = std::fs::read_to_string(dir.join("heat.svg")).unwrap();
+        assert!(svg.contains("1 NaN"), "the title counts the NaN cell");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn viridis_ends() {
         assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
         assert_eq!(viridis(1.0), RGBColor(253, 231, 37));

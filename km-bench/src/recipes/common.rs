@@ -138,3 +138,28 @@ pub fn response_csv(csv: &mut Csv, case: &str, r: &StackResponse) {
 pub fn response_csv_new() -> Csv {
     Csv::new(&["case", "side", "psi_deg", "theta_deg", "phi_deg", "value_per_sr"])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plane_cut_picks_the_nodes_nearest_the_plane() {
+        // Two rings (10 and 40 degrees) of four azimuths; the value encodes the node.
+        let d = Distribution {
+            theta_deg: vec![10.0, 10.0, 10.0, 10.0, 40.0, 40.0, 40.0, 40.0],
+            phi_deg: vec![0.0, 90.0, 180.0, 270.0, 10.0, 100.0, 190.0, 280.0],
+            weight: vec![1.0; 8],
+            mu: vec![1.0; 8],
+            value: (0..8).map(f64::from).collect(),
+            node_value: vec![0.0; 8],
+        };
+        let up = plane_cut(&d, true, false);
+        // Back side (phi near 0) at -theta, forward (phi near 180) at +theta, sorted.
+        let got: Vec<(f64, f64)> = up.iter().map(|p| (p.0, p.1)).collect();
+        assert_eq!(got, vec![(-40.0, 4.0), (-10.0, 0.0), (10.0, 2.0), (40.0, 6.0)]);
+        // Transmitted: forward at 180 - theta, back at 180 + theta.
+        let down: Vec<f64> = plane_cut(&d, false, false).iter().map(|p| p.0).collect();
+        assert_eq!(down, vec![140.0, 170.0, 190.0, 220.0]);
+    }
+}
