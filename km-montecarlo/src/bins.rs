@@ -120,8 +120,54 @@ pub fn ring_projected_solid_angle(mu_lo: f64, mu_hi: f64) -> f64 {
     PI * (mu_hi * mu_hi - mu_lo * mu_lo)
 }
 
+/// Ring edges in `mu` matching a discrete-ordinates ("double Gauss")
+/// quadrature of `n` nodes per hemisphere: the Gauss–Legendre rule mapped
+/// to `[0, 1]` (nodes `mu_i`, weights `w_i`, `sum w_i = 1`), each node owning
+/// the cell `[e_i, e_i + w_i)` with `e_0 = 0` (eq. B4). The ring tallies
+/// (eq. B3) on these cells are the Monte Carlo counterpart of the solver's
+/// radiance at node `i` averaged over its cell, for a bin-by-bin comparison.
+///
+/// ```
+/// let e = km_montecarlo::bins::gauss_ring_edges(8);
+/// assert_eq!(e.len(), 9);
+/// assert!((e[8] - 1.0).abs() < 1e-14);
+/// ```
+pub fn gauss_ring_edges(n: usize) -> Vec<f64> {
+    let (x, w) = km_core::fresnel::gauss_legendre(n);
+    // Ascending nodes on [-1, 1] mapped to [0, 1]: mu = (x + 1) / 2, weight w / 2.
+    let mut pairs: Vec<(f64, f64)> =
+        x.iter().zip(&w).map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w)).collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut edges = Vec::with_capacity(n + 1);
+    let mut e = 0.0;
+    edges.push(e);
+    for (_, w) in pairs {
+        e += w;
+        edges.push(e);
+    }
+    // The weights sum to 1 up to rounding; pin the last edge.
+    if let Some(last) = edges.last_mut() {
+        *last = 1.0;
+    }
+    edges
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn gauss_cells_hold_their_nodes() {
+        for n in [1, 2, 8, 32] {
+            let e = gauss_ring_edges(n);
+            let (x, _) = km_core::fresnel::gauss_legendre(n);
+            let mut mu: Vec<f64> = x.iter().map(|x| 0.5 * (x + 1.0)).collect();
+            mu.sort_by(f64::total_cmp);
+            for (i, m) in mu.iter().enumerate() {
+                assert!(e[i] < *m && *m < e[i + 1], "n={n} i={i}");
+            }
+            assert!(e.windows(2).all(|w| w[0] < w[1]));
+        }
+    }
+
     use super::*;
 
     #[test]
