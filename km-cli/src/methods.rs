@@ -1,7 +1,7 @@
 //! Dispatch of `km solve` and `km profile` to the method libraries.
 
 use anyhow::{Context, Result, bail};
-use km_core::plan::{Request, plan_scene};
+use km_core::plan::{Request, expand_channels, plan_scene, reduce_channels};
 use km_core::{Scene, Solution};
 
 use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, Method, SolveArgs};
@@ -11,6 +11,11 @@ use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, Method, SolveArgs};
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     let request = Request::from_scene(&scene.channels[0]);
     let plan = plan_scene(scene, request, args.all_effects).for_method(args.method.name());
+    // Channels with identical coefficients are solved once (`duplicate-channels`).
+    let (reduced, map) = reduce_channels(scene);
+    let dedup = plan.skips("duplicate-channels");
+    let full_scene = scene;
+    let scene = if dedup { &reduced } else { scene };
     let mut sol = match args.method {
         Method::Km => {
             no_tolerance(args)?;
@@ -39,6 +44,9 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
             km_dipole::solve(scene, &dipole_options(args))?
         }
     };
+    if dedup {
+        sol = expand_channels(sol, &map, &full_scene.labels);
+    }
     sol.extra.insert("plan".into(), plan.to_json());
     Ok(sol)
 }

@@ -315,6 +315,49 @@ pub fn distinct_channels(scene: &Scene) -> Vec<usize> {
     first
 }
 
+/// The scene reduced to its distinct channels, and for every channel of the
+/// original the index of its representative in the reduced scene.
+///
+/// ```
+/// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = [1, 2, 1]\nalbedo = 0.5\n").unwrap();
+/// let (reduced, map) = km_core::plan::reduce_channels(&s);
+/// assert_eq!(reduced.channels.len(), 2);
+/// assert_eq!(map, vec![0, 1, 0]);
+/// ```
+pub fn reduce_channels(scene: &Scene) -> (Scene, Vec<usize>) {
+    let first = distinct_channels(scene);
+    let mut keep = Vec::new();
+    let mut map = Vec::with_capacity(first.len());
+    for (i, &f) in first.iter().enumerate() {
+        if f == i {
+            keep.push(i);
+        }
+        map.push(keep.iter().position(|&k| k == f).unwrap_or(0));
+    }
+    let reduced = Scene {
+        channels: keep.iter().map(|&i| scene.channels[i].clone()).collect(),
+        labels: keep.iter().map(|&i| scene.labels[i].clone()).collect(),
+        wavelengths_nm: scene
+            .wavelengths_nm
+            .as_ref()
+            .map(|w| keep.iter().filter_map(|&i| w.get(i).copied()).collect()),
+    };
+    (reduced, map)
+}
+
+/// Expand a solution of [`reduce_channels`]' reduced scene back to every
+/// channel of the original (`labels` are the original's).
+pub fn expand_channels(
+    mut solution: crate::Solution,
+    map: &[usize],
+    labels: &[String],
+) -> crate::Solution {
+    let channels = map.iter().filter_map(|&j| solution.channels.get(j).cloned()).collect();
+    solution.channels = channels;
+    solution.labels = labels.to_vec();
+    solution
+}
+
 /// The plan of a whole scene: the union over channels, plus `duplicate-channels`.
 pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
     let mut plans = scene.channels.iter().map(|c| Plan::new(c, request, all_effects));

@@ -1,0 +1,77 @@
+//! The plan through the command: `km plan` names the simplifications, and
+//! `km solve` with the plan agrees with `--all-effects`.
+
+use std::process::Command;
+
+use serde_json::Value;
+
+fn km_json(args: &[&str]) -> Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_km")).args(args).output().expect("run km");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
+
+fn scene_file(tag: &str, text: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("km-plan-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("{tag}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+fn skipped(v: &Value) -> Vec<String> {
+    v["plan"]["skipped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap().to_string())
+        .collect()
+}
+
+#[test]
+fn duplicate_channels_are_solved_once_with_the_same_answer() {
+    let p = scene_file(
+        "dup",
+        "[light]\ntheta_deg = 30\n[[layer]]\ntau = [1, 2, 1, 1]\nalbedo = 0.9\ng = 0.5\n\
+         [output]\ndirections_deg = [[10.0, 0.0], [40.0, 180.0]]\n",
+    );
+    for method in ["km", "multiflux"] {
+        let planned = km_json(&["solve", &p, "--method", method, "--json"]);
+        let full = km_json(&["solve", &p, "--method", method, "--json", "--all-effects"]);
+        assert!(skipped(&planned).contains(&"duplicate-channels".to_string()));
+        assert!(!skipped(&full).contains(&"duplicate-channels".to_string()));
+        for key in ["reflectance", "transmittance", "absorptance", "brdf", "btdf"] {
+            assert_eq!(planned[key], full[key], "{method} {key}");
+        }
+        assert_eq!(planned["reflectance"].as_array().unwrap().len(), 4);
+    }
+}
+
+#[test]
+fn km_plan_names_each_simplification() {
+    let cases = [
+        ("interface", "[[layer]]\ntau = 1\nalbedo = 0.5\n", "multiflux"),
+        (
+            "scattering",
+            "[[layer]]\nsigma_a = 1\nsigma_s = 0\nthickness = 1\nn = 1.5\n",
+            "multiflux",
+        ),
+        ("azimuth", "[[layer]]\ntau = 1\nalbedo = 0.5\ng = 0.7\n", "multiflux"),
+        (
+            "transmission",
+            "[[layer]]\ntau = 1e5\nalbedo = 0.9\n[substrate]\nkind = \"lambertian\"\nalbedo = 0.5\n",
+            "multiflux",
+        ),
+        ("angular-tallies", "[[layer]]\ntau = 1\nalbedo = 0.5\n", "mc"),
+    ];
+    for (name, text, method) in cases {
+        let p = scene_file(name, text);
+        let v = km_json(&["plan", &p, "--method", method, "--json"]);
+        let s: Vec<&str> =
+            v["skipped"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect();
+        assert!(s.contains(&name), "{name}: {v}");
+        assert!(v["reasons"][name].as_str().is_some_and(|r| !r.is_empty()), "{name}: {v}");
+        let off = km_json(&["plan", &p, "--method", method, "--json", "--all-effects"]);
+        assert!(off["skipped"].as_array().unwrap().is_empty(), "{name}: {off}");
+    }
+}
