@@ -1,2 +1,64 @@
-//! Criterion benchmarks of the multiflux method (filled in with the method).
-fn main() {}
+//! Criterion benchmarks of the multi-flux solver (Fourier–Gauss mode):
+//! one layer at N = 8, 16, 32, 64 streams per hemisphere, totals only
+//! (Fourier order 0) and a full BRDF/BTDF (all Fourier orders the phase
+//! function needs, 5 exit directions); a 3-layer stack with interfaces
+//! (totals); the seed 000 §4.4 scene (Fresnel surface, layer, Lambertian 0.8).
+//!
+//! Short run: `cargo bench -p km-bench --bench multiflux -- --warm-up-time 1 --measurement-time 2`.
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use km_core::Scene;
+use km_multiflux::{MultifluxOptions, solve};
+
+fn scene(text: &str) -> Scene {
+    Scene::from_toml_str(text).expect("valid benchmark scene")
+}
+
+fn bench(c: &mut Criterion) {
+    // One slab: tau = 1, albedo 0.9, Henyey–Greenstein g = 0.5, 30 degrees, no interface.
+    let slab = "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.5\n";
+    let totals = scene(slab);
+    let brdf = scene(&format!(
+        "{slab}[output]\ndirections_deg = [[0.0, 0.0], [30.0, 180.0], [45.0, 90.0], [60.0, 0.0], [80.0, 180.0]]\n"
+    ));
+    let mut g = c.benchmark_group("multiflux one layer");
+    for n in [8usize, 16, 32, 64] {
+        let o = MultifluxOptions { streams: Some(n), ..Default::default() };
+        g.bench_with_input(BenchmarkId::new("totals", n), &n, |b, _| {
+            b.iter(|| solve(black_box(&totals), &o).expect("solve"))
+        });
+        g.bench_with_input(BenchmarkId::new("full brdf", n), &n, |b, _| {
+            b.iter(|| solve(black_box(&brdf), &o).expect("solve"))
+        });
+    }
+    g.finish();
+
+    // Three layers of different indices over glass, collimated at 45 degrees.
+    let stack = scene(
+        "[light]\ntheta_deg = 45.0\n\
+         [[layer]]\ntau = 0.5\nalbedo = 0.8\nn = 1.5\n\
+         [[layer]]\ntau = 2.0\nalbedo = 0.95\ng = 0.7\nn = 1.3\n\
+         [[layer]]\ntau = 1.0\nalbedo = 0.6\ng = 0.3\nn = 1.4\n\
+         [substrate]\nkind = \"transparent\"\nn = 1.5\n",
+    );
+    let seed = scene(
+        "[light]\ntheta_deg = 45.0\n[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 1.0\nn = 1.3\n\
+         [substrate]\nkind = \"lambertian\"\nalbedo = 0.8\n",
+    );
+    let o = MultifluxOptions::default();
+    c.bench_function("multiflux 3-layer stack totals (N = 16)", |b| {
+        b.iter(|| solve(black_box(&stack), &o).expect("solve"))
+    });
+    c.bench_function("multiflux seed 4.4 scene totals (N = 16)", |b| {
+        b.iter(|| solve(black_box(&seed), &o).expect("solve"))
+    });
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).without_plots();
+    targets = bench
+}
+criterion_main!(benches);
