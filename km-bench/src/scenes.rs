@@ -22,6 +22,22 @@ pub fn plane_directions(count: usize, theta_max: f64) -> (Vec<[f64; 2]>, Vec<(f6
     (dirs, meta)
 }
 
+/// Output directions `[theta, phi]` on a grid over the reflected
+/// hemisphere: `theta = 0, step, ..., <= theta_max`, `phi = 0, 30, ..., 180`
+/// (the BRDF of a rotationally symmetric stack is symmetric about the plane
+/// of incidence, so half the azimuths cover it); one direction at the pole.
+pub fn hemisphere_directions(theta_step: f64, theta_max: f64) -> Vec<[f64; 2]> {
+    let mut dirs = vec![[0.0, 0.0]];
+    let mut t = theta_step;
+    while t <= theta_max + 1e-9 {
+        for k in 0..=6 {
+            dirs.push([t, 30.0 * k as f64]);
+        }
+        t += theta_step;
+    }
+    dirs
+}
+
 /// A one-layer scene from optical thickness, albedo and `g`, unit
 /// extinction (`sigma_t = 1`, thickness `tau`), layer index `n` in air,
 /// over `substrate`, lit by a collimated beam at `theta_deg`.

@@ -230,8 +230,10 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
             }
             reach.push(row);
         }
-        if let Some(p) =
-            points.iter().filter(|p| p.err_r <= 1e-3).min_by(|a, b| a.seconds.total_cmp(&b.seconds))
+        if let Some(p) = points
+            .iter()
+            .filter(|p| p.bound_r <= 1e-3)
+            .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
         {
             best_summary.push(format!("{}: {}", sc.name, p.method));
         }
