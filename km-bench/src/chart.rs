@@ -618,11 +618,11 @@ impl Chart for HeatMap {
         let fx = move |v: &f64| {
             at(*v)
                 .and_then(|i| xs.get(i))
-                .map(|x| if xlog { format!("{x:.0e}") } else { format_number(*x) })
+                .map(|x| if xlog { format!("{x:.0e}") } else { format!("{x}") })
                 .unwrap_or_default()
         };
         let fy = move |v: &f64| {
-            at(*v).and_then(|i| ys.get(i)).map(|y| format_number(*y)).unwrap_or_default()
+            at(*v).and_then(|i| ys.get(i)).map(|y| format!("{y}")).unwrap_or_default()
         };
         chart
             .configure_mesh()
