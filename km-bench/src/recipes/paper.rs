@@ -498,7 +498,10 @@ pub fn fig10(ctx: &mut Ctx) -> anyhow::Result<Section> {
          adding formula (seed eq. 14) and by the Neumann series of eq. 21 truncated after the \
          0th term ((1 - R_rr)^-1 ~ 1) and the 1st, on about {nd} directions. The seed's RMS \
          measure is taken over the node radiances with the delta parts included, which the \
-         mirror and beam nodes dominate; the smooth-only errors are given too. The \"paper\" \
+         mirror and beam nodes dominate; the smooth-only errors are given too. The seed \
+         does not define its measure precisely (which directions, relative to what, how many \
+         directions), and the rows below show that this choice alone moves the number by more \
+         than an order of magnitude. The \"paper\" \
          column is quoted from the seed, the other column was computed by this run."
     ))
     .figure("fig10", "Fig. 10: exact (solid) and 0th-order (dashed) distributions")
