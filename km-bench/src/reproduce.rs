@@ -212,7 +212,7 @@ pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
         report.sections.push(section);
     }
     summary.seconds = start.elapsed().as_secs_f64();
-    // Close with the run's own summary table.
+    // The run's own summary table.
     let mut sec = Section::new("Run summary");
     let mut t = Table::new(&["item", "status", "seconds", "result"]);
     for r in &summary.rows {
@@ -231,7 +231,8 @@ pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
         rayon::current_num_threads()
     ))
     .table(t);
-    report.sections.push(sec);
+    // The summary opens the report: each item's key result, then the details.
+    report.sections.insert(0, sec);
     summary.report = report.write(&opts.out_dir)?;
     Ok(summary)
 }
