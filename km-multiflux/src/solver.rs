@@ -32,6 +32,10 @@ use crate::slab::{Extra, SlabOrder, Tms, slab_operators};
 /// the 1e-4 accuracy target on the reference cases (see `docs/multiflux.md`).
 pub const DEFAULT_STREAMS: usize = 16;
 
+/// Relative size below which two consecutive Fourier orders end the azimuthal
+/// series of the BRDF/BTDF (DISORT's azimuthal convergence test, ACCUR).
+pub const FOURIER_TOL: f64 = 1e-9;
+
 /// Options of the Fourier–Gauss solver.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MultifluxOptions {
@@ -239,7 +243,13 @@ pub fn solve_mono(
     };
     let (mut r_tot, mut t_tot) = (0.0, 0.0);
 
+    // Azimuthal convergence (as DISORT's ACCUR test): stop after two
+    // consecutive orders whose Fourier amplitudes |I^m| are all below
+    // `FOURIER_TOL` times the largest BRDF/BTDF value so far.
+    let mut small_orders = 0;
+    let mut m_used = 0;
     for m in 0..=m_max {
+        m_used = m;
         let ops = stack_operators(
             scene,
             &grid,
@@ -275,8 +285,11 @@ pub fn solve_mono(
         if m == 0 {
             r_tot = flux(&nodes0, &up[..na0]) + beam.map_or(0.0, |b| up[na0 + b]);
         }
+        let mut term = 0.0f64;
         for (k, d) in dirs.iter().enumerate() {
-            out.brdf[k] += up[na0 + brdf_ix[k]] * cosm(d[1]);
+            let x = up[na0 + brdf_ix[k]];
+            out.brdf[k] += x * cosm(d[1]);
+            term = term.max(x.abs());
         }
         if let Some(ns) = &nodes_sub {
             let down = apply(&ops.t_down, &a);
@@ -285,7 +298,16 @@ pub fn solve_mono(
                 t_tot = flux(ns, &down[..nb]) + beam.map_or(0.0, |b| down[nb + b]);
             }
             for (k, d) in dirs.iter().enumerate() {
-                out.btdf[k] += down[nb + btdf_ix[k]] * cosm(d[1]);
+                let x = down[nb + btdf_ix[k]];
+                out.btdf[k] += x * cosm(d[1]);
+                term = term.max(x.abs());
+            }
+        }
+        if m > 0 {
+            let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
+            small_orders = if term <= FOURIER_TOL * largest { small_orders + 1 } else { 0 };
+            if small_orders == 2 {
+                break;
             }
         }
     }
@@ -318,7 +340,7 @@ pub fn solve_mono(
             detail: "non-finite result".into(),
         });
     }
-    Ok((out, m_max + 1))
+    Ok((out, m_used + 1))
 }
 
 /// `2 pi sum_i w_i mu_i I_i`: the flux of a radiance vector at the nodes.
@@ -408,72 +430,48 @@ fn stack_operators(
 /// invariant `s` entering from above: a one-direction adding pass with the
 /// true optical thicknesses and flux (not radiance) Fresnel factors.
 fn delta_parts(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>, s: f64) -> (f64, f64) {
-    let one = |v: f64| Mat::from_fn(1, 1, |_, _| v);
-    let iface = |na: f64, nb: f64| -> LayerOperators {
-        let (ma, mb) = (mu_of_invariant(s, na), mu_of_invariant(s, nb));
-        match (ma, mb) {
+    // Scalar operators (r_top, t_down, r_bottom, t_up) and their star product
+    // (eq. A4 of the adding module with 1 x 1 operators).
+    type Op = (f64, f64, f64, f64);
+    let star = |(r1, t1, r1p, t1p): Op, (r2, t2, r2p, t2p): Op| -> Op {
+        let x = 1.0 - r1p * r2;
+        if x == 0.0 {
+            // Facing total reflections with nothing between: nothing enters.
+            return (r1, 0.0, r2p, 0.0);
+        }
+        (r1 + t1p * r2 * t1 / x, t2 * t1 / x, r2p + t2 * r1p * t2p / x, t1p * t2p / x)
+    };
+    let iface = |na: f64, nb: f64| -> Op {
+        match (mu_of_invariant(s, na), mu_of_invariant(s, nb)) {
             (Some(a), Some(b)) => {
-                let (ra, rb) = (
-                    km_core::fresnel::reflectance(a, na, nb),
-                    km_core::fresnel::reflectance(b, nb, na),
-                );
-                LayerOperators {
-                    r_top: one(ra),
-                    t_down: one(1.0 - ra),
-                    r_bottom: one(rb),
-                    t_up: one(1.0 - rb),
-                }
+                let ra = km_core::fresnel::reflectance(a, na, nb);
+                let rb = km_core::fresnel::reflectance(b, nb, na);
+                (ra, 1.0 - ra, rb, 1.0 - rb)
             }
-            (Some(_), None) => LayerOperators {
-                r_top: one(1.0),
-                t_down: one(0.0),
-                r_bottom: one(0.0),
-                t_up: one(0.0),
-            },
-            (None, Some(_)) => LayerOperators {
-                r_top: one(0.0),
-                t_down: one(0.0),
-                r_bottom: one(1.0),
-                t_up: one(0.0),
-            },
-            (None, None) => LayerOperators {
-                r_top: one(0.0),
-                t_down: one(0.0),
-                r_bottom: one(0.0),
-                t_up: one(0.0),
-            },
+            (Some(_), None) => (1.0, 0.0, 0.0, 0.0),
+            (None, Some(_)) => (0.0, 0.0, 1.0, 0.0),
+            (None, None) => (0.0, 0.0, 0.0, 0.0),
         }
     };
-    let mut acc = LayerOperators::transparent(1, 1);
+    let mut acc: Op = (0.0, 1.0, 0.0, 1.0);
     let mut n_above = scene.ambient_n;
-    let push = |acc: &mut LayerOperators, x: LayerOperators| {
-        // A singular round trip (facing total reflections with nothing between)
-        // carries no light in from above: keep what we have.
-        if let Ok(s) = add(acc, &x) {
-            *acc = s;
-        }
-    };
     for l in layers {
         if l.n != n_above {
-            push(&mut acc, iface(n_above, l.n));
+            acc = star(acc, iface(n_above, l.n));
         }
         let t = match mu_of_invariant(s, l.n) {
             Some(mu) if l.tau_true.is_finite() => (-l.tau_true / mu).exp(),
             _ => 0.0,
         };
-        push(
-            &mut acc,
-            LayerOperators { r_top: one(0.0), t_down: one(t), r_bottom: one(0.0), t_up: one(t) },
-        );
+        acc = star(acc, (0.0, t, 0.0, t));
         n_above = l.n;
     }
     let mut transmits = false;
     if let (Substrate::Transparent { .. }, Some(ns)) = (scene.substrate, n_sub) {
         if ns != n_above {
-            push(&mut acc, iface(n_above, ns));
+            acc = star(acc, iface(n_above, ns));
         }
         transmits = true;
     }
-    let t = if transmits { acc.t_down[(0, 0)] } else { 0.0 };
-    (acc.r_top[(0, 0)], t)
+    (acc.0, if transmits { acc.1 } else { 0.0 })
 }
