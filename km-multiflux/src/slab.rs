@@ -115,6 +115,73 @@ pub(crate) fn e2(a: f64, b: f64, t: f64) -> f64 {
     (-lo * t).exp() * phi(hi - lo, t)
 }
 
+/// `X^T = C^-T B^T` (so `X = B C^-1`) for small square `C`, `B`: Gaussian
+/// elimination with partial pivoting on `C^T` in contiguous storage (cheaper
+/// than a general LU call at the sizes of a layer, N <= ~100). A singular `C`
+/// gives non-finite entries, which the caller refuses.
+fn solve_transposed(c: &Mat<f64>, b: &Mat<f64>) -> Mat<f64> {
+    let n = c.nrows();
+    if n > 32 {
+        // Larger: faer's blocked LU wins.
+        return c.partial_piv_lu().solve_transpose(b.transpose());
+    }
+    // a = C^T and x = B^T, column-major: a[col * n + row].
+    let mut a = vec![0.0; n * n];
+    let mut x = vec![0.0; n * n];
+    for j in 0..n {
+        let (cc, bc) = (c.col_as_slice(j), b.col_as_slice(j));
+        for i in 0..n {
+            a[i * n + j] = cc[i];
+            x[i * n + j] = bc[i];
+        }
+    }
+    let mut l = vec![0.0; n];
+    for k in 0..n {
+        // Pivot: largest |a(r, k)| for r >= k.
+        let col = &a[k * n..(k + 1) * n];
+        let p = (k..n).fold(k, |best, r| if col[r].abs() > col[best].abs() { r } else { best });
+        if p != k {
+            for cidx in 0..n {
+                a.swap(cidx * n + k, cidx * n + p);
+                x.swap(cidx * n + k, cidx * n + p);
+            }
+        }
+        let piv = a[k * n + k];
+        for r in k + 1..n {
+            l[r] = a[k * n + r] / piv;
+        }
+        for cidx in k + 1..n {
+            let akc = a[cidx * n + k];
+            if akc != 0.0 {
+                let colc = &mut a[cidx * n..(cidx + 1) * n];
+                for r in k + 1..n {
+                    colc[r] -= l[r] * akc;
+                }
+            }
+        }
+        for cidx in 0..n {
+            let xkc = x[cidx * n + k];
+            if xkc != 0.0 {
+                let colx = &mut x[cidx * n..(cidx + 1) * n];
+                for r in k + 1..n {
+                    colx[r] -= l[r] * xkc;
+                }
+            }
+        }
+    }
+    // Back substitution, column by column of x.
+    for cidx in 0..n {
+        for k in (0..n).rev() {
+            let xk = x[cidx * n + k] / a[k * n + k];
+            x[cidx * n + k] = xk;
+            for r in 0..k {
+                x[cidx * n + r] -= a[k * n + r] * xk;
+            }
+        }
+    }
+    Mat::from_fn(n, n, |i, j| x[j * n + i])
+}
+
 /// `exp(-t / mu)`, 0 for an infinite `t`.
 fn atten(t: f64, mu: f64) -> f64 {
     if t.is_infinite() { 0.0 } else { (-t / mu).exp() }
@@ -308,24 +375,22 @@ impl SlabSolution {
             }
         }
         // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
-        let lu_p = cp.partial_piv_lu();
         let (cp_inv, rpt_t) = if inverses {
-            let inv = lu_p.solve(Mat::<f64>::identity(n, n));
+            let inv = cp.partial_piv_lu().solve(Mat::<f64>::identity(n, n));
             let x = (&cp_out * &inv).transpose().to_owned();
             (inv, x)
         } else {
-            (Mat::zeros(0, 0), lu_p.solve_transpose(cp_out.transpose()))
+            (Mat::zeros(0, 0), solve_transposed(&cp, &cp_out))
         };
         let (cm_inv, rmt_t) = if half {
             (Mat::zeros(0, 0), rpt_t.clone())
         } else {
-            let lu_m = cm.partial_piv_lu();
             if inverses {
-                let inv = lu_m.solve(Mat::<f64>::identity(n, n));
+                let inv = cm.partial_piv_lu().solve(Mat::<f64>::identity(n, n));
                 let x = (&cm_out * &inv).transpose().to_owned();
                 (inv, x)
             } else {
-                (Mat::zeros(0, 0), lu_m.solve_transpose(cm_out.transpose()))
+                (Mat::zeros(0, 0), solve_transposed(&cm, &cm_out))
             }
         };
         // Back to radiances: R_ij = R~_ij t_j / t_i (R~ = transpose of the solves).

@@ -397,7 +397,13 @@ fn stack_operators(
         acc = Some(combine(acc, slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)?, neumann)?);
         n_above = l.n;
     }
-    let mut acc = acc.expect("validated scenes have at least one layer");
+    let Some(mut acc) = acc else {
+        return Err(MultifluxError::Scene(km_core::CoreError::scene(
+            "layer",
+            None,
+            "the stack has no layer",
+        )));
+    };
     if layers.last().is_some_and(|l| l.tau.is_infinite()) {
         return Ok(acc);
     }
