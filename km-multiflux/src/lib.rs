@@ -30,4 +30,6 @@ pub mod slab;
 pub mod solver;
 
 pub use error::MultifluxError;
-pub use solver::{DEFAULT_STREAMS, MultifluxOptions, solve, solve_mono};
+pub use solver::{
+    DEFAULT_STREAMS, DEFAULT_STREAMS_HARD, MultifluxOptions, default_streams, solve, solve_mono,
+};
