@@ -4,6 +4,7 @@
 
 pub mod accuracy;
 pub mod common;
+pub mod diffusion_limits;
 pub mod dipole;
 pub mod paper;
 pub mod pareto;
@@ -24,6 +25,7 @@ pub fn all() -> Vec<Recipe> {
         ("fig10", paper::fig10),
         ("speedup", speed::speedup),
         ("dipole", dipole::recipe),
+        ("diffusion-limits", diffusion_limits::recipe),
         ("pareto", pareto::recipe),
         ("stability", stability::recipe),
     ]
