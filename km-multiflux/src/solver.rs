@@ -236,7 +236,8 @@ pub fn solve_mono(
     let na0 = nodes0.mu.len();
     let mut out = ChannelResult {
         brdf: vec![0.0; dirs.len()],
-        btdf: if n_sub.is_some() { vec![0.0; dirs.len()] } else { Vec::new() },
+        // Opaque substrates and half-spaces transmit nothing: their BTDF is 0.
+        btdf: vec![0.0; dirs.len()],
         ..Default::default()
     };
     let (mut r_tot, mut t_tot) = (0.0, 0.0);
