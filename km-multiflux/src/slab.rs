@@ -435,6 +435,21 @@ impl SlabSolution {
         })
     }
 
+    /// The eigen-solutions (seed 000 fig. 3): `(k, G+, G-)` with column `j` of
+    /// `G±` the down/up-going radiances at the nodes of the mode
+    /// `g±_j e^{-k_j tau}` (eq. 8: `g± = (v ± k z)/2`, original coordinates);
+    /// the mirrored modes `g∓_j e^{-k_j (tau0 - tau)}` swap the two.
+    pub fn eigenvectors(&self) -> (Vec<f64>, Mat<f64>, Mat<f64>) {
+        let n = self.n;
+        let gp = Mat::from_fn(n, n, |i, j| {
+            0.5 * (self.v[(i, j)] + self.k[j] * self.z[(i, j)]) / self.t[i]
+        });
+        let gm = Mat::from_fn(n, n, |i, j| {
+            0.5 * (self.v[(i, j)] - self.k[j] * self.z[(i, j)]) / self.t[i]
+        });
+        (self.k.clone(), gp, gm)
+    }
+
     /// Reflection matrix between the nodes (radiance in, radiance out).
     pub fn r(&self) -> &Mat<f64> {
         &self.r
