@@ -375,10 +375,10 @@ impl SlabSolution {
             }
         }
         // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
+        let eye = Mat::<f64>::identity(n, n);
         let (cp_inv, rpt_t) = if inverses {
-            let inv = cp.partial_piv_lu().solve(Mat::<f64>::identity(n, n));
-            let x = (&cp_out * &inv).transpose().to_owned();
-            (inv, x)
+            let inv = solve_transposed(&cp, &eye).transpose().to_owned();
+            (inv, solve_transposed(&cp, &cp_out))
         } else {
             (Mat::zeros(0, 0), solve_transposed(&cp, &cp_out))
         };
@@ -386,9 +386,8 @@ impl SlabSolution {
             (Mat::zeros(0, 0), rpt_t.clone())
         } else {
             if inverses {
-                let inv = cm.partial_piv_lu().solve(Mat::<f64>::identity(n, n));
-                let x = (&cm_out * &inv).transpose().to_owned();
-                (inv, x)
+                let inv = solve_transposed(&cm, &eye).transpose().to_owned();
+                (inv, solve_transposed(&cm, &cm_out))
             } else {
                 (Mat::zeros(0, 0), solve_transposed(&cm, &cm_out))
             }
