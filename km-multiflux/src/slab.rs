@@ -45,7 +45,7 @@
 //!
 //! User directions ("probes", zero quadrature weight): the radiance leaving
 //! the layer is the integral of the source function along the path
-//! (Stamnes et al. 1988 §3.6), done analytically per mode (eq. S7 in
+//! (Stamnes et al. 1988 §3.6), done analytically per mode (eq. 14 in
 //! `docs/multiflux.md`).
 
 use faer::linalg::solvers::Solve;
@@ -70,7 +70,7 @@ pub struct Extra {
 }
 
 /// Exact single-scattering correction of the beam into the probes (TMS,
-/// Nakajima & Tanaka 1988, eq. S8 of `docs/multiflux.md`), applied in the
+/// Nakajima & Tanaka 1988, eq. 5 of `docs/multiflux.md`), applied in the
 /// `m = 0` operators: the single scattering computed with the truncated,
 /// delta-M scaled phase function is replaced by `omega p(cos Theta) / (1 - omega f)`
 /// with the exact phase function, along the scaled optical path.
@@ -527,7 +527,7 @@ impl SlabSolution {
 
     /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
     /// at `mu_x` leaving the top per unit down-going radiance at each node
-    /// entering at the top, and the same from the bottom (eq. S7).
+    /// entering at the top, and the same from the bottom (eq. 14 of docs/multiflux.md).
     fn probe_rows(&self, mu_x: f64) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let lam_x = self.lam_at(mu_x);
@@ -582,7 +582,7 @@ impl SlabSolution {
         (rx, tx)
     }
 
-    /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 + S7):
+    /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 and eq. 14 of docs/multiflux.md):
     /// particular solution, homogeneous part fixed by the boundary values
     /// `-Z+` at the top and `-Z- e^{-tau/mu_b}` at the bottom, and the source
     /// integral along each probe.
@@ -637,7 +637,7 @@ impl SlabSolution {
             let beta = 1.0 / mu_x;
             let kb = 1.0 / mu_b;
             if let (Some(t), 0) = (tms, self.m) {
-                // Eq. S8: exact minus truncated single scattering (real space).
+                // Eq. 5 of docs/multiflux.md: exact minus truncated single scattering (real space).
                 let (sx, sb) =
                     ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
                 let cphi = (exx.phi_deg - 180.0).to_radians().cos();
