@@ -111,3 +111,18 @@ fn chandrasekhar_plane_albedo() {
     }
     assert!(worst < 1e-5, "{worst:.3e}");
 }
+
+/// Options outside their domain are refused with a typed error, not a panic.
+#[test]
+fn bad_options_are_refused() {
+    use km_multiflux::{MultifluxError, MultifluxOptions, solve};
+    let sc = common::scene("[[layer]]\ntau = 1.0\nalbedo = 0.5\n");
+    for n in [0, 513] {
+        let o = MultifluxOptions { streams: Some(n), ..Default::default() };
+        assert!(matches!(solve(&sc, &o), Err(MultifluxError::Option { name: "streams", .. })));
+    }
+    let mono = &sc.channels[0];
+    let o = MultifluxOptions::default();
+    assert!(km_multiflux::internal_field(mono, &o, -1.0, 0).is_err());
+    assert!(km_multiflux::internal_field(mono, &o, f64::NAN, 0).is_err());
+}
