@@ -266,8 +266,7 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
             y_label: "R - R_specular".into(),
             x_log: true,
             y_log: true,
-            // A decade and a half of headroom keeps the legend off the curves.
-            y_range: Some((1e-5, 30.0)),
+            y_range: Some(headroom(&series)),
             series,
             ..Default::default()
         };
@@ -427,6 +426,20 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     Ok(headline.join(", "))
 }
 
+/// A log-axis range from the data with room above for the legend (upper
+/// right, about 40 % of the plot's height): the top 45 % of the range is empty.
+fn headroom(series: &[Series]) -> (f64, f64) {
+    let v = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let (lo, hi) = v
+        .filter(|y| y.is_finite() && *y > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
+    if !lo.is_finite() || hi <= 0.0 {
+        return (0.1, 1.0);
+    }
+    let lo = 0.5 * lo;
+    (lo, hi * (hi / lo).powf(0.45 / 0.55))
+}
+
 /// Seconds, compactly.
 fn secs(s: f64) -> String {
     format!("{} s", format_number(s))
@@ -488,10 +501,10 @@ fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
              {t_dip:.1e} s.",
             preset.eta, opts.seed, bins.dr
         ));
-        for i in 0..mc.r.len() {
-            let mut row = vec![mc.r[i]];
-            for c in 0..3 {
-                row.extend([mc.rd[c][i], mc.stderr[c][i], dip[c][i]]);
+        for (i, &r) in mc.r.iter().enumerate() {
+            let mut row = vec![r];
+            for ((rd, se), d) in mc.rd.iter().zip(&mc.stderr).zip(&dip) {
+                row.extend([rd[i], se[i], d[i]]);
             }
             csv.push_nums(&row);
         }
@@ -627,16 +640,17 @@ mod tests {
 
     #[test]
     fn single_scattering_matches_multiflux_at_low_albedo() {
-        // At albedo 1e-3 the second order is O(albedo) relative to the first,
-        // so the multi-flux total equals eq. L1 to about 1e-3 relative; the
-        // tolerance 3e-3 leaves room for the multi-flux discretisation at
-        // 32 streams (Fresnel kink at the critical angle for eta = 1.3).
+        // The second order is O(albedo) relative to the first: measured
+        // 6e-4 .. 1.4e-3 at albedo 1e-3, independent of the streams (32 or
+        // 64), so at albedo 1e-4 the multi-flux total equals eq. L1 to about
+        // 1.5e-4 relative; tolerance 3e-4 (also above the 32-stream
+        // discretisation, below 2e-5 relative for these cases).
         for (g, eta) in [(0.0, 1.0), (0.5, 1.3), (0.9, 1.0)] {
-            let a = 1e-3;
+            let a = 1e-4;
             let scene = half_space(a, g, eta).unwrap();
             let mf = multiflux_diffuse(&scene, 32).unwrap();
             let r1 = single_scattering_reflectance(a, g, eta);
-            assert!((mf / r1 - 1.0).abs() < 3e-3, "g {g} eta {eta}: multi-flux {mf}, eq. L1 {r1}");
+            assert!((mf / r1 - 1.0).abs() < 3e-4, "g {g} eta {eta}: multi-flux {mf}, eq. L1 {r1}");
         }
     }
 
