@@ -26,7 +26,7 @@ use crate::adding::{LayerOperators, add, add_truncated};
 use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::legendre::delta_m;
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
-use crate::slab::{Extra, SlabOrder, Tms, slab_operators};
+use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_operators};
 
 /// Default number of Gauss nodes per hemisphere (per Snell segment): meets
 /// the 1e-4 accuracy target on the reference cases (see `docs/multiflux.md`).
@@ -66,6 +66,12 @@ pub struct MultifluxOptions {
     pub max_fourier_order: Option<usize>,
     /// Delta-M scaling of the phase function (Wiscombe 1977); default true.
     pub delta_m: bool,
+    /// Switch the planner ([`km_core::plan::Plan`]) off: build every interface
+    /// (also between equal indices, where it is the identity), eigen-solve
+    /// every layer (also those that only absorb), compute every Fourier order
+    /// the streams resolve (`2N - 1`) even for totals, and never cut a thick
+    /// layer (`docs/planner.md`). Default false: the plan is obeyed.
+    pub all_effects: bool,
 }
 
 impl Default for MultifluxOptions {
@@ -75,6 +81,7 @@ impl Default for MultifluxOptions {
             neumann_order: None,
             max_fourier_order: None,
             delta_m: true,
+            all_effects: false,
         }
     }
 }
@@ -107,14 +114,29 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     let mut channels = Vec::with_capacity(scene.channels.len());
     let mut orders = 0;
     let mut streams = 0;
+    let mut cutoff: Option<f64> = None;
     for ch in &scene.channels {
         streams = streams.max(opts.streams.unwrap_or_else(|| default_streams(ch)));
         let (res, m) = solve_mono(ch, opts)?;
         orders = orders.max(m);
         channels.push(res);
+        if let Some(b) = planned_cutoff(ch, opts).1 {
+            cutoff = Some(cutoff.map_or(b, |c: f64| c.max(b)));
+        }
     }
     let seconds = start.elapsed().as_secs_f64();
     let mut extra = serde_json::Map::new();
+    if let Some(b) = cutoff {
+        extra.insert("cutoff_bound".into(), json!(b));
+        extra.insert(
+            "note".into(),
+            json!(format!(
+                "transmission rule: a thick layer was solved as a half-space; the light \
+                 neglected below it is < {b:.1e} of the incident (docs/planner.md eq. PL1)"
+            )),
+        );
+    }
+    extra.insert("all_effects".into(), json!(opts.all_effects));
     extra.insert("streams".into(), json!(streams));
     extra.insert("fourier_orders".into(), json!(orders));
     if let Some(k) = opts.neumann_order {
@@ -161,6 +183,11 @@ pub fn solve_mono(
             reason: "must lie in 1..=512",
         });
     }
+    // The plan's `transmission` rule: a layer through which nothing measurable
+    // returns is a half-space; nothing below it is built.
+    let (cut, _) = planned_cutoff(scene, opts);
+    let scene = cut.as_ref().unwrap_or(scene);
+    let all = opts.all_effects;
 
     // Media, top to bottom: ambient, layers, substrate (if transparent).
     let n0 = scene.ambient_n;
@@ -229,6 +256,12 @@ pub fn solve_mono(
     } else {
         0
     };
+    // Everything on: every order the streams resolve, even for totals.
+    let m_max = if all {
+        (2 * streams - 1).min(opts.max_fourier_order.unwrap_or(usize::MAX))
+    } else {
+        m_max
+    };
 
     let nodes0 = grid.medium(n0);
     let e0 = extras_in(n0);
@@ -258,6 +291,7 @@ pub fn solve_mono(
             m,
             opts.neumann_order,
             tms_on && !dirs.is_empty(),
+            all,
         )?;
         // Input at the top.
         let a = {
@@ -302,7 +336,7 @@ pub fn solve_mono(
                 term = term.max(x.abs());
             }
         }
-        if m > 0 {
+        if m > 0 && !all {
             let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
             small_orders = if term <= FOURIER_TOL * largest { small_orders + 1 } else { 0 };
             if small_orders == 2 {
@@ -499,6 +533,7 @@ pub fn internal_field(
         m,
         opts.neumann_order,
         tms,
+        opts.all_effects,
     )?;
     let b_ops = stack_operators(
         &scene_below,
@@ -509,6 +544,7 @@ pub fn internal_field(
         m,
         opts.neumann_order,
         tms,
+        opts.all_effects,
     )?;
 
     // Input at the top.
@@ -587,6 +623,7 @@ fn stack_operators(
     m: usize,
     neumann: Option<usize>,
     tms: bool,
+    all_effects: bool,
 ) -> Result<LayerOperators, MultifluxError> {
     let mut acc: Option<LayerOperators> = None;
     let mut n_above = scene.ambient_n;
@@ -594,7 +631,9 @@ fn stack_operators(
         fresnel_operators(&grid.medium(na), &grid.medium(nb), &extras_in(na), &extras_in(nb))
     };
     for l in layers {
-        if l.n != n_above {
+        // The plan's `interface` rule: equal indices are no interface (the
+        // Fresnel operator would be the identity); built anyway with all effects.
+        if l.n != n_above || all_effects {
             acc = Some(combine(acc, interface(n_above, l.n), neumann)?);
         }
         let nodes = grid.medium(l.n);
@@ -603,7 +642,15 @@ fn stack_operators(
         let eval = |c: f64| l.phase.eval(c);
         let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
         let t = (tms && m == 0).then_some(&t);
-        acc = Some(combine(acc, slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)?, neumann)?);
+        // The plan's `scattering` rule lives in `slab_operators` (a layer that
+        // does not scatter is Beer–Lambert attenuation); with all effects every
+        // layer of finite positive thickness is eigen-solved.
+        let ops = if all_effects && l.tau > 0.0 {
+            eigen_operators(&nodes.mu, &nodes.w, &ex, &p, t)?
+        } else {
+            slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)?
+        };
+        acc = Some(combine(acc, ops, neumann)?);
         n_above = l.n;
     }
     let Some(mut acc) = acc else {
@@ -619,7 +666,7 @@ fn stack_operators(
     match scene.substrate {
         Substrate::Transparent { .. } => {
             let ns = n_sub.unwrap_or(n_above);
-            if ns != n_above {
+            if ns != n_above || all_effects {
                 acc = combine(Some(acc), interface(n_above, ns), neumann)?;
             }
         }
@@ -689,4 +736,39 @@ fn delta_parts(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>, s: f64)
         transmits = true;
     }
     (acc.0, if transmits { acc.1 } else { 0.0 })
+}
+
+/// Operators of one layer and order by the eigen-solve (eq. S1–S5), also when
+/// the layer does not scatter (`--all-effects`: the closed form of
+/// [`slab_operators`] is not taken).
+fn eigen_operators(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    p: &SlabOrder<'_>,
+    tms: Option<&Tms<'_>>,
+) -> Result<LayerOperators, MultifluxError> {
+    let probes = extras.iter().any(|e| !e.beam && e.mu.is_some());
+    Ok(SlabSolution::build(mu, w, p, probes)?.operators(extras, tms))
+}
+
+/// The scene as the plan's `transmission` rule leaves it (eq. PL1 of
+/// `docs/planner.md`): when a layer is so thick that less than the returned
+/// bound of the incident light comes back from below it, the stack is cut
+/// there and that layer becomes a half-space. Returns the cut scene (`None`
+/// when nothing is cut, or with all effects) and the bound.
+fn planned_cutoff(scene: &MonoScene, opts: &MultifluxOptions) -> (Option<MonoScene>, Option<f64>) {
+    if opts.all_effects {
+        return (None, None);
+    }
+    let plan = km_core::plan::Plan::new(scene, km_core::plan::Request::from_scene(scene), false);
+    let Some((i, bound)) =
+        plan.layers.iter().enumerate().find_map(|(i, l)| l.cutoff_bound.map(|b| (i, b)))
+    else {
+        return (None, None);
+    };
+    let mut cut = scene.clone();
+    cut.layers.truncate(i + 1);
+    cut.layers[i].thickness = f64::INFINITY;
+    (Some(cut), Some(bound))
 }
