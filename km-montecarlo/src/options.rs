@@ -82,6 +82,16 @@ pub struct McOptions {
     /// Show a progress bar (indicatif) on stderr once the run has lasted a
     /// second; never when stderr is not a terminal. Never changes the result.
     pub progress: bool,
+    /// Switch the planner off (`docs/planner.md`): the Fresnel test is made
+    /// at every boundary, also between equal indices (reflectance 0, but the
+    /// reflectance is computed and the random draw made), and the angular
+    /// rings are tallied even when no direction is asked
+    /// ([`crate::bins::gauss_ring_edges`]`(8)` unless `ring_mu_edges` is set).
+    /// Default false: the plan is obeyed (no Fresnel test where the indices
+    /// match, no angular tallies unless asked). Changes the random stream, not
+    /// the expected answer.
+    #[serde(default)]
+    pub all_effects: bool,
 }
 
 impl Default for McOptions {
@@ -100,6 +110,7 @@ impl Default for McOptions {
             ring_mu_edges: None,
             radial: None,
             progress: false,
+            all_effects: false,
         }
     }
 }
@@ -172,6 +183,16 @@ impl McOptions {
     /// Number of batches `ceil(samples / batch_size)`.
     pub fn batch_count(&self) -> u64 {
         self.samples.div_ceil(self.effective_batch_size())
+    }
+
+    /// The options a run actually uses: with [`McOptions::all_effects`] and no
+    /// rings given, the 8 Gauss rings of [`crate::bins::gauss_ring_edges`].
+    pub fn resolved(&self) -> McOptions {
+        let mut o = self.clone();
+        if o.all_effects && o.ring_mu_edges.is_none() {
+            o.ring_mu_edges = Some(crate::bins::gauss_ring_edges(8));
+        }
+        o
     }
 
     /// The options with the fields that never change the result (threads,

@@ -66,6 +66,7 @@ pub fn run_shard(
     count: u64,
 ) -> Result<Partial, McError> {
     opts.validate()?;
+    let opts = &opts.resolved();
     if count == 0 || index >= count {
         return Err(McError::Shard { index, count });
     }

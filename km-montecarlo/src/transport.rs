@@ -93,6 +93,8 @@ pub(crate) struct Tracer {
     max_steps: u64,
     roulette_threshold: f64,
     roulette_survival: f64,
+    /// Fresnel test at every boundary, also between equal indices (planner off).
+    all_effects: bool,
 }
 
 /// Normalisers that turn tallies into BRDF/BTDF values (eq. B1, B3) and `Rd(r)`.
@@ -156,6 +158,7 @@ impl Tracer {
             max_steps: opts.max_steps_per_photon,
             roulette_threshold: opts.roulette_threshold,
             roulette_survival: opts.roulette_survival,
+            all_effects: opts.all_effects,
         }
     }
 
@@ -280,7 +283,8 @@ impl Tracer {
         let mut w = 1.0;
         // --- Top surface: Fresnel split (survival) or choice (analog).
         let n1 = self.slabs[0].n;
-        if n1 != n0 {
+        // The plan's `interface` rule: no Fresnel test where the indices match.
+        if n1 != n0 || self.all_effects {
             let r = fresnel::reflectance(uz, n0, n1);
             if survival {
                 let spec = w * r;
@@ -455,7 +459,7 @@ impl Tracer {
                     }
                 },
             };
-            if n_t != n_i {
+            if n_t != n_i || self.all_effects {
                 let cos_i = uz.abs();
                 let r = fresnel::reflectance(cos_i, n_i, n_t);
                 if uniform(rng) < r {
