@@ -75,6 +75,7 @@ fn multiflux_options(args: &SolveArgs) -> km_multiflux::MultifluxOptions {
     km_multiflux::MultifluxOptions {
         streams: args.streams,
         neumann_order: args.order,
+        all_effects: args.all_effects,
         ..Default::default()
     }
 }
@@ -92,6 +93,7 @@ fn mc_options(args: &SolveArgs) -> Result<km_montecarlo::McOptions> {
             EstimatorArg::Analog => km_montecarlo::Estimator::Analog,
         },
         progress: args.progress(),
+        all_effects: args.all_effects,
         ..Default::default()
     })
 }
@@ -127,6 +129,9 @@ pub fn mc_shard(scene: &Scene, args: &SolveArgs, i: u64, n: u64) -> Result<km_mo
     Ok(km_montecarlo::run_shard(scene, &opts, i, n)?)
 }
 
+/// Values per channel, then per radius.
+type PerChannel = Vec<Vec<f64>>;
+
 /// `km profile`: Rd(r) by the dipole or Monte Carlo.
 pub fn profile(
     scene: &Scene,
@@ -149,7 +154,7 @@ pub fn profile(
         None if sigma_t_prime > 0.0 => 10.0 / sigma_t_prime,
         None => bail!("the layer neither scatters nor absorbs: give --r-max"),
     };
-    let (r, rd, se): (Vec<f64>, Vec<Vec<f64>>, Option<Vec<Vec<f64>>>) = match method {
+    let (r, rd, se): (Vec<f64>, PerChannel, Option<PerChannel>) = match method {
         Method::Dipole => {
             let r: Vec<f64> =
                 (0..points).map(|i| r_max * (i as f64 + 0.5) / points as f64).collect();

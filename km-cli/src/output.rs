@@ -4,6 +4,9 @@ use std::fmt::Write;
 
 use km_core::{Light, Scene, Solution, Substrate};
 
+/// Reads one number of a channel's result.
+type Getter = fn(&km_core::ChannelResult) -> f64;
+
 /// A table of the solution, one column per channel.
 pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     let mut s = String::new();
@@ -13,7 +16,7 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
         let _ = write!(s, "{l:>14}");
     }
     let _ = writeln!(s);
-    let rows: [(&str, fn(&km_core::ChannelResult) -> f64); 5] = [
+    let rows: [(&str, Getter); 5] = [
         ("reflectance", |c| c.reflectance),
         ("  specular part", |c| c.reflectance_specular),
         ("transmittance", |c| c.transmittance),
