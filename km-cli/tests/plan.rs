@@ -19,6 +19,14 @@ fn scene_file(tag: &str, text: &str) -> String {
     p.to_string_lossy().into_owned()
 }
 
+/// Every number of a JSON value (nested arrays flattened).
+fn flat(v: &Value) -> Vec<f64> {
+    match v {
+        Value::Array(a) => a.iter().flat_map(flat).collect(),
+        x => x.as_f64().into_iter().collect(),
+    }
+}
+
 fn skipped(v: &Value) -> Vec<String> {
     v["plan"]["skipped"]
         .as_array()
@@ -40,8 +48,15 @@ fn duplicate_channels_are_solved_once_with_the_same_answer() {
         let full = km_json(&["solve", &p, "--method", method, "--json", "--all-effects"]);
         assert!(skipped(&planned).contains(&"duplicate-channels".to_string()));
         assert!(!skipped(&full).contains(&"duplicate-channels".to_string()));
+        // With all effects the multi-flux solver sums every Fourier order the
+        // streams resolve instead of stopping at its azimuthal convergence
+        // test (relative 1e-9): the answers then agree to rounding, 1e-10.
         for key in ["reflectance", "transmittance", "absorptance", "brdf", "btdf"] {
-            assert_eq!(planned[key], full[key], "{method} {key}");
+            let (a, b) = (flat(&planned[key]), flat(&full[key]));
+            assert_eq!(a.len(), b.len(), "{method} {key}");
+            for (x, y) in a.iter().zip(&b) {
+                assert!((x - y).abs() <= 1e-10, "{method} {key}: {x} vs {y}");
+            }
         }
         assert_eq!(planned["reflectance"].as_array().unwrap().len(), 4);
     }
