@@ -8,6 +8,7 @@ pub mod diffusion_limits;
 pub mod dipole;
 pub mod paper;
 pub mod pareto;
+pub mod savings;
 pub mod speed;
 pub mod stability;
 
@@ -28,5 +29,6 @@ pub fn all() -> Vec<Recipe> {
         ("diffusion-limits", diffusion_limits::recipe),
         ("pareto", pareto::recipe),
         ("stability", stability::recipe),
+        ("savings", savings::recipe),
     ]
 }
