@@ -41,7 +41,23 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
         }
         Method::Dipole => {
             no_tolerance(args)?;
-            km_dipole::solve(scene, &dipole_options(args))?
+            match as_half_space(scene, args.all_effects) {
+                Some((half, bound)) => {
+                    let mut sol = km_dipole::solve(&half, &dipole_options(args))?;
+                    let note = format!(
+                        "{} < {:.1e} {}",
+                        "the top layer is so thick that the light returning from below it is",
+                        bound.max(f64::MIN_POSITIVE),
+                        "of the incident (planner rule `transmission`): solved as a half-space"
+                    );
+                    let notes = sol.extra.entry("notes").or_insert_with(|| serde_json::json!([]));
+                    if let Some(a) = notes.as_array_mut() {
+                        a.push(serde_json::json!(note));
+                    }
+                    sol
+                }
+                None => km_dipole::solve(scene, &dipole_options(args))?,
+            }
         }
     };
     if dedup {
@@ -49,6 +65,25 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     }
     sol.extra.insert("plan".into(), plan.to_json());
     Ok(sol)
+}
+
+/// The dipole treats half-spaces only; a finite top layer that the planner's
+/// `transmission` rule makes a half-space in every channel is one (with the
+/// largest bound of the neglected light).
+fn as_half_space(scene: &Scene, all_effects: bool) -> Option<(Scene, f64)> {
+    if all_effects {
+        return None;
+    }
+    let mut half = scene.clone();
+    let mut bound = 0.0f64;
+    for c in &mut half.channels {
+        let plan = km_core::plan::Plan::new(c, Request::default(), false);
+        let cut = plan.layers.first().and_then(|l| l.cutoff_bound)?;
+        bound = bound.max(cut);
+        c.layers.truncate(1);
+        c.layers[0].thickness = f64::INFINITY;
+    }
+    Some((half, bound))
 }
 
 fn no_tolerance(args: &SolveArgs) -> Result<()> {

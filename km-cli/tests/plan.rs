@@ -90,3 +90,27 @@ fn km_plan_names_each_simplification() {
         assert!(off["skipped"].as_array().unwrap().is_empty(), "{name}: {off}");
     }
 }
+
+#[test]
+fn dipole_takes_a_layer_the_transmission_rule_makes_a_half_space() {
+    let stack = scene_file(
+        "dipole-stack",
+        "[[layer]]\nsigma_a = 0.01\nsigma_s = 1\nthickness = 5000\nn = 1.3\n[[layer]]\ntau = 1\nalbedo = 0.5\n",
+    );
+    let half = scene_file(
+        "dipole-half",
+        "[[layer]]\nsigma_a = 0.01\nsigma_s = 1\nthickness = \"inf\"\nn = 1.3\n",
+    );
+    let a = km_json(&["solve", &stack, "--method", "dipole", "--json"]);
+    let b = km_json(&["solve", &half, "--method", "dipole", "--json"]);
+    assert_eq!(a["reflectance"], b["reflectance"]);
+    let notes = a["notes"].as_array().unwrap();
+    assert!(notes.iter().any(|n| n.as_str().unwrap().contains("transmission")), "{notes:?}");
+    // With the planner off the stack is no half-space: a clear refusal.
+    let out = Command::new(env!("CARGO_BIN_EXE_km"))
+        .args(["solve", &stack, "--method", "dipole", "--all-effects"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("half-space"));
+}
