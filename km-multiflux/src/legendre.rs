@@ -46,44 +46,65 @@ pub fn normalized_legendre(m: usize, mu: f64, out: &mut [f64]) {
     }
 }
 
+/// The recurrence of [`normalized_legendre`] for one order `m` and `nl`
+/// degrees with its coefficients computed once (no square root per value):
+/// `Lambda_m^m = c0 (1-mu^2)^(m/2)`, `Lambda_{m+1}^m = c1 mu Lambda_m^m`,
+/// `Lambda_l^m = a_l mu Lambda_{l-1}^m - b_l Lambda_{l-2}^m`.
+#[derive(Debug, Clone)]
+pub struct LegendreRecurrence {
+    m: usize,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    c0: f64,
+    c1: f64,
+}
+
+impl LegendreRecurrence {
+    /// The coefficients for order `m` and degrees `l = 0..nl`.
+    pub fn new(m: usize, nl: usize) -> Self {
+        let mf = m as f64;
+        let (mut a, mut b) = (vec![0.0; nl], vec![0.0; nl]);
+        for l in (m + 2).min(nl)..nl {
+            let lf = l as f64;
+            let d = (lf * lf - mf * mf).sqrt();
+            a[l] = (2.0 * lf - 1.0) / d;
+            b[l] = ((lf - 1.0) * (lf - 1.0) - mf * mf).sqrt() / d;
+        }
+        let c0: f64 = (1..=m).map(|i| ((2 * i - 1) as f64 / (2 * i) as f64).sqrt()).product();
+        let c1 = ((2 * m + 1) as f64).sqrt();
+        LegendreRecurrence { m, a, b, c0, c1 }
+    }
+
+    /// `Lambda_l^m(mu)` for `l = 0..nl` into `out` (`nl` long; zero for `l < m`).
+    pub fn eval(&self, mu: f64, out: &mut [f64]) {
+        let (m, nl) = (self.m, self.a.len());
+        out.iter_mut().for_each(|x| *x = 0.0);
+        if m >= nl {
+            return;
+        }
+        let sin = ((1.0 - mu) * (1.0 + mu)).max(0.0).sqrt();
+        let pmm = self.c0 * sin.powi(m as i32);
+        out[m] = pmm;
+        if m + 1 < nl {
+            out[m + 1] = self.c1 * mu * pmm;
+        }
+        for l in m + 2..nl {
+            out[l] = self.a[l] * mu * out[l - 1] - self.b[l] * out[l - 2];
+        }
+    }
+}
+
 /// `Lambda_l^m(mu_i)` for every `mu_i` and `l = 0..nl`, node-major
 /// (`out[i * nl + l]`), with the recurrence coefficients of
-/// [`normalized_legendre`] computed once.
+/// [`normalized_legendre`] computed once ([`LegendreRecurrence`]).
 pub fn legendre_table(m: usize, mu: &[f64], nl: usize) -> Vec<f64> {
     let mut out = vec![0.0; mu.len() * nl];
     if m >= nl {
         return out;
     }
-    let mf = m as f64;
-    let a: Vec<f64> = (0..nl)
-        .map(|l| {
-            let lf = l as f64;
-            if l >= m + 2 { (2.0 * lf - 1.0) / (lf * lf - mf * mf).sqrt() } else { 0.0 }
-        })
-        .collect();
-    let b: Vec<f64> = (0..nl)
-        .map(|l| {
-            let lf = l as f64;
-            if l >= m + 2 {
-                ((lf - 1.0) * (lf - 1.0) - mf * mf).sqrt() / (lf * lf - mf * mf).sqrt()
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let c0: f64 = (1..=m).map(|i| ((2 * i - 1) as f64 / (2 * i) as f64).sqrt()).product();
-    let c1 = ((2 * m + 1) as f64).sqrt();
+    let rec = LegendreRecurrence::new(m, nl);
     for (i, &x) in mu.iter().enumerate() {
-        let row = &mut out[i * nl..(i + 1) * nl];
-        let sin = ((1.0 - x) * (1.0 + x)).max(0.0).sqrt();
-        let pmm = c0 * sin.powi(m as i32);
-        row[m] = pmm;
-        if m + 1 < nl {
-            row[m + 1] = c1 * x * pmm;
-        }
-        for l in m + 2..nl {
-            row[l] = a[l] * x * row[l - 1] - b[l] * row[l - 2];
-        }
+        rec.eval(x, &mut out[i * nl..(i + 1) * nl]);
     }
     out
 }

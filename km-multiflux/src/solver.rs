@@ -26,7 +26,7 @@ use crate::adding::{LayerOperators, add, add_truncated};
 use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::legendre::delta_m;
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
-use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_operators};
+use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_beam_response, slab_operators};
 
 /// Default number of Gauss nodes per hemisphere (per Snell segment): meets
 /// the 1e-4 accuracy target on the reference cases (see `docs/multiflux.md`).
@@ -280,40 +280,65 @@ pub fn solve_mono(
     // `FOURIER_TOL` times the largest BRDF/BTDF value so far.
     let mut small_orders = 0;
     let mut m_used = 0;
+    // A layer alone in the ambient medium under a beam (no interface, nothing
+    // below it): the answer is one column of its operators, computed without
+    // the node-to-node operators (`slab_beam_response`). Never with all effects.
+    let lone = match (beam, &layers[..]) {
+        (Some(b), [l]) if !all && l.n == n0 => {
+            let floor_free = l.tau.is_infinite()
+                || match scene.substrate {
+                    Substrate::Black => true,
+                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == n0),
+                    Substrate::Lambertian { .. } => false,
+                };
+            floor_free.then_some((b, l))
+        }
+        _ => None,
+    };
     for m in 0..=m_max {
         m_used = m;
-        let ops = stack_operators(
-            scene,
-            &grid,
-            &layers,
-            n_sub,
-            &extras_in,
-            m,
-            opts.neumann_order,
-            tms_on && !dirs.is_empty(),
-            all,
-        )?;
-        // Input at the top.
-        let a = {
-            let mut a = vec![0.0; na0 + e0.len()];
-            match beam {
-                Some(b) => a[na0 + b] = 1.0,
-                None if m == 0 => {
-                    // Uniform radiance 1/pi (unit irradiance) in every down-going
-                    // direction: the nodes and the probes (whose direct
-                    // transmission and mirror reflection are smooth in angle
-                    // for diffuse light, so they belong to the BRDF/BTDF).
-                    for (i, x) in a.iter_mut().enumerate() {
-                        if i < na0 || e0[i - na0].mu.is_some() {
-                            *x = 1.0 / std::f64::consts::PI;
+        let (up, down) = if let Some((b, l)) = lone {
+            let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
+            let eval = |c: f64| l.phase.eval(c);
+            let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
+            let t = (tms_on && !dirs.is_empty() && m == 0).then_some(&t);
+            let (cr, ct) = slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?;
+            (cr, if nodes_sub.is_some() { ct } else { Vec::new() })
+        } else {
+            let ops = stack_operators(
+                scene,
+                &grid,
+                &layers,
+                n_sub,
+                &extras_in,
+                m,
+                opts.neumann_order,
+                tms_on && !dirs.is_empty(),
+                all,
+            )?;
+            // Input at the top.
+            let a = {
+                let mut a = vec![0.0; na0 + e0.len()];
+                match beam {
+                    Some(b) => a[na0 + b] = 1.0,
+                    None if m == 0 => {
+                        // Uniform radiance 1/pi (unit irradiance) in every down-going
+                        // direction: the nodes and the probes (whose direct
+                        // transmission and mirror reflection are smooth in angle
+                        // for diffuse light, so they belong to the BRDF/BTDF).
+                        for (i, x) in a.iter_mut().enumerate() {
+                            if i < na0 || e0[i - na0].mu.is_some() {
+                                *x = 1.0 / std::f64::consts::PI;
+                            }
                         }
                     }
+                    None => {}
                 }
-                None => {}
-            }
-            a
+                a
+            };
+            let down = if nodes_sub.is_some() { apply(&ops.t_down, &a) } else { Vec::new() };
+            (apply(&ops.r_top, &a), down)
         };
-        let up = apply(&ops.r_top, &a);
         let cosm = |phi_deg: f64| (m as f64 * (phi_deg - 180.0).to_radians()).cos();
         if m == 0 {
             r_tot = flux(&nodes0, &up[..na0]) + beam.map_or(0.0, |b| up[na0 + b]);
@@ -325,7 +350,6 @@ pub fn solve_mono(
             term = term.max(x.abs());
         }
         if let Some(ns) = &nodes_sub {
-            let down = apply(&ops.t_down, &a);
             let nb = ns.mu.len();
             if m == 0 {
                 t_tot = flux(ns, &down[..nb]) + beam.map_or(0.0, |b| down[nb + b]);
@@ -748,8 +772,7 @@ fn eigen_operators(
     p: &SlabOrder<'_>,
     tms: Option<&Tms<'_>>,
 ) -> Result<LayerOperators, MultifluxError> {
-    let probes = extras.iter().any(|e| !e.beam && e.mu.is_some());
-    Ok(SlabSolution::build(mu, w, p, probes)?.operators(extras, tms))
+    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
 }
 
 /// The scene as the plan's `transmission` rule leaves it (eq. PL1 of

@@ -279,3 +279,46 @@ fn eigenvectors_are_modes_of_the_layer() {
         }
     }
 }
+
+/// The beam's column computed alone (`slab_beam_response`: vector solves,
+/// no node-to-node operators) is the beam column of the full operators of
+/// the layer (`slab_operators`), for nodes and probes, with and without the
+/// single-scattering correction, finite layers and half-spaces; both are the
+/// same equations in a different order of operations, so 1e-10 relative
+/// (rounding through the boundary matrices of eq. S4).
+#[test]
+fn beam_response_alone_equals_the_operators_column() {
+    use km_multiflux::slab::{Tms, slab_beam_response};
+    let mut rng = Pcg64::seed_from_u64(77);
+    let n = 8;
+    let nodes = AngularGrid::new(&[1.0], n).medium(1.0);
+    let hg = |c: f64| {
+        let g: f64 = 0.6;
+        (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * c).powf(1.5))
+    };
+    let mut worst = 0.0f64;
+    for case in 0..40 {
+        let (mut tau, omega, chi) = random_layer(&mut rng, n);
+        if case % 5 == 0 {
+            tau = f64::INFINITY;
+        }
+        let m = rng.random_range(0..4usize);
+        let extras = [
+            Extra { mu: Some(rng.random_range(0.05..1.0)), beam: false, phi_deg: 30.0 },
+            Extra { mu: Some(rng.random_range(0.05..1.0)), beam: true, phi_deg: 0.0 },
+            Extra { mu: Some(rng.random_range(0.05..1.0)), beam: false, phi_deg: 180.0 },
+            Extra { mu: None, beam: false, phi_deg: 0.0 },
+        ];
+        let p = SlabOrder { tau, omega, chi: &chi, m };
+        let t = Tms { phase: &hg, omega: 0.9, f: 0.01 };
+        let tms = (m == 0 && case % 2 == 0).then_some(&t);
+        let ops = slab_operators(&nodes.mu, &nodes.w, &extras, &p, tms).unwrap();
+        let (cr, ct) = slab_beam_response(&nodes.mu, &nodes.w, &extras, 1, &p, tms).unwrap();
+        for i in 0..n + extras.len() {
+            let (r, t) = (ops.r_top[(i, n + 1)], ops.t_down[(i, n + 1)]);
+            let e = ((cr[i] - r).abs() / (1.0 + r.abs())).max((ct[i] - t).abs() / (1.0 + t.abs()));
+            worst = worst.max(e);
+        }
+    }
+    assert!(worst < 1e-10, "worst difference {worst:e}");
+}
