@@ -263,15 +263,12 @@ impl Lu {
         let n = self.n;
         // U^T y = b: row k of U^T is column k of U (contiguous).
         for k in 0..n {
-            let col = &self.lu[k * n..k * n + k];
-            let dot: f64 = col.iter().zip(&x[..k]).map(|(u, y)| u * y).sum();
-            x[k] = (x[k] - dot) / self.lu[k * n + k];
+            let d = dot(&self.lu[k * n..k * n + k], &x[..k]);
+            x[k] = (x[k] - d) / self.lu[k * n + k];
         }
         // L^T w = y: column k of L below the diagonal.
         for k in (0..n).rev() {
-            let col = &self.lu[k * n + k + 1..(k + 1) * n];
-            let dot: f64 = col.iter().zip(&x[k + 1..]).map(|(l, w)| l * w).sum();
-            x[k] -= dot;
+            x[k] -= dot(&self.lu[k * n + k + 1..(k + 1) * n], &x[k + 1..]);
         }
         // x = P^T w: undo the exchanges in reverse order.
         for k in (0..n).rev() {
@@ -315,6 +312,8 @@ pub struct SlabSolution {
     rec: LegendreRecurrence,
     /// Eigenvalues `k_j >= 0`.
     pub k: Vec<f64>,
+    /// `exp(-k_j tau0)` (0 for a half-space).
+    ek: Vec<f64>,
     /// `v~` (columns), transformed coordinates.
     v: Mat<f64>,
     /// `z~` (columns), transformed coordinates.
@@ -546,6 +545,7 @@ impl SlabSolution {
             lam,
             rec,
             k,
+            ek: e,
             v,
             z,
             hp,
@@ -605,8 +605,8 @@ impl SlabSolution {
         let (mut ev, mut od) = (vec![0.0; self.n], vec![0.0; self.n]);
         for j in 0..self.n {
             let row = &self.lam[j * nl..(j + 1) * nl];
-            ev[j] = we.iter().zip(row).map(|(a, b)| a * b).sum();
-            od[j] = wo.iter().zip(row).map(|(a, b)| a * b).sum();
+            ev[j] = dot(&we, row);
+            od[j] = dot(&wo, row);
         }
         (ev, od)
     }
@@ -633,22 +633,21 @@ impl SlabSolution {
         let sm: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * od[i]).collect();
         // rhs = sigma+ / mu_b + H- sigma-.
         let rhs: Vec<f64> = (0..n)
-            .map(|i| sp[i] / mu_b + (0..n).map(|j| self.hm[(i, j)] * sm[j]).sum::<f64>())
+            // H- is symmetric: row i is column i.
+            .map(|i| sp[i] / mu_b + dot(self.hm.col_as_slice(i), &sm))
             .collect();
         // Delta = sum_j z_j (v_j . rhs) / (k_j^2 - mu_b^-2).
         let lb = 1.0 / (mu_b * mu_b);
         let mut delta = vec![0.0; n];
         for j in 0..n {
-            let c: f64 =
-                (0..n).map(|i| self.v[(i, j)] * rhs[i]).sum::<f64>() / (self.k[j] * self.k[j] - lb);
+            let c: f64 = dot(self.v.col_as_slice(j), &rhs) / (self.k[j] * self.k[j] - lb);
             for i in 0..n {
                 delta[i] += c * self.z[(i, j)];
             }
         }
         // Sigma = mu_b (H+ Delta - sigma-).
-        let sigma: Vec<f64> = (0..n)
-            .map(|i| mu_b * ((0..n).map(|j| self.hp[(i, j)] * delta[j]).sum::<f64>() - sm[i]))
-            .collect();
+        let sigma: Vec<f64> =
+            (0..n).map(|i| mu_b * (dot(self.hp.col_as_slice(i), &delta) - sm[i])).collect();
         let zp = (0..n).map(|i| 0.5 * (sigma[i] + delta[i]) / self.t[i]).collect();
         let zm = (0..n).map(|i| 0.5 * (sigma[i] - delta[i]) / self.t[i]).collect();
         (zp, zm)
@@ -662,14 +661,15 @@ impl SlabSolution {
         let lam_x = self.lam_at(mu_x);
         let (ev, od) = self.kernels(&lam_x);
         let beta = 1.0 / mu_x;
+        let eb = atten(self.tau, mu_x);
         // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
         let fe: Vec<f64> = (0..n).map(|i| self.omega * self.w[i] / self.t[i] * ev[i]).collect();
         let fo: Vec<f64> = (0..n).map(|i| self.omega * self.w[i] / self.t[i] * od[i]).collect();
         let mut us = vec![0.0; n];
         let mut uy = vec![0.0; n];
         for j in 0..n {
-            let a: f64 = fe.iter().zip(self.v.col_as_slice(j)).map(|(f, v)| f * v).sum();
-            let b: f64 = -fo.iter().zip(self.z.col_as_slice(j)).map(|(f, z)| f * z).sum::<f64>();
+            let a = dot(&fe, self.v.col_as_slice(j));
+            let b = -dot(&fo, self.z.col_as_slice(j));
             let k = self.k[j];
             if self.tau.is_infinite() {
                 // Only top-anchored modes: out = 1/2 (a + b k) beta/(k + beta) c, c = s.
@@ -677,8 +677,21 @@ impl SlabSolution {
                 continue;
             }
             let t0 = self.tau;
-            let k1 = beta * phi(k + beta, t0);
-            let k2 = beta * e2(k, beta, t0);
+            // phi(k + beta) and e2(k, beta) of the path integral, from the
+            // exponentials of the mode and of the probe when no cancellation
+            // threatens (exponent differences above 1/2: at most ~4 ulp lost),
+            // else by expm1.
+            let ek = self.ek[j];
+            let k1 = if (k + beta) * t0 > 0.5 {
+                beta * (1.0 - ek * eb) / (k + beta)
+            } else {
+                beta * phi(k + beta, t0)
+            };
+            let k2 = if (beta - k).abs() * t0 > 0.5 {
+                beta * (ek - eb) / (beta - k)
+            } else {
+                beta * e2(k, beta, t0)
+            };
             let kd = if k > 0.0 {
                 (k1 - k2) / k
             } else {
@@ -1064,6 +1077,24 @@ impl SlabSolution {
         }
         (r, tr)
     }
+}
+
+/// `sum_i a_i b_i` with four partial sums (lets the compiler use SIMD; the
+/// rounding differs from a sequential sum only in the last bits).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 /// `M x` for a small dense matrix, by columns.
