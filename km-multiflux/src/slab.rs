@@ -278,11 +278,12 @@ impl Lu {
 }
 
 /// What a probe (a user direction of zero weight) needs from one layer and
-/// order: its rows `R_xq`, `T_xq` and, for the beam's source integral, its
+/// order: the mode coefficients of its rows `R_xq`, `T_xq` and, for the beam's source integral, its
 /// Legendre values and the even/odd kernels to the nodes.
 struct Probe {
-    rx: Vec<f64>,
-    tx: Vec<f64>,
+    /// Path integrals per mode (eq. 14): `R_xq = (us Cp^-1 + uy Cm^-1) T`.
+    us: Vec<f64>,
+    uy: Vec<f64>,
     lam: Vec<f64>,
     ev: Vec<f64>,
     od: Vec<f64>,
@@ -703,24 +704,33 @@ impl SlabSolution {
             us[j] = 0.25 * (a * (k1 + k2) + b * k * (k1 - k2));
             uy[j] = 0.25 * (a * kd + b * (k1 + k2));
         }
-        // R_xq = (us Cp^-1 + uy Cm^-1) T ; T_xq = (us Cp^-1 - uy Cm^-1) T,
-        // the row vectors by transposed solves: Cp^-T us, Cm^-T uy.
-        self.lu_p.solve_transpose(&mut us);
+        if self.tau.is_infinite() {
+            uy.iter_mut().for_each(|x| *x = 0.0);
+        }
+        Probe { us, uy, lam: lam_x, ev, od }
+    }
+
+    /// `(R_xq, T_xq)` of a probe: `R_xq = (us Cp^-1 + uy Cm^-1) T`,
+    /// `T_xq = (us Cp^-1 - uy Cm^-1) T`, the row vectors by transposed solves
+    /// `Cp^-T us`, `Cm^-T uy`.
+    fn probe_row_vectors(&self, pr: &Probe) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let (mut p, mut q) = (pr.us.clone(), pr.uy.clone());
+        self.lu_p.solve_transpose(&mut p);
         match &self.lu_m {
-            Some(lu) => lu.solve_transpose(&mut uy),
-            None => uy.iter_mut().for_each(|x| *x = 0.0),
+            Some(lu) => lu.solve_transpose(&mut q),
+            None => q.iter_mut().for_each(|x| *x = 0.0),
         }
         let mut rx = vec![0.0; n];
         let mut tx = vec![0.0; n];
         for i in 0..n {
-            let (p, q) = (us[i], uy[i]);
-            rx[i] = (p + q) * self.t[i];
-            tx[i] = (p - q) * self.t[i];
+            rx[i] = (p[i] + q[i]) * self.t[i];
+            tx[i] = (p[i] - q[i]) * self.t[i];
         }
         if self.tau.is_infinite() {
             tx.iter_mut().for_each(|x| *x = 0.0);
         }
-        Probe { rx, tx, lam: lam_x, ev, od }
+        (rx, tx)
     }
 
     /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 and eq. 14 of docs/multiflux.md):
@@ -742,7 +752,7 @@ impl SlabSolution {
         // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
         let a: Vec<f64> = zp.iter().map(|x| -x).collect();
         let b: Vec<f64> = zm.iter().map(|x| -x * eb_att).collect();
-        let (hs, hd) = self.homogeneous_out(&a, &b);
+        let (hs, hd, sp, sm) = self.homogeneous_out(&a, &b);
         for i in 0..n {
             cr[i] = zm[i] + hs[i];
             ct[i] = zp[i] * eb_att + hd[i];
@@ -752,7 +762,7 @@ impl SlabSolution {
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
         for (ex_i, exx) in extras.iter().enumerate() {
             let (Some(pr), Some(mu_x)) = (&rows[ex_i], exx.mu) else { continue };
-            let (rx, tx, lam_x, ev, od) = (&pr.rx, &pr.tx, &pr.lam, &pr.ev, &pr.od);
+            let (us, uy, lam_x, ev, od) = (&pr.us, &pr.uy, &pr.lam, &pr.ev, &pr.od);
             // Direct single scattering of the beam into ±mu_x.
             let (mut se, mut so) = (0.0, 0.0);
             for l in self.m..self.chi.len() {
@@ -798,9 +808,13 @@ impl SlabSolution {
             }
             let mut out_up = up * beta * phi(kb + beta, self.tau);
             let mut out_dn = dn * beta * e2(kb, beta, self.tau);
-            for j in 0..n {
-                out_up += rx[j] * a[j] + tx[j] * b[j];
-                out_dn += tx[j] * a[j] + rx[j] * b[j];
+            // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b), and
+            // T_xq a + R_xq b with the sign of the second term flipped
+            // (nothing leaves the bottom of a half-space).
+            let (hp, hm) = (dot(us, &sp), dot(uy, &sm));
+            out_up += hp + hm;
+            if !self.tau.is_infinite() {
+                out_dn += hp - hm;
             }
             cr[n + ex_i] = out_up;
             ct[n + ex_i] = out_dn;
@@ -933,9 +947,10 @@ impl SlabSolution {
                 tt[(n + e, n + e)] = atten(self.tau, mu_x);
             }
             if let Some(pr) = &rows[e] {
+                let (rx, tx) = self.probe_row_vectors(pr);
                 for i in 0..n {
-                    rr[(n + e, i)] = pr.rx[i];
-                    tt[(n + e, i)] = pr.tx[i];
+                    rr[(n + e, i)] = rx[i];
+                    tt[(n + e, i)] = tx[i];
                 }
             }
         }
@@ -1026,7 +1041,8 @@ impl SlabSolution {
     /// entering at the top and up-going `b` at the bottom, by two vector
     /// solves (eq. S5): with `a~ = T a`, `b~ = T b`,
     /// `R~ a~ + T~ b~ = 1/2 [Cp_out Cp^-1 (a~ + b~) + Cm_out Cm^-1 (a~ - b~)]`.
-    fn homogeneous_out(&self, a: &[f64], b: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    /// Also returns `Cp^-1 (a~ + b~)` and `Cm^-1 (a~ - b~)` (0 for a half-space).
+    fn homogeneous_out(&self, a: &[f64], b: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
         let n = self.n;
         // Half-space: R~ = Cp_out Cp^-1, T~ = 0 (nothing enters from below).
         let half = self.lu_m.is_none();
@@ -1040,12 +1056,15 @@ impl SlabSolution {
                 lu.solve(&mut d);
                 mat_vec(&self.cm_out, &d)
             }
-            None => hp.clone(),
+            None => {
+                d.iter_mut().for_each(|x| *x = 0.0);
+                hp.clone()
+            }
         };
         let rs = (0..n).map(|i| 0.5 * (hp[i] + hm[i]) / self.t[i]).collect();
         let td =
             (0..n).map(|i| if half { 0.0 } else { 0.5 * (hp[i] - hm[i]) / self.t[i] }).collect();
-        (rs, td)
+        (rs, td, s, d)
     }
 
     /// The node-to-node `R` and `T` (eq. S5) from the kept factors.
