@@ -374,27 +374,23 @@ impl SlabSolution {
         }
         // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
         // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
-        // Both are symmetric: one triangle is computed and mirrored.
-        let (mut we, mut wo) = (vec![0.0; n * nl], vec![0.0; n * nl]);
+        let mut ae = Mat::<f64>::zeros(n, nl);
+        let mut ao = Mat::<f64>::zeros(n, nl);
+        let mut lt = Mat::<f64>::zeros(nl, n);
         for i in 0..n {
-            for l in m..nl {
+            let c = lt.col_as_slice_mut(i);
+            c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
+        }
+        for l in m..nl {
+            let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
+            let even = (l + m).is_multiple_of(2);
+            for i in 0..n {
                 let x = chi[l] * lam[i * nl + l];
-                if (l + m).is_multiple_of(2) { we[i * nl + l] = x } else { wo[i * nl + l] = x }
+                if even { ce[i] = x } else { co[i] = x }
             }
         }
-        let mut pe = Mat::<f64>::zeros(n, n);
-        let mut po = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            let lj = &lam[j * nl..(j + 1) * nl];
-            for i in j..n {
-                let (e, o) =
-                    (dot(&we[i * nl..(i + 1) * nl], lj), dot(&wo[i * nl..(i + 1) * nl], lj));
-                pe[(i, j)] = e;
-                pe[(j, i)] = e;
-                po[(i, j)] = o;
-                po[(j, i)] = o;
-            }
-        }
+        let mut pe = &ae * &lt;
+        let mut po = &ao * &lt;
         // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
         // (energy conservation of the discrete scattering; DESIGN §4.1). Symmetric
         // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
