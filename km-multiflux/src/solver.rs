@@ -37,17 +37,43 @@ pub const DEFAULT_STREAMS: usize = 16;
 /// differs from the ambient's, or incidence beyond 80 degrees.
 pub const DEFAULT_STREAMS_HARD: usize = 32;
 
+/// Default for totals with a nearly singular forward peak (`|g| > 0.95`) at
+/// incidence beyond 80 degrees on an index-matched stack; see
+/// [`default_streams`].
+pub const DEFAULT_STREAMS_PEAKED: usize = 128;
+
 /// The stream count used when the options give none: [`DEFAULT_STREAMS`], or
 /// [`DEFAULT_STREAMS_HARD`] for the slow corners (measured: |g| = 0.9 in an
 /// index of 1.5 or 2.5 is 1.2e-3 from converged at 16 streams, 3e-5 at 32;
 /// 89 degrees with g = 0.9, 1e-3 and 7e-6).
+///
+/// A scattering layer with `|g| > 0.95` needs more (`docs/multiflux.md` §8,
+/// measured at g = 0.99 against 256 streams): 32 streams at least (in air
+/// up to 75 degrees 16 streams miss by 1.5e-4, 32 by 2e-5), and for totals
+/// at incidence beyond 80 degrees on an index-matched stack
+/// [`DEFAULT_STREAMS_PEAKED`] (89 degrees: 2e-2 at 16 streams, 2e-3 at 32,
+/// 1.5e-3 at 64, 9e-5 at 128 for w = 0.99, 1.5e-4 for w = 0.5; 4.5 ms).
+/// Not raised: with BRDF/BTDF directions (all `2N` Fourier orders are
+/// needed there: 1 s at 128 streams), and with refractive interfaces, where 128 streams (2-4 N
+/// nodes per medium) lose energy balance to 1e-8..4e-7, beyond the
+/// 1e-9 the solver otherwise keeps (g = 0.99 in n = 1.5 stays ~1e-3 off at
+/// 32 streams; ask for `streams` explicitly to trade).
 pub fn default_streams(scene: &MonoScene) -> usize {
     let grazing = scene.light.mu0().is_some_and(|mu0| mu0 < 80f64.to_radians().cos());
     let peaked_mismatch = scene
         .layers
         .iter()
         .any(|l| l.g().abs() > 0.8 && l.albedo() > 0.0 && l.n != scene.ambient_n);
-    if grazing || peaked_mismatch { DEFAULT_STREAMS_HARD } else { DEFAULT_STREAMS }
+    let very_peaked = scene.layers.iter().any(|l| l.g().abs() > 0.95 && l.albedo() > 0.0);
+    let matched = scene.layers.iter().all(|l| l.n == scene.ambient_n)
+        && !matches!(scene.substrate, Substrate::Transparent { n } if n != scene.ambient_n);
+    if very_peaked && grazing && matched && scene.directions_deg.is_empty() {
+        DEFAULT_STREAMS_PEAKED
+    } else if grazing || peaked_mismatch || very_peaked {
+        DEFAULT_STREAMS_HARD
+    } else {
+        DEFAULT_STREAMS
+    }
 }
 
 /// Relative size below which two consecutive Fourier orders end the azimuthal
