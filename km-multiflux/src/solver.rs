@@ -217,15 +217,7 @@ pub fn solve_mono(
 
     // Media, top to bottom: ambient, layers, substrate (if transparent).
     let n0 = scene.ambient_n;
-    let half = scene.layers.last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
-    let n_sub = match scene.substrate {
-        Substrate::Transparent { n } if !half => Some(n),
-        _ => None,
-    };
-    let mut all_n = vec![n0];
-    all_n.extend(scene.layers.iter().map(|l| l.n));
-    all_n.extend(n_sub);
-    let grid = AngularGrid::new(&all_n, streams);
+    let (n_sub, grid) = media_grid(scene, streams);
     // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
     let n_keep = 2 * streams;
 
@@ -519,15 +511,7 @@ pub fn internal_field(
         });
     }
     let n0 = scene.ambient_n;
-    let half = scene.layers.last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
-    let n_sub = match scene.substrate {
-        Substrate::Transparent { n } if !half => Some(n),
-        _ => None,
-    };
-    let mut all_n = vec![n0];
-    all_n.extend(scene.layers.iter().map(|l| l.n));
-    all_n.extend(n_sub);
-    let grid = AngularGrid::new(&all_n, streams);
+    let (n_sub, grid) = media_grid(scene, streams);
     let layers = scale_layers(scene, opts, 2 * streams);
     let ex_s: Vec<(f64, bool)> = match scene.light {
         Light::Collimated { theta_deg } => vec![(n0 * theta_deg.to_radians().sin(), true)],
@@ -786,6 +770,20 @@ fn delta_parts(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>, s: f64)
         transmits = true;
     }
     (acc.0, if transmits { acc.1 } else { 0.0 })
+}
+
+/// The media of the stack, top to bottom (ambient, layers, and a transparent
+/// substrate unless a half-space hides it), and their Snell-mapped grid.
+fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, AngularGrid) {
+    let half = scene.layers.last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
+    let n_sub = match scene.substrate {
+        Substrate::Transparent { n } if !half => Some(n),
+        _ => None,
+    };
+    let mut all_n = vec![scene.ambient_n];
+    all_n.extend(scene.layers.iter().map(|l| l.n));
+    all_n.extend(n_sub);
+    (n_sub, AngularGrid::new(&all_n, streams))
 }
 
 /// Operators of one layer and order by the eigen-solve (eq. S1–S5), also when
