@@ -262,6 +262,56 @@ impl Tracer {
 
     /// Trace one photon from the light source to its end (escape, absorption,
     /// roulette or the step cap).
+    /// Absorption at an interaction that absorbs the fraction `absorb` and
+    /// keeps `albedo = 1 - absorb`, booked to the tally `slot` (a layer or the
+    /// Lambertian substrate) and to the total. Survival biasing deposits the
+    /// absorbed weight (implicit capture, MCML eq. 3.22) and plays Russian
+    /// roulette below the threshold (MCML §3.8), booking its outcome as a
+    /// zero-mean absorption so that R + T + A = 1 per photon; analog
+    /// absorption ends the photon with probability `absorb`. Returns `false`
+    /// when the photon is gone.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn absorb(
+        &self,
+        survival: bool,
+        absorb: f64,
+        albedo: f64,
+        slot: usize,
+        w: &mut f64,
+        sums: &mut [f64],
+        rng: &mut Pcg64,
+    ) -> bool {
+        if !survival {
+            if uniform(rng) >= albedo {
+                sums[slot] += *w;
+                sums[Layout::A] += *w;
+                return false;
+            }
+            return true;
+        }
+        let dep = *w * absorb;
+        sums[slot] += dep;
+        sums[Layout::A] += dep;
+        *w -= dep;
+        if *w <= 0.0 {
+            return false;
+        }
+        if *w < self.roulette_threshold {
+            if uniform(rng) < self.roulette_survival {
+                let gain = *w * (1.0 / self.roulette_survival - 1.0);
+                sums[slot] -= gain;
+                sums[Layout::A] -= gain;
+                *w += gain;
+            } else {
+                sums[slot] += *w;
+                sums[Layout::A] += *w;
+                return false;
+            }
+        }
+        true
+    }
+
     fn trace(&self, rng: &mut Pcg64, sums: &mut [f64], counts: &mut Counts) {
         let survival = self.estimator == Estimator::SurvivalBiasing;
         let n0 = self.ambient_n;
@@ -344,33 +394,7 @@ impl Tracer {
                 s_left = 0.0;
                 counts.interactions += 1;
                 let ja = self.layout.a_layer(layer);
-                if survival {
-                    // Implicit capture: deposit the absorbed fraction (MCML eq. 3.22).
-                    let dep = w * slab.absorb;
-                    sums[ja] += dep;
-                    sums[Layout::A] += dep;
-                    w -= dep;
-                    if w <= 0.0 {
-                        break;
-                    }
-                    if w < self.roulette_threshold {
-                        // Russian roulette (MCML §3.8); its outcome is booked as a
-                        // (zero-mean) absorption so that R + T + A = 1 per photon.
-                        if uniform(rng) < self.roulette_survival {
-                            let gain = w * (1.0 / self.roulette_survival - 1.0);
-                            sums[ja] -= gain;
-                            sums[Layout::A] -= gain;
-                            w += gain;
-                        } else {
-                            sums[ja] += w;
-                            sums[Layout::A] += w;
-                            break;
-                        }
-                    }
-                } else if uniform(rng) >= slab.albedo {
-                    // Analog absorption.
-                    sums[ja] += w;
-                    sums[Layout::A] += w;
+                if !self.absorb(survival, slab.absorb, slab.albedo, ja, &mut w, sums, rng) {
                     break;
                 }
                 // Scattering (eq. M3).
@@ -420,29 +444,7 @@ impl Tracer {
                     Below::Lambertian(a) => {
                         // Opaque Lambertian reflector in optical contact.
                         scattered = true;
-                        if survival {
-                            let dep = w * (1.0 - a);
-                            sums[Layout::A_SUB] += dep;
-                            sums[Layout::A] += dep;
-                            w -= dep;
-                            if w <= 0.0 {
-                                break;
-                            }
-                            if w < self.roulette_threshold {
-                                if uniform(rng) < self.roulette_survival {
-                                    let gain = w * (1.0 / self.roulette_survival - 1.0);
-                                    sums[Layout::A_SUB] -= gain;
-                                    sums[Layout::A] -= gain;
-                                    w += gain;
-                                } else {
-                                    sums[Layout::A_SUB] += w;
-                                    sums[Layout::A] += w;
-                                    break;
-                                }
-                            }
-                        } else if uniform(rng) >= a {
-                            sums[Layout::A_SUB] += w;
-                            sums[Layout::A] += w;
+                        if !self.absorb(survival, 1.0 - a, a, Layout::A_SUB, &mut w, sums, rng) {
                             break;
                         }
                         // Cosine-weighted re-emission upward.

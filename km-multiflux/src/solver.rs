@@ -201,14 +201,7 @@ pub fn solve_mono(
     opts: &MultifluxOptions,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
     scene.validate()?;
-    let streams = opts.streams.unwrap_or_else(|| default_streams(scene));
-    if streams == 0 || streams > 512 {
-        return Err(MultifluxError::Option {
-            name: "streams",
-            value: streams as f64,
-            reason: "must lie in 1..=512",
-        });
-    }
+    let streams = resolve_streams(scene, opts)?;
     // The plan's `transmission` rule: a layer through which nothing measurable
     // returns is a half-space; nothing below it is built.
     let (cut, _) = planned_cutoff(scene, opts);
@@ -494,14 +487,7 @@ pub fn internal_field(
     m: usize,
 ) -> Result<InternalField, MultifluxError> {
     scene.validate()?;
-    let streams = opts.streams.unwrap_or_else(|| default_streams(scene));
-    if streams == 0 || streams > 512 {
-        return Err(MultifluxError::Option {
-            name: "streams",
-            value: streams as f64,
-            reason: "must lie in 1..=512",
-        });
-    }
+    let streams = resolve_streams(scene, opts)?;
     let total: f64 = scene.layers.iter().map(|l| l.thickness).sum();
     if !(z >= 0.0 && z <= total && z.is_finite()) {
         return Err(MultifluxError::Option {
@@ -770,6 +756,19 @@ fn delta_parts(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>, s: f64)
         transmits = true;
     }
     (acc.0, if transmits { acc.1 } else { 0.0 })
+}
+
+/// The stream count of `opts`, or the scene's default; `1..=512`.
+fn resolve_streams(scene: &MonoScene, opts: &MultifluxOptions) -> Result<usize, MultifluxError> {
+    let streams = opts.streams.unwrap_or_else(|| default_streams(scene));
+    if streams == 0 || streams > 512 {
+        return Err(MultifluxError::Option {
+            name: "streams",
+            value: streams as f64,
+            reason: "must lie in 1..=512",
+        });
+    }
+    Ok(streams)
 }
 
 /// The media of the stack, top to bottom (ambient, layers, and a transparent
