@@ -15,5 +15,5 @@
 //!
 //! The theory notes are `docs/inverse-km.md` and `docs/colour.md`.
 #![deny(missing_docs)]
-
+pub mod colour;
 pub mod kubelka;
