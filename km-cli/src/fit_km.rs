@@ -17,8 +17,15 @@
 //! Saunderson correction), `saunderson` (`k1`, `k2`, or null), `mode`.
 //! `K`, `S` (and `S_X`, `R_0`, `T`, `thickness`) are null when only `R_inf`
 //! is given.
+//!
+//! [`write_plot`] (for `--plot DIR`) draws the fitted film's hiding curves:
+//! its internal reflectance over the grounds against thickness, the
+//! readings, and `R_inf` (`DIR/km-fit-km.svg` and `.png`).
+
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use km_bench::chart::{LineChart, Mark, Series, write_chart};
 use km_inverse::kubelka::{self, Film, Saunderson, Specular};
 use serde_json::{Map, Value, json};
 
@@ -235,6 +242,71 @@ pub fn run(inputs: &KmFitInputs, json: bool) -> Result<()> {
     Ok(())
 }
 
+/// Points of the hiding curves (thicknesses from 0 to this many, at most).
+const PLOT_POINTS: usize = 200;
+
+/// Draw the fitted film's hiding curves into `dir/km-fit-km.svg` and `.png`:
+/// internal reflectance over each ground against film thickness (Kubelka
+/// 1948 eq. 11 with the fitted `K`, `S`), the (internal) readings at the
+/// measured thickness, and `R_inf`. The thickness axis runs to 1.2 times the
+/// hiding thickness (`R_0 = 0.98 R_inf`, from eq. I4), kept within 2 to 20
+/// times the measured thickness. Returns the two paths.
+///
+/// # Errors
+/// Those of [`compute`]; only `--r-inf` given (no `K`, `S` to draw); a
+/// directory that cannot be created; drawing errors.
+pub fn write_plot(inputs: &KmFitInputs, dir: &Path) -> Result<[PathBuf; 2]> {
+    let v = compute(inputs)?;
+    let (Some(k), Some(s), Some(x)) = (v["K"].as_f64(), v["S"].as_f64(), v["thickness"].as_f64())
+    else {
+        bail!("--plot needs K and S: give --r-zero and --thickness, or --r-black and --r-white");
+    };
+    let r_inf = v["R_inf"].as_f64().unwrap_or(f64::NAN);
+    // Hiding thickness: where the film over black reaches 98 % of R_inf.
+    let hiding = kubelka::from_r_inf_r0(r_inf, 0.98 * r_inf, 1.0).map(|f| f.sx / s).unwrap_or(x);
+    let x_max = (1.2 * hiding).clamp(2.0 * x, 20.0 * x);
+    // The grounds and readings to draw.
+    let internal = &v["internal"];
+    let grounds: Vec<(String, f64, Option<f64>)> = match v["mode"].as_str() {
+        Some("black_white") => vec![
+            (
+                "over dark ground".into(),
+                v["inputs"]["r_black_ground"].as_f64().unwrap_or(0.0),
+                internal["r_black"].as_f64(),
+            ),
+            (
+                "over light ground".into(),
+                v["inputs"]["r_white_ground"].as_f64().unwrap_or(1.0),
+                internal["r_white"].as_f64(),
+            ),
+        ],
+        _ => vec![("over ideal black".into(), 0.0, internal["r_zero"].as_f64())],
+    };
+    let mut series = Vec::new();
+    for (i, (label, g, reading)) in grounds.iter().enumerate() {
+        let mut pts = Vec::with_capacity(PLOT_POINTS + 1);
+        for j in 0..=PLOT_POINTS {
+            let t = x_max * j as f64 / PLOT_POINTS as f64;
+            pts.push((t, kubelka::reflectance_over_ground(k, s, t, *g)?));
+        }
+        series.push(Series::new(format!("{label} ({g})"), pts, Mark::Line, i));
+        if let Some(r) = reading {
+            series.push(Series::new(format!("reading, {label}"), vec![(x, *r)], Mark::Points, i));
+        }
+    }
+    let chart = LineChart {
+        title: format!("Kubelka–Munk fit: K = {k:.4}, S = {s:.4} (internal reflectance)"),
+        x_label: "film thickness".into(),
+        y_label: "reflectance".into(),
+        y_range: Some((0.0, 1.0)),
+        series,
+        h_lines: vec![(r_inf, format!("R_inf = {r_inf:.4}"))],
+        ..Default::default()
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    write_chart(dir, "km-fit-km", &chart)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -262,6 +334,27 @@ mod tests {
         assert!((v["S"].as_f64().unwrap() - s).abs() < 1e-12, "{v}");
         assert_eq!(v["mode"], "black_white");
         assert!(run(&inputs, true).is_ok() && run(&inputs, false).is_ok());
+    }
+
+    #[test]
+    fn plot_draws_the_hiding_curves() {
+        let (k, s, x) = (0.3, 2.0, 0.5);
+        let inputs = KmFitInputs {
+            r_black: Some(reflectance_over_ground(k, s, x, 0.0).unwrap()),
+            r_white: Some(reflectance_over_ground(k, s, x, 0.8).unwrap()),
+            r_white_ground: Some(0.8),
+            thickness: Some(x),
+            ..Default::default()
+        };
+        let dir = std::env::temp_dir().join(format!("km-fit-km-plot-{}", std::process::id()));
+        let [svg, png] = write_plot(&inputs, &dir).unwrap();
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.contains("<svg") && text.contains("R_inf"), "{}", svg.display());
+        assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+        std::fs::remove_dir_all(&dir).unwrap();
+        // Only R_inf: nothing to draw, said so.
+        let e = write_plot(&KmFitInputs { r_inf: Some(0.5), ..Default::default() }, &dir);
+        assert!(e.unwrap_err().to_string().contains("--plot needs K and S"));
     }
 
     #[test]
