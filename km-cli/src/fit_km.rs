@@ -14,7 +14,11 @@
 //!
 //! JSON keys (contract: `K`, `S`): `K`, `S`, `K_over_S`, `S_X`, `R_inf`,
 //! `R_0`, `T`, `thickness`, `inputs`, `internal` (the reflectances after the
-//! Saunderson correction), `saunderson` (`k1`, `k2`, or null), `mode`.
+//! Saunderson correction), `saunderson` (`k1`, `k2`, or null), `mode`, and
+//! `uncertainty` (`K`, `S`, `correlation`, `u_reading`): the standard
+//! uncertainties of `K` and `S` if each reading as given carries a standard
+//! uncertainty of `u_reading` = 0.001 (first-order propagation, through
+//! Saunderson's correction when `--n` is given; null when not computable).
 //! `K`, `S` (and `S_X`, `R_0`, `T`, `thickness`) are null when only `R_inf`
 //! is given.
 //!
@@ -26,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use km_bench::chart::{LineChart, Mark, Series, write_chart};
-use km_inverse::kubelka::{self, Film, Saunderson, Specular};
+use km_inverse::kubelka::{self, Film, Saunderson, Specular, Uncertainty};
 use serde_json::{Map, Value, json};
 
 /// The readings and settings of `km fit --km` (all optional; which are
@@ -114,6 +118,31 @@ fn saunderson(i: &KmFitInputs) -> Result<Option<Saunderson>> {
     })
 }
 
+/// Standard uncertainty assumed for each reading as given (a spectrophotometer's
+/// typical repeatability) in the `uncertainty` key.
+const READING_U: f64 = 1e-3;
+
+/// `d(internal)/d(reading)` of Saunderson's correction (1 without it), by a
+/// central difference of step 1e-7 (one-sided at the ends of `[0, 1]`);
+/// `NaN` when a step leaves the correction's domain.
+fn internal_slope(corr: &Option<Saunderson>, r: f64) -> f64 {
+    let Some(c) = corr else { return 1.0 };
+    let (lo, hi) = ((r - 1e-7).max(0.0), (r + 1e-7).min(1.0));
+    match (c.internal_from_measured(lo), c.internal_from_measured(hi)) {
+        (Ok(a), Ok(b)) => (b - a) / (hi - lo),
+        _ => f64::NAN,
+    }
+}
+
+fn uncertainty_json(u: Option<Uncertainty>) -> Value {
+    match u {
+        Some(u) if u.k.is_finite() && u.s.is_finite() => json!({
+            "K": u.k, "S": u.s, "correlation": u.correlation, "u_reading": READING_U
+        }),
+        _ => Value::Null,
+    }
+}
+
 /// Solve and build the JSON object (the contract's `K`, `S` and more).
 ///
 /// # Errors
@@ -148,7 +177,14 @@ pub fn compute(inputs: &KmFitInputs) -> Result<Value> {
             internal_json.insert("r_black".into(), json!(rb));
             internal_json.insert("r_white".into(), json!(rw));
             out.insert("mode".into(), json!("black_white"));
-            Some(kubelka::from_black_white(rb, g_black, rw, g_white, thickness)?)
+            let film = kubelka::from_black_white(rb, g_black, rw, g_white, thickness)?;
+            let (ub, uw) = (
+                READING_U * internal_slope(&corr, r_black),
+                READING_U * internal_slope(&corr, r_white),
+            );
+            let u = kubelka::black_white_uncertainty(rb, g_black, rw, g_white, thickness, ub, uw);
+            out.insert("uncertainty".into(), uncertainty_json(u.ok()));
+            Some(film)
         }
         Mode::RInfRZero { r_inf, r_zero, thickness } => {
             let ri = internal("r-inf", r_inf)?;
@@ -159,7 +195,14 @@ pub fn compute(inputs: &KmFitInputs) -> Result<Value> {
             internal_json.insert("r_inf".into(), json!(ri));
             internal_json.insert("r_zero".into(), json!(r0));
             out.insert("mode".into(), json!("r_inf_r_zero"));
-            Some(kubelka::from_r_inf_r0(ri, r0, thickness)?)
+            let film = kubelka::from_r_inf_r0(ri, r0, thickness)?;
+            let (ui, u0) = (
+                READING_U * internal_slope(&corr, r_inf),
+                READING_U * internal_slope(&corr, r_zero),
+            );
+            let u = kubelka::r_inf_r0_uncertainty(ri, r0, thickness, ui, u0);
+            out.insert("uncertainty".into(), uncertainty_json(u.ok()));
+            Some(film)
         }
         Mode::RInf { r_inf } => {
             let ri = internal("r-inf", r_inf)?;
@@ -168,6 +211,7 @@ pub fn compute(inputs: &KmFitInputs) -> Result<Value> {
             out.insert("mode".into(), json!("r_inf"));
             out.insert("K_over_S".into(), json!(kubelka::k_over_s(ri)?));
             out.insert("R_inf".into(), json!(ri));
+            out.insert("uncertainty".into(), Value::Null);
             None
         }
     };
@@ -231,8 +275,22 @@ pub fn run(inputs: &KmFitInputs, json: bool) -> Result<()> {
             None => {}
         }
     }
+    if let Some(u) = v.get("uncertainty").filter(|u| !u.is_null()) {
+        println!(
+            "  u(K), u(S) for readings +-{}: {:.3e}, {:.3e} (correlation {:.3})",
+            u["u_reading"],
+            u["K"].as_f64().unwrap_or(f64::NAN),
+            u["S"].as_f64().unwrap_or(f64::NAN),
+            u["correlation"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
     if let Some(s) = v.get("saunderson").filter(|s| !s.is_null()) {
-        println!("  Saunderson k1 = {:.6}, k2 = {:.6}", s["k1"], s["k2"]);
+        let (k1, k2) = (s["k1"].as_f64(), s["k2"].as_f64());
+        println!(
+            "  Saunderson k1 = {:.6}, k2 = {:.6}",
+            k1.unwrap_or(f64::NAN),
+            k2.unwrap_or(f64::NAN)
+        );
         if let Some(m) = v["internal"].as_object() {
             for (k, x) in m {
                 println!("  internal {k:<21} {:.6}", x.as_f64().unwrap_or(f64::NAN));
@@ -334,6 +392,27 @@ mod tests {
         assert!((v["S"].as_f64().unwrap() - s).abs() < 1e-12, "{v}");
         assert_eq!(v["mode"], "black_white");
         assert!(run(&inputs, true).is_ok() && run(&inputs, false).is_ok());
+        // The uncertainty for readings +-0.001, through Saunderson's slope
+        // dR/dR_m = (1-k1)(1-k2) / ((1-k1)(1-k2) + k2 y)^2 (eq. I9 differentiated).
+        let slope = |rm: f64| {
+            let (a, y) = ((1.0 - c.k1) * (1.0 - c.k2), rm - c.k1);
+            a / (a + c.k2 * y).powi(2)
+        };
+        let (rb, rw) = (inputs.r_black.unwrap(), inputs.r_white.unwrap());
+        let lib = kubelka::black_white_uncertainty(
+            c.internal_from_measured(rb).unwrap(),
+            0.02,
+            c.internal_from_measured(rw).unwrap(),
+            0.85,
+            x,
+            1e-3 * slope(rb),
+            1e-3 * slope(rw),
+        )
+        .unwrap();
+        let u = &v["uncertainty"];
+        // Central differences of step 1e-7 on a smooth function: ~1e-7 relative.
+        assert!((u["K"].as_f64().unwrap() / lib.k - 1.0).abs() < 1e-6, "{u} {lib:?}");
+        assert!((u["S"].as_f64().unwrap() / lib.s - 1.0).abs() < 1e-6, "{u} {lib:?}");
     }
 
     #[test]

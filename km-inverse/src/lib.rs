@@ -4,9 +4,10 @@
 //!   film from its reflectance over black and over white grounds (Kubelka
 //!   1948), or from `R_inf` and `R_0`; Saunderson's correction between measured
 //!   and internal reflectances (Saunderson 1942); single-pigment constants from
-//!   masstone and tint and the reflectance of mixtures (Duncan 1940). Every
-//!   inverse is the exact inverse of `km_core::two_flux` (round trips to
-//!   rounding level). Errors: [`kubelka::KubelkaError`], naming the value.
+//!   masstone and tint and the reflectance of mixtures (Duncan 1940); the
+//!   uncertainty of `K`, `S` from that of the readings. Every inverse is the
+//!   exact inverse of `km_core::two_flux` (round trips to rounding level).
+//!   Errors: [`kubelka::KubelkaError`], naming the value.
 //! * [`colour`]: spectra to CIE 1931 XYZ (2° observer; 1964 10° too), CIELAB
 //!   under D65 or D50, sRGB (IEC 61966-2-1), the CIEDE2000 colour difference,
 //!   and an SVG swatch. The CIE tables are carried in the crate

@@ -4,9 +4,12 @@
 use km_core::Scene;
 use km_core::two_flux::{self, KmCoefficients, KmOptions, layer_rt, r_infinity};
 use km_inverse::kubelka::{
-    KubelkaError, Saunderson, Specular, from_black_white, from_r_inf_r0, k_over_s, masstone_tint,
-    mixture_reflectance, r_inf_from_k_over_s, reflectance_over_ground,
+    KubelkaError, Saunderson, Specular, black_white_uncertainty, from_black_white, from_r_inf_r0,
+    k_over_s, masstone_tint, mixture_reflectance, r_inf_from_k_over_s, r_inf_r0_uncertainty,
+    reflectance_over_ground,
 };
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
 
 /// Round-trip tolerance where the readings carry the information (b S X <= 4):
 /// the inverse is a handful of operations, so its error is a few ulps times
@@ -283,4 +286,73 @@ fn infeasible_and_invalid_inputs_are_refused_by_name() {
     assert_eq!(names(e).0, "r_inf_tint");
     assert_eq!(names(k_over_s(f64::INFINITY).unwrap_err()).0, "r_inf");
     assert_eq!(names(r_inf_from_k_over_s(-1.0).unwrap_err()).0, "K/S");
+}
+
+/// Sample standard deviations of two series and their correlation.
+fn sample_stats(a: &[f64], b: &[f64]) -> (f64, f64, f64) {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut va, mut vb, mut cab) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        va += (x - ma) * (x - ma);
+        vb += (y - mb) * (y - mb);
+        cab += (x - ma) * (y - mb);
+    }
+    ((va / (n - 1.0)).sqrt(), (vb / (n - 1.0)).sqrt(), cab / (va * vb).sqrt())
+}
+
+#[test]
+fn propagated_uncertainty_matches_monte_carlo_perturbation() {
+    // Perturb the readings with Gaussian noise of the stated standard
+    // uncertainty, fit each draw, and compare the scatter of K and S with the
+    // first-order propagation. N = 20000 draws: the relative standard error
+    // of a sample standard deviation is 1/sqrt(2N) = 0.5 %, of a correlation
+    // (1 - rho^2)/sqrt(N) <= 0.7 %; tolerances are 5 of those (2.5 %, and
+    // 0.035 for the correlation), the noise being small enough (2e-4) that
+    // the second-order terms are below 0.1 %.
+    const N: usize = 20_000;
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(20261129);
+    let (k, s, x) = (0.3, 2.0, 0.5);
+    let cases: [(&str, [f64; 2], [f64; 2]); 2] =
+        [("black_white", [0.02, 0.85], [2e-4, 2e-4]), ("r_inf_r0", [0.0, 0.0], [1e-4, 3e-4])];
+    for (name, grounds, u) in cases {
+        let (r1, r2) = if name == "black_white" {
+            (
+                reflectance_over_ground(k, s, x, grounds[0]).unwrap(),
+                reflectance_over_ground(k, s, x, grounds[1]).unwrap(),
+            )
+        } else {
+            (r_infinity(k, s).unwrap(), layer_rt(k, s, x).unwrap().r)
+        };
+        let fit = |a: f64, b: f64| {
+            if name == "black_white" {
+                from_black_white(a, grounds[0], b, grounds[1], x)
+            } else {
+                from_r_inf_r0(a, b, x)
+            }
+        };
+        let predicted = if name == "black_white" {
+            black_white_uncertainty(r1, grounds[0], r2, grounds[1], x, u[0], u[1]).unwrap()
+        } else {
+            r_inf_r0_uncertainty(r1, r2, x, u[0], u[1]).unwrap()
+        };
+        let (n1, n2) = (Normal::new(0.0, u[0]).unwrap(), Normal::new(0.0, u[1]).unwrap());
+        let (mut ks, mut ss) = (Vec::with_capacity(N), Vec::with_capacity(N));
+        for _ in 0..N {
+            let f = fit(r1 + n1.sample(&mut rng), r2 + n2.sample(&mut rng)).unwrap();
+            ks.push(f.k);
+            ss.push(f.s);
+        }
+        let (sk, s_s, rho) = sample_stats(&ks, &ss);
+        println!(
+            "{name}: u(K) {:.4e} vs MC {sk:.4e}, u(S) {:.4e} vs MC {s_s:.4e}, rho {:.4} vs {rho:.4}",
+            predicted.k, predicted.s, predicted.correlation
+        );
+        assert!((predicted.k / sk - 1.0).abs() < 0.025, "{name}: K {} vs {sk}", predicted.k);
+        assert!((predicted.s / s_s - 1.0).abs() < 0.025, "{name}: S {} vs {s_s}", predicted.s);
+        assert!((predicted.correlation - rho).abs() < 0.035, "{name}: rho");
+    }
+    // Uncertainties must be finite and >= 0.
+    let e = r_inf_r0_uncertainty(0.6, 0.4, 1.0, -1e-3, 1e-3).unwrap_err();
+    assert!(matches!(e, KubelkaError::Invalid { .. }), "{e}");
 }
