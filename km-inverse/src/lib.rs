@@ -11,10 +11,12 @@
 //! * [`colour`]: spectra to CIE 1931 XYZ (2° observer; 1964 10° too), CIELAB
 //!   under D65 or D50, sRGB (IEC 61966-2-1), the CIEDE2000 colour difference,
 //!   and an SVG swatch. The CIE tables are carried in the crate
-//!   (`data/cie.csv`, from CIE 015:2018 via the `colour-science` package).
+//!   (`data/cie_cmf_1nm.csv`, `data/cie_illuminants_5nm.csv`: CIE 015:2018,
+//!   extracted from the `colour-science` package).
 //!   Errors: [`colour::ColourError`].
 //!
 //! The theory notes are `docs/inverse-km.md` and `docs/colour.md`.
 #![deny(missing_docs)]
+
 pub mod colour;
 pub mod kubelka;
