@@ -2,6 +2,8 @@
 //!
 //! Thin: parse the command line and the scene file, call the libraries, print.
 
+#[allow(dead_code)]
+mod fit_km;
 mod methods;
 mod output;
 

@@ -1,0 +1,22 @@
+//! # km-inverse: from measurements to materials
+//!
+//! * [`kubelka`]: the paint engineer's Kubelka–Munk inverse. `K` and `S` of a
+//!   film from its reflectance over black and over white grounds (Kubelka
+//!   1948), or from `R_inf` and `R_0`; Saunderson's correction between measured
+//!   and internal reflectances (Saunderson 1942); single-pigment constants from
+//!   masstone and tint and the reflectance of mixtures (Duncan 1940); the
+//!   uncertainty of `K`, `S` from that of the readings. Every inverse is the
+//!   exact inverse of `km_core::two_flux` (round trips to rounding level).
+//!   Errors: [`kubelka::KubelkaError`], naming the value.
+//! * [`colour`]: spectra to CIE 1931 XYZ (2° observer; 1964 10° too), CIELAB
+//!   under D65 or D50, sRGB (IEC 61966-2-1), the CIEDE2000 colour difference,
+//!   and an SVG swatch. The CIE tables are carried in the crate
+//!   (`data/cie_cmf_1nm.csv`, `data/cie_illuminants_5nm.csv`: CIE 015:2018,
+//!   extracted from the `colour-science` package).
+//!   Errors: [`colour::ColourError`].
+//!
+//! The theory notes are `docs/inverse-km.md` and `docs/colour.md`.
+#![deny(missing_docs)]
+
+pub mod colour;
+pub mod kubelka;
