@@ -1052,10 +1052,14 @@ impl Chart for PolarChart {
                 .map_err(pe)?;
             let label = format!("incident {t:.0} deg");
             layout.segments.push([fpx(bc((x, y))), fpx(bc((0.0, 0.0)))]);
-            layout.texts.push(text_box(&label, bc((x, y)), 12)?);
-            chart
-                .draw_series(std::iter::once(Text::new(label, (x, y), ("sans-serif", 12))))
-                .map_err(pe)?;
+            // The label ends just left of the arrow's tail, clear of the line.
+            let (tw, th) =
+                root.estimate_text_size(&label, &("sans-serif", 12).into()).map_err(pe)?;
+            let tail = bc((x, y));
+            let at = (tail.0 - tw as i32 - 6, tail.1 - th as i32 / 2);
+            layout.texts.push(text_box(&label, at, 12)?);
+            let (rx, ry) = root.get_base_pixel();
+            root.draw(&Text::new(label, (at.0 - rx, at.1 - ry), ("sans-serif", 12))).map_err(pe)?;
         }
         // Curves.
         let mut entries = Vec::new();

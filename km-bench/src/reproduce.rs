@@ -251,7 +251,8 @@ pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
     if opts.quiet || !std::io::stderr().is_terminal() {
         return reproduce_with_progress(opts, &mut |_| {});
     }
-    let bar = indicatif::ProgressBar::new(0);
+    let total = if opts.only.is_some() { 1 } else { recipes::all().len() as u64 };
+    let bar = indicatif::ProgressBar::new(total);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})",
@@ -363,7 +364,7 @@ pub fn reproduce_with_progress(
         ]);
     }
     sec.text(format!(
-        "Every number above was computed by this run ({} size, {:.1} s wall time in total, \
+        "Every number in this report was computed by this run ({} size, {:.1} s wall time in total, \
          {} threads available).",
         size.name(),
         summary.seconds,
