@@ -71,9 +71,17 @@ impl Csv {
     }
 }
 
-/// A number for a CSV cell: shortest round-trip form; empty for NaN.
+/// A number for a CSV cell: an integral value below 1e15 as an integer
+/// (`2`, not `2e0`: settings such as stream counts read as what they are),
+/// otherwise the shortest round-trip form (`1e-1`); empty for NaN.
 pub fn num(v: f64) -> String {
-    if v.is_nan() { String::new() } else { format!("{v:e}") }
+    if v.is_nan() {
+        String::new()
+    } else if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{}", v as i64)
+    } else {
+        format!("{v:e}")
+    }
 }
 
 /// Quote a cell when it holds a comma, a quote or a newline (RFC 4180).
@@ -97,5 +105,18 @@ mod tests {
         let s = c.render();
         assert_eq!(s, "# seed = 7\nx,label\n1e-1,\"a,b\"\n");
         assert_eq!("1e-1".parse::<f64>().unwrap(), 0.1);
+    }
+
+    #[test]
+    fn integers_are_written_as_integers_and_everything_round_trips() {
+        assert_eq!(num(2.0), "2");
+        assert_eq!(num(-0.0), "0");
+        assert_eq!(num(1e6), "1000000");
+        assert_eq!(num(1e20), "1e20");
+        assert_eq!(num(2.5), "2.5e0");
+        assert_eq!(num(f64::NAN), "");
+        for v in [2.0, 1e6, 1e20, 2.5, 0.1, -3.0, 1e-300, 123456789012345.0] {
+            assert_eq!(num(v).parse::<f64>().unwrap(), v, "{v}");
+        }
     }
 }

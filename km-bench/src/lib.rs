@@ -23,4 +23,7 @@ pub mod report;
 pub mod reproduce;
 pub mod scenes;
 
-pub use reproduce::{ReproduceOptions, Size, Summary, SummaryRow, reproduce};
+pub use reproduce::{
+    Progress, ReproduceOptions, Size, Summary, SummaryRow, recipe_names, reproduce,
+    reproduce_with_progress,
+};

@@ -164,8 +164,19 @@ impl Report {
     /// # Errors
     /// File errors.
     pub fn write(&self, dir: &Path) -> anyhow::Result<PathBuf> {
-        let p = dir.join("report.md");
-        std::fs::write(&p, self.render()).with_context(|| format!("writing {}", p.display()))?;
+        self.write_named(dir, "report.md")
+    }
+
+    /// Write to `dir/name` (through a temporary file, renamed when complete).
+    ///
+    /// # Errors
+    /// File errors.
+    pub fn write_named(&self, dir: &Path, name: &str) -> anyhow::Result<PathBuf> {
+        let p = dir.join(name);
+        let tmp = dir.join(format!(".{name}.tmp"));
+        std::fs::write(&tmp, self.render())
+            .and_then(|()| std::fs::rename(&tmp, &p))
+            .with_context(|| format!("writing {}", p.display()))?;
         Ok(p)
     }
 }

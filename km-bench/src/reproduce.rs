@@ -2,12 +2,13 @@
 //! `report.md`, and return a short [`Summary`].
 
 use std::fmt;
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::chart::{Chart, write_chart};
+use crate::chart::{Chart, ChartLayout, write_chart_layout};
 use crate::data::Csv;
 use crate::recipes;
 use crate::report::{Report, Section, Table};
@@ -55,12 +56,24 @@ pub struct ReproduceOptions {
     pub tiny: bool,
     /// Seed of every Monte Carlo run (each run derives its own from it).
     pub seed: u64,
+    /// No progress bar on stderr (it is also off when stderr is not a terminal).
+    pub quiet: bool,
+    /// Run only the recipe of this name (see [`recipe_names`]); its section
+    /// goes to `report-NAME.md`, leaving `report.md` of a full run untouched.
+    pub only: Option<String>,
 }
 
 impl ReproduceOptions {
     /// Quick run into `out_dir` (seed 1).
     pub fn quick(out_dir: impl Into<PathBuf>) -> Self {
-        ReproduceOptions { out_dir: out_dir.into(), quick: true, tiny: false, seed: 1 }
+        ReproduceOptions {
+            out_dir: out_dir.into(),
+            quick: true,
+            tiny: false,
+            seed: 1,
+            quiet: false,
+            only: None,
+        }
     }
     /// Full (paper-scale) run into `out_dir`.
     pub fn full(out_dir: impl Into<PathBuf>) -> Self {
@@ -93,6 +106,9 @@ pub struct SummaryRow {
     pub result: String,
     /// Wall time of the recipe, seconds.
     pub seconds: f64,
+    /// Numbers that rest on an extrapolation (kept apart from `result`,
+    /// which quotes measured numbers only); empty when none.
+    pub extrapolated: String,
 }
 
 /// What [`reproduce`] did.
@@ -106,6 +122,8 @@ pub struct Summary {
     pub seconds: f64,
     /// Size name.
     pub size: String,
+    /// The layout of every chart written, in order (for checks of the drawing).
+    pub charts: Vec<ChartLayout>,
 }
 
 impl Summary {
@@ -121,6 +139,9 @@ impl fmt::Display for Summary {
         writeln!(f, "{:<w$}  {:<7}  {:>8}  result", "item", "status", "seconds")?;
         for r in &self.rows {
             writeln!(f, "{:<w$}  {:<7}  {:>8.2}  {}", r.item, r.status, r.seconds, r.result)?;
+            if !r.extrapolated.is_empty() {
+                writeln!(f, "{:<w$}  {:<7}  {:>8}  extrapolated: {}", "", "", "", r.extrapolated)?;
+            }
         }
         writeln!(
             f,
@@ -143,12 +164,24 @@ pub struct Ctx {
     pub seed: u64,
     /// Key result of the current recipe for the summary (set by the recipe).
     pub headline: String,
+    /// Numbers of the current recipe that rest on an extrapolation (set by
+    /// the recipe), reported apart from the headline.
+    pub extrapolated: String,
+    /// The layout of every chart written so far.
+    pub layouts: std::sync::Mutex<Vec<ChartLayout>>,
 }
 
 impl Ctx {
     /// A context writing into `out_dir` (which must exist).
     pub fn new(out_dir: impl Into<PathBuf>, size: Size, seed: u64) -> Self {
-        Ctx { out_dir: out_dir.into(), size, seed, headline: String::new() }
+        Ctx {
+            out_dir: out_dir.into(),
+            size,
+            seed,
+            headline: String::new(),
+            extrapolated: String::new(),
+            layouts: Default::default(),
+        }
     }
 
     /// Write a chart as `stem.svg` and `stem.png`.
@@ -156,7 +189,9 @@ impl Ctx {
     /// # Errors
     /// Drawing or file errors.
     pub fn chart(&self, stem: &str, chart: &impl Chart) -> anyhow::Result<()> {
-        write_chart(&self.out_dir, stem, chart).map(|_| ())
+        let (_, layout) = write_chart_layout(&self.out_dir, stem, chart)?;
+        self.layouts.lock().unwrap_or_else(|e| e.into_inner()).push(layout);
+        Ok(())
     }
 
     /// Write `stem.csv`, adding the run size and seed to its header.
@@ -172,15 +207,100 @@ impl Ctx {
 /// A recipe: a name and the function that computes, draws and describes it.
 pub type Recipe = (&'static str, fn(&mut Ctx) -> anyhow::Result<Section>);
 
+/// A step of [`reproduce_with_progress`], reported to its callback.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Progress {
+    /// Recipe `index` (from 0) of `total` starts.
+    Start {
+        /// Position of the recipe in this run.
+        index: usize,
+        /// Number of recipes in this run.
+        total: usize,
+        /// Recipe name.
+        name: String,
+    },
+    /// Recipe `index` of `total` ended.
+    Done {
+        /// Position of the recipe in this run.
+        index: usize,
+        /// Number of recipes in this run.
+        total: usize,
+        /// Recipe name.
+        name: String,
+        /// `ok` or `failed`.
+        status: String,
+        /// Wall time of the recipe, seconds.
+        seconds: f64,
+    },
+}
+
+/// The names `ReproduceOptions::only` accepts, in report order.
+pub fn recipe_names() -> Vec<&'static str> {
+    recipes::all().iter().map(|r| r.0).collect()
+}
+
 /// Run every recipe into `opts.out_dir`, write `report.md`, return the summary.
 ///
-/// A recipe that fails does not stop the others: its section in the report
-/// and its summary row state the error.
+/// Shows a progress bar per figure on stderr (indicatif) unless
+/// `opts.quiet` is set or stderr is not a terminal; see
+/// [`reproduce_with_progress`] to receive the steps instead.
 ///
 /// # Errors
-/// The output directory cannot be created or the report cannot be written.
+/// As [`reproduce_with_progress`].
 pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
+    if opts.quiet || !std::io::stderr().is_terminal() {
+        return reproduce_with_progress(opts, &mut |_| {});
+    }
+    let total = if opts.only.is_some() { 1 } else { recipes::all().len() as u64 };
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})",
+        )
+        .map_err(|e| anyhow::anyhow!("progress bar template: {e}"))?
+        .progress_chars("=> "),
+    );
+    bar.set_prefix("km reproduce");
+    let summary = reproduce_with_progress(opts, &mut |p| match p {
+        Progress::Start { index, total, name } => {
+            bar.set_length(*total as u64);
+            bar.set_position(*index as u64);
+            bar.set_message(name.clone());
+        }
+        Progress::Done { index, name, status, seconds, .. } => {
+            bar.set_position(*index as u64 + 1);
+            bar.println(format!("{name}: {status} in {seconds:.1} s"));
+        }
+    });
+    bar.finish_and_clear();
+    summary
+}
+
+/// [`reproduce`] with each recipe's start and end passed to `on_progress`
+/// (no progress bar of its own).
+///
+/// A recipe that fails does not stop the others: its section in the report
+/// and its summary row state the error. With `opts.only`, only that recipe
+/// runs and its section is written to `report-NAME.md`.
+///
+/// # Errors
+/// `opts.only` names no recipe, the output directory cannot be created or
+/// the report cannot be written.
+pub fn reproduce_with_progress(
+    opts: &ReproduceOptions,
+    on_progress: &mut dyn FnMut(&Progress),
+) -> anyhow::Result<Summary> {
     let start = Instant::now();
+    let mut selected = recipes::all();
+    if let Some(only) = &opts.only {
+        selected.retain(|r| r.0 == only.as_str());
+        if selected.is_empty() {
+            anyhow::bail!(
+                "no figure or study named \"{only}\"; the names are: {}",
+                recipe_names().join(", ")
+            );
+        }
+    }
     std::fs::create_dir_all(&opts.out_dir)
         .with_context(|| format!("creating {}", opts.out_dir.display()))?;
     let size = opts.size();
@@ -191,9 +311,12 @@ pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
         sections: Vec::new(),
     };
     let mut summary = Summary { size: size.name().into(), ..Default::default() };
-    for (name, recipe) in recipes::all() {
+    let total = selected.len();
+    for (index, (name, recipe)) in selected.into_iter().enumerate() {
+        on_progress(&Progress::Start { index, total, name: name.into() });
         let t = Instant::now();
         ctx.headline.clear();
+        ctx.extrapolated.clear();
         let (status, section) = match recipe(&mut ctx) {
             Ok(sec) => ("ok", sec),
             Err(e) => {
@@ -203,28 +326,45 @@ pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
                 ("failed", sec)
             }
         };
+        let seconds = t.elapsed().as_secs_f64();
+        on_progress(&Progress::Done {
+            index,
+            total,
+            name: name.into(),
+            status: status.into(),
+            seconds,
+        });
         summary.rows.push(SummaryRow {
             item: name.into(),
             status: status.into(),
             result: ctx.headline.clone(),
-            seconds: t.elapsed().as_secs_f64(),
+            seconds,
+            extrapolated: ctx.extrapolated.clone(),
         });
         report.sections.push(section);
     }
     summary.seconds = start.elapsed().as_secs_f64();
+    summary.charts = std::mem::take(ctx.layouts.get_mut().unwrap_or_else(|e| e.into_inner()));
     // The run's own summary table.
     let mut sec = Section::new("Run summary");
-    let mut t = Table::new(&["item", "status", "seconds", "result"]);
+    let mut t = Table::new(&[
+        "item",
+        "status",
+        "seconds",
+        "result (measured)",
+        "extrapolated (not measured)",
+    ]);
     for r in &summary.rows {
         t.push(vec![
             r.item.clone(),
             r.status.clone(),
             format!("{:.2}", r.seconds),
             r.result.clone(),
+            r.extrapolated.clone(),
         ]);
     }
     sec.text(format!(
-        "Every number above was computed by this run ({} size, {:.1} s wall time in total, \
+        "Every number in this report was computed by this run ({} size, {:.1} s wall time in total, \
          {} threads available).",
         size.name(),
         summary.seconds,
@@ -233,7 +373,10 @@ pub fn reproduce(opts: &ReproduceOptions) -> anyhow::Result<Summary> {
     .table(t);
     // The summary opens the report: each item's key result, then the details.
     report.sections.insert(0, sec);
-    summary.report = report.write(&opts.out_dir)?;
+    summary.report = match &opts.only {
+        None => report.write(&opts.out_dir)?,
+        Some(name) => report.write_named(&opts.out_dir, &format!("report-{name}.md"))?,
+    };
     Ok(summary)
 }
 

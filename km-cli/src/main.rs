@@ -132,6 +132,14 @@ km plan examples/paint-over-primer.toml --method mc --json")]
         /// Seed of the Monte Carlo runs.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// No progress on stderr (it is also off when stderr is not a terminal).
+        #[arg(long)]
+        quiet: bool,
+        /// Regenerate one figure or study only (fig3, fig4, fig5, fig6, fig7, fig9, fig10,
+        /// speedup, dipole, diffusion-limits, pareto, stability, savings); its section goes
+        /// to DIR/report-NAME.md.
+        #[arg(long, value_name = "NAME")]
+        only: Option<String>,
     },
 }
 
@@ -288,6 +296,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         quick: true,
         full: false,
         seed: 1,
+        quiet: false,
+        only: None,
     });
     match command {
         Command::Demo => {
@@ -360,13 +370,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{}", output::describe(&s));
             Ok(())
         }
-        Command::Reproduce { out, quick: _, full, seed } => {
+        Command::Reproduce { out, quick: _, full, seed, quiet, only } => {
             let mut opts = if full {
                 km_bench::ReproduceOptions::full(out)
             } else {
                 km_bench::ReproduceOptions::quick(out)
             };
             opts.seed = seed;
+            opts.quiet = quiet;
+            opts.only = only;
             let summary = km_bench::reproduce(&opts)?;
             print!("{summary}");
             Ok(())

@@ -72,23 +72,30 @@ pub fn response_chart(
         ..Default::default()
     };
     for (k, (label, r, dashed)) in curves.iter().enumerate() {
+        // A side with no smooth part (e.g. a bare interface: deltas only)
+        // gets no curve and no legend entry.
+        let drawn = |v: &[(f64, f64)]| v.iter().any(|p| p.1 > 0.0);
         let up: Vec<(f64, f64)> =
             plane_cut(&r.reflected, true, false).iter().map(|p| (p.0, p.1)).collect();
-        chart.curves.push(PolarCurve {
-            label: format!("{label} (R)"),
-            points: up,
-            colour: 2 * k,
-            dashed: *dashed,
-        });
+        if drawn(&up) {
+            chart.curves.push(PolarCurve {
+                label: format!("{label} (R)"),
+                points: up,
+                colour: 2 * k,
+                dashed: *dashed,
+            });
+        }
         if let Some(t) = &r.transmitted {
             let down: Vec<(f64, f64)> =
                 plane_cut(t, false, false).iter().map(|p| (p.0, p.1)).collect();
-            chart.curves.push(PolarCurve {
-                label: format!("{label} (T)"),
-                points: down,
-                colour: 2 * k + 1,
-                dashed: *dashed,
-            });
+            if drawn(&down) {
+                chart.curves.push(PolarCurve {
+                    label: format!("{label} (T)"),
+                    points: down,
+                    colour: 2 * k + 1,
+                    dashed: *dashed,
+                });
+            }
         }
         if k == 0 {
             if r.reflectance_specular > 0.0 {
@@ -139,9 +146,94 @@ pub fn response_csv_new() -> Csv {
     Csv::new(&["case", "side", "psi_deg", "theta_deg", "phi_deg", "value_per_sr"])
 }
 
+/// The spread of repeated wall times of one measurement, seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// Fastest run.
+    pub min: f64,
+    /// Median run (the mean of the two middle runs for an even count).
+    pub median: f64,
+    /// Slowest run.
+    pub max: f64,
+    /// Number of runs.
+    pub runs: usize,
+}
+
+impl Spread {
+    /// The spread of `times` (non-finite entries ignored; NaN for none).
+    pub fn of(times: &[f64]) -> Spread {
+        let mut t: Vec<f64> = times.iter().copied().filter(|v| v.is_finite()).collect();
+        t.sort_by(f64::total_cmp);
+        let n = t.len();
+        if n == 0 {
+            return Spread { min: f64::NAN, median: f64::NAN, max: f64::NAN, runs: 0 };
+        }
+        let median = if n % 2 == 1 { t[n / 2] } else { 0.5 * (t[n / 2 - 1] + t[n / 2]) };
+        Spread { min: t[0], median, max: t[n - 1], runs: n }
+    }
+
+    /// `median s (min to max s, N runs)`.
+    pub fn text(&self) -> String {
+        format!(
+            "{} s ({} to {} s, {} runs)",
+            format_number(self.median),
+            format_number(self.min),
+            format_number(self.max),
+            self.runs
+        )
+    }
+
+    /// The ratio `self / other` of medians, with its extreme range
+    /// `(self.min / other.max, self.max / other.min)`.
+    pub fn ratio(&self, other: &Spread) -> (f64, f64, f64) {
+        (self.median / other.median, self.min / other.max, self.max / other.min)
+    }
+}
+
+/// A speed-up `(median, low, high)` as `median x (low to high)`.
+pub fn ratio_text(r: (f64, f64, f64)) -> String {
+    let f = |v: f64| if v >= 100.0 { format!("{v:.0}") } else { format!("{v:.2}") };
+    format!("{}x ({} to {})", f(r.0), f(r.1), f(r.2))
+}
+
+/// Solve `repeats` times; the last solution and the spread of the solver's
+/// own wall times (`Solution::seconds`).
+///
+/// # Errors
+/// Solver errors.
+pub fn timed_spread(
+    method: crate::methods::Method,
+    scene: &km_core::Scene,
+    repeats: usize,
+) -> anyhow::Result<(km_core::Solution, Spread)> {
+    let mut times = Vec::new();
+    let mut sol = crate::methods::solve(method, scene)?;
+    times.push(sol.seconds);
+    for _ in 1..repeats.max(1) {
+        sol = crate::methods::solve(method, scene)?;
+        times.push(sol.seconds);
+    }
+    Ok((sol, Spread::of(&times)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spreads_and_ratios() {
+        let s = Spread::of(&[3.0, 1.0, f64::NAN, 2.0, 10.0]);
+        assert_eq!((s.min, s.median, s.max, s.runs), (1.0, 2.5, 10.0, 4));
+        let r = Spread { min: 4.0, median: 6.0, max: 8.0, runs: 3 }.ratio(&Spread {
+            min: 1.0,
+            median: 2.0,
+            max: 4.0,
+            runs: 3,
+        });
+        assert_eq!(r, (3.0, 1.0, 8.0));
+        assert_eq!(ratio_text(r), "3.00x (1.00 to 8.00)");
+        assert_eq!(Spread::of(&[]).runs, 0);
+    }
 
     #[test]
     fn plane_cut_picks_the_nodes_nearest_the_plane() {

@@ -253,12 +253,15 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
                 Mark::Dashed,
                 c + 2,
             ));
-            series.push(Series::new(
-                format!("Monte Carlo {samples:.1e}, eta {eta}"),
-                xy(&|p| p.mc),
-                Mark::Points,
-                c + 3,
-            ));
+            series.push(
+                Series::new(
+                    format!("Monte Carlo {samples:.1e} (± 1 s.e.), eta {eta}"),
+                    xy(&|p| p.mc),
+                    Mark::Points,
+                    c + 3,
+                )
+                .with_y_err(case_pts(eta, g).map(|p| p.mc_se).collect()),
+            );
         }
         let stem = format!("diffusion-limits-total-g{}", if gi == 0 { "0" } else { "09" });
         let chart = LineChart {
@@ -267,7 +270,6 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
             y_label: "R - R_specular".into(),
             x_log: true,
             y_log: true,
-            y_range: Some(headroom(&series)),
             series,
             ..Default::default()
         };
@@ -301,8 +303,6 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
         y_label: "|dipole / reference - 1|".into(),
         x_log: true,
         y_log: true,
-        // Headroom for the legend (upper right, where the errors are small).
-        y_range: Some((1e-6, 1e3)),
         series,
         h_lines: vec![(THRESHOLD, "10 %".into())],
         ..Default::default()
@@ -430,20 +430,6 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     Ok(headline.join(", "))
 }
 
-/// A log-axis range from the data with room above for the legend (upper
-/// right, about 40 % of the plot's height): the top 45 % of the range is empty.
-fn headroom(series: &[Series]) -> (f64, f64) {
-    let v = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
-    let (lo, hi) = v
-        .filter(|y| y.is_finite() && *y > 0.0)
-        .fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
-    if !lo.is_finite() || hi <= 0.0 {
-        return (0.1, 1.0);
-    }
-    let lo = 0.5 * lo;
-    (lo, hi * (hi / lo).powf(0.45 / 0.55))
-}
-
 /// Seconds, compactly.
 fn secs(s: f64) -> String {
     format!("{} s", format_number(s))
@@ -525,24 +511,15 @@ fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
                 mc.r.iter().copied().zip(v.iter().copied()).collect()
             };
             series.push(Series::new(format!("dipole {ch}"), xy(&dip[c]), Mark::Line, col));
-            series.push(Series::new(
-                format!("Monte Carlo {ch} (± 1 s.e.)"),
-                xy(&mc.rd[c]),
-                Mark::Points,
-                col,
-            ));
-            // Error bars: one unlabelled segment per annulus.
-            for i in 0..mc.r.len() {
-                let (v, s) = (mc.rd[c][i], mc.stderr[c][i]);
-                if v > 0.0 && s.is_finite() && s > 0.0 {
-                    series.push(Series::new(
-                        "",
-                        vec![(mc.r[i], (v - s).max(0.1 * v)), (mc.r[i], v + s)],
-                        Mark::Line,
-                        col,
-                    ));
-                }
-            }
+            series.push(
+                Series::new(
+                    format!("Monte Carlo {ch} (± 1 s.e.)"),
+                    xy(&mc.rd[c]),
+                    Mark::Points,
+                    col,
+                )
+                .with_y_err(mc.stderr[c].clone()),
+            );
             // Table row.
             let sp = preset.sigma_s_prime[c];
             let st = sp + preset.sigma_a[c];
@@ -594,11 +571,18 @@ fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
                 format!("{:.3}", entering * dip_tot[c] / mc_tot),
             ]);
         }
+        // The y axis spans the Monte Carlo points (down to a third of the
+        // smallest): the dipole goes on decaying far below what the tracer
+        // resolves, and its lines are cut at the axis.
+        let mc_pos = mc.rd.iter().flatten().copied().filter(|v| v.is_finite() && *v > 0.0);
+        let (lo, hi) = mc_pos.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+        let top = dip.iter().flatten().copied().filter(|v| v.is_finite()).fold(hi, f64::max);
         let chart = LineChart {
             title: format!("Rd(r) of {name}: dipole vs Monte Carlo (R, G, B)"),
             x_label: "r (mm)".into(),
             y_label: "Rd(r) (1/mm^2)".into(),
             y_log: true,
+            y_range: (lo.is_finite() && top > lo).then_some((lo / 3.0, 2.0 * top)),
             series,
             ..Default::default()
         };
@@ -607,7 +591,7 @@ fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
             &stem,
             format!(
                 "Rd(r) of {name}: dipole (lines) against Monte Carlo ({samples:.1e} photons per \
-                 channel, points with ± 1 standard error, lower ends clipped at a tenth of the value); MC \
+                 channel, points with ± 1 standard error, a bar reaching zero cut at the axis; the axis spans the Monte Carlo points, the dipole lines are cut at its bottom); MC \
                  {t_mc:.1} s"
             ),
         );

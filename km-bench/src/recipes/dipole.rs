@@ -41,17 +41,19 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         |v: &[f64]| -> Vec<(f64, f64)> { mc.r.iter().copied().zip(v.iter().copied()).collect() };
     let chart = LineChart {
         title: format!("Rd(r): dipole vs Monte Carlo (albedo {albedo}, n = {n})"),
-        x_label: "r (mean free paths)".into(),
-        y_label: "Rd(r) (1/length^2)".into(),
+        // sigma_t = 1: the unit of length is the mean free path 1/sigma_t.
+        x_label: "r (mean free paths 1/sigma_t)".into(),
+        y_label: "Rd(r) (per mean free path^2)".into(),
         y_log: true,
         series: vec![
             Series::new("dipole (multiple scattering)", pts(rd_dip), Mark::Line, 0),
             Series::new(
-                format!("Monte Carlo {samples:.0e} (all orders)"),
+                format!("Monte Carlo {samples:.0e} (all orders, ± 1 s.e.)"),
                 pts(rd_mc),
                 Mark::Points,
                 3,
-            ),
+            )
+            .with_y_err(se_mc.clone()),
         ],
         ..Default::default()
     };

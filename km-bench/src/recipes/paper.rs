@@ -71,7 +71,7 @@ pub fn fig3(ctx: &mut Ctx) -> anyhow::Result<Section> {
             csv.push_nums(&[k as f64 + 1.0, lam, *a, *x]);
         }
         line.series.push(Series::new(
-            format!("mode {} (lambda = {})", k + 1, format_number(lam)),
+            format!("mode {} (eigenvalue -lambda_{} = {})", k + 1, k + 1, format_number(lam)),
             pts.clone(),
             Mark::LinePoints,
             k,
@@ -139,8 +139,13 @@ pub fn fig4(ctx: &mut Ctx) -> anyhow::Result<Section> {
          while the downward light is the beam alone; deeper, the downward light spreads and \
          everything decays, as the seed describes."
     ));
-    let mut table =
-        Table::new(&["z", "beam flux exp(-sigma_t z)", "downward scattered flux", "upward flux"]);
+    let mut table = Table::new(&[
+        "z (1/sigma_t)",
+        "z (length units)",
+        "beam flux exp(-sigma_t z)",
+        "downward scattered flux",
+        "upward flux",
+    ]);
     for (k, p) in prof.iter().enumerate() {
         let mut pts: Vec<(f64, f64)> = Vec::new();
         let (mut down, mut up) = (0.0, 0.0);
@@ -184,6 +189,7 @@ pub fn fig4(ctx: &mut Ctx) -> anyhow::Result<Section> {
             "fig4",
         );
         table.push(vec![
+            format_number(p.z * sigma_t),
             format_number(p.z),
             format_number(p.direct),
             format_number(down),
@@ -417,7 +423,7 @@ pub fn fig10(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let nd = n_directions(ctx);
     let st = direction_set::seed_truncation_study(nd)?;
     let chart = response_chart(
-        "Fig. 10: exact adding (a) and 0th-order truncation (b)",
+        "Fig. 10: exact adding (solid) and 0th-order truncation (dashed)",
         45.0,
         &[("exact", &st.exact, false), ("0th order", &st.order0, true)],
     );

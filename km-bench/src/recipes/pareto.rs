@@ -30,6 +30,10 @@ pub struct Point {
     pub bound_r: f64,
     /// The same for the BRDF (twice the relative RMS noise).
     pub bound_brdf: f64,
+    /// Relative standard error of R (Monte Carlo; 0 for deterministic methods).
+    pub se_r: f64,
+    /// Relative RMS standard error of the BRDF (Monte Carlo; 0 otherwise).
+    pub se_brdf: f64,
 }
 
 /// Error thresholds of the time-to-reach table.
@@ -69,13 +73,26 @@ fn point(method: Method, scene: &km_core::Scene, r_ref: f64, b_ref: &[f64]) -> O
     };
     let err_r = rel(c.reflectance, r_ref);
     let (mut bound_r, mut bound_brdf) = (err_r, err_brdf);
+    let (mut se_r, mut se_brdf) = (0.0, 0.0);
     if let Some(se) = methods::stderr_of(&sol, "reflectance") {
-        bound_r = bound_r.max(2.0 * se / r_ref.abs());
+        se_r = se / r_ref.abs();
+        bound_r = bound_r.max(2.0 * se_r);
     }
     if let Some(se) = methods::stderr_list(&sol, "brdf") {
-        bound_brdf = bound_brdf.max(2.0 * rel_rms_noise(&se, b_ref));
+        se_brdf = rel_rms_noise(&se, b_ref);
+        bound_brdf = bound_brdf.max(2.0 * se_brdf);
     }
-    Some(Point { method, seconds, err_r, err_brdf, r: c.reflectance, bound_r, bound_brdf })
+    Some(Point {
+        method,
+        seconds,
+        err_r,
+        err_brdf,
+        r: c.reflectance,
+        bound_r,
+        bound_brdf,
+        se_r,
+        se_brdf,
+    })
 }
 
 /// The Pareto study.
@@ -170,9 +187,15 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         ctx.csv(&stem, &mut csv)?;
         // Charts: one per error measure.
         let families = ["km", "multiflux", "neumann", "direction-set", "montecarlo", "dipole"];
-        for (suffix, measure, get) in [
-            ("R", "relative error of R", (|p: &Point| p.err_r) as fn(&Point) -> f64),
-            ("brdf", "relative RMS error of the BRDF", |p: &Point| p.err_brdf),
+        type Get = fn(&Point) -> f64;
+        for (suffix, measure, get, get_se) in [
+            ("R", "relative error of R", (|p: &Point| p.err_r) as Get, (|p: &Point| p.se_r) as Get),
+            (
+                "brdf",
+                "relative RMS error of the BRDF",
+                |p: &Point| p.err_brdf,
+                |p: &Point| p.se_brdf,
+            ),
         ] {
             let mut chart = LineChart {
                 title: format!("{}: {measure} against time", sc.name),
@@ -188,16 +211,25 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
                 ..Default::default()
             };
             for (k, fam) in families.iter().enumerate() {
-                let mut pts: Vec<(f64, f64)> = points
+                let mut pts: Vec<(f64, f64, f64)> = points
                     .iter()
                     .filter(|p| p.method.family() == *fam && get(p).is_finite())
-                    .map(|p| (p.seconds.max(1e-9), get(p).max(ERR_FLOOR)))
+                    .map(|p| (p.seconds.max(1e-9), get(p).max(ERR_FLOOR), get_se(p)))
                     .collect();
                 if pts.is_empty() {
                     continue;
                 }
                 pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                chart.series.push(Series::new(*fam, pts, Mark::LinePoints, k));
+                let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1)).collect();
+                // Monte Carlo: points with their ± 1 standard error (a line
+                // through noisy errors would suggest a trend that is noise).
+                let series = if *fam == "montecarlo" {
+                    Series::new("Monte Carlo (± 1 s.e.)", xy, Mark::Points, k)
+                        .with_y_err(pts.iter().map(|p| p.2).collect())
+                } else {
+                    Series::new(*fam, xy, Mark::LinePoints, k)
+                };
+                chart.series.push(series);
             }
             ctx.chart(&format!("{stem}-{suffix}"), &chart)?;
             sec.figure_data(

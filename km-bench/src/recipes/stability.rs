@@ -12,6 +12,13 @@ use crate::report::{Section, Table};
 use crate::reproduce::{Ctx, Size};
 use crate::scenes::slab;
 
+/// Bottom of the colour scale of the error maps: the rounding level of
+/// `R + T + A - 1` in f64. One ulp of 1 is 2.2e-16 (machine epsilon); the
+/// sum of four rounded terms of order 1 carries a few of them, so 1e-15
+/// (about 4.5 ulp of 1) is the level below which a difference is rounding
+/// noise. Cells at or below it share the darkest colour.
+pub const BALANCE_FLOOR: f64 = 1e-15;
+
 /// The outcome of one cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cell {
@@ -250,9 +257,9 @@ pub fn map(
         y: grid.y.clone(),
         x_log: grid.x_log,
         z: balance,
-        z_label: "|R+T+A-1| + violations".into(),
+        z_label: format!("|R+T+A-1| + violations (floor {BALANCE_FLOOR:.0e})"),
         z_log: true,
-        z_floor: 1e-17,
+        z_floor: BALANCE_FLOOR,
     };
     ctx.chart(&format!("{stem}-balance"), &hm)?;
     stems.push(format!("{stem}-balance"));
@@ -260,7 +267,7 @@ pub fn map(
         let hm = HeatMap {
             title: format!("{method}: |R - R_ref|"),
             z: deviation,
-            z_label: "|R - R_ref|".into(),
+            z_label: format!("|R - R_ref| (floor {BALANCE_FLOOR:.0e})"),
             ..hm
         };
         ctx.chart(&format!("{stem}-deviation"), &hm)?;

@@ -1,0 +1,154 @@
+//! The drawing of every chart of a tiny reproduction, checked on the layout
+//! the chart module records (pixels of the PNG as drawn), not only for
+//! well-formedness:
+//!
+//! * every tick label parses as a number and has at most 4 significant digits;
+//! * no legend box meets a drawn data segment, marker or annotation, and
+//!   every legend lies inside the image;
+//! * every Monte Carlo series (label naming "Monte Carlo" or "MC") has an
+//!   error bar at each of its drawn points.
+//!
+//! The overlap is computed here independently of the chart module's own
+//! placement test (which clips segments exactly): each segment is sampled
+//! every half pixel and each sample tested against the legend box.
+
+use std::path::PathBuf;
+
+use km_bench::chart::{ChartLayout, PixelRect, SIZE};
+use km_bench::{ReproduceOptions, reproduce};
+
+/// A fresh directory under the system temporary directory.
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("km-bench-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Significant digits of a decimal or `m e p` number as written (leading
+/// zeros never count; trailing zeros of an integer mantissa do not count).
+fn significant_digits(label: &str) -> usize {
+    let s = label.trim_start_matches(['-', '+']);
+    let mantissa = s.split(['e', 'E']).next().unwrap_or("");
+    let digits: String = mantissa.chars().filter(|c| c.is_ascii_digit()).collect();
+    let digits = digits.trim_start_matches('0');
+    let digits = if mantissa.contains('.') { digits } else { digits.trim_end_matches('0') };
+    digits.len().max(1)
+}
+
+/// Whether a segment comes within the box, by sampling it every half pixel.
+fn segment_meets(r: &PixelRect, a: (f64, f64), b: (f64, f64)) -> bool {
+    let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+    let n = (len / 0.5).ceil().max(1.0) as usize;
+    (0..=n).any(|k| {
+        let t = k as f64 / n as f64;
+        let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+        x >= r.x0 && x <= r.x1 && y >= r.y0 && y <= r.y1
+    })
+}
+
+/// Every defect of one chart's layout, as text.
+fn defects(l: &ChartLayout) -> Vec<String> {
+    let mut out = Vec::new();
+    for t in l.x_ticks.iter().chain(&l.y_ticks) {
+        if t.parse::<f64>().is_err() {
+            out.push(format!("tick label {t:?} is not a number"));
+        } else if significant_digits(t) > 4 {
+            out.push(format!("tick label {t:?} has more than 4 significant digits"));
+        }
+    }
+    if let Some(r) = &l.legend {
+        let (w, h) = (SIZE.0 as f64, SIZE.1 as f64);
+        if r.x0 < 0.0 || r.y0 < 0.0 || r.x1 > w || r.y1 > h {
+            out.push(format!("legend {r:?} leaves the {w}x{h} image"));
+        }
+        if let Some(s) = l.segments.iter().find(|s| segment_meets(r, s[0], s[1])) {
+            out.push(format!("legend {r:?} meets the segment {s:?}"));
+        }
+        if let Some(m) = l.markers.iter().find(|m| r.meets(m)) {
+            out.push(format!("legend {r:?} meets the marker {m:?}"));
+        }
+        if let Some(t) = l.texts.iter().find(|t| r.meets(t)) {
+            out.push(format!("legend {r:?} meets the annotation {t:?}"));
+        }
+    }
+    for s in &l.series {
+        let lower = s.label.to_lowercase();
+        let mc = lower.contains("monte carlo")
+            || lower.contains("montecarlo")
+            || s.label.split(' ').any(|w| w == "MC");
+        if mc && s.error_bars < s.points {
+            out.push(format!(
+                "Monte Carlo series {:?}: {} of {} points have error bars",
+                s.label, s.error_bars, s.points
+            ));
+        }
+    }
+    out
+}
+
+#[test]
+fn significant_digits_are_counted_as_written() {
+    assert_eq!(significant_digits("0"), 1);
+    assert_eq!(significant_digits("0.001"), 1);
+    assert_eq!(significant_digits("1e-25"), 1);
+    assert_eq!(significant_digits("-2.5e4"), 2);
+    assert_eq!(significant_digits("12000"), 2);
+    assert_eq!(significant_digits("3.1623"), 5);
+    assert_eq!(significant_digits("2.22e-16"), 3);
+    assert_eq!(significant_digits("0.30000000000000004"), 17);
+}
+
+#[test]
+fn the_checks_catch_planted_defects() {
+    // A clean layout, then one defect of each kind planted in it.
+    let clean = ChartLayout {
+        plot: PixelRect { x0: 80.0, y0: 40.0, x1: 780.0, y1: 500.0 },
+        legend: Some(PixelRect { x0: 600.0, y0: 50.0, x1: 770.0, y1: 100.0 }),
+        segments: vec![[(90.0, 400.0), (500.0, 300.0)]],
+        x_ticks: vec!["0".into(), "0.5".into(), "1e-4".into()],
+        y_ticks: vec!["1000".into()],
+        ..Default::default()
+    };
+    assert!(defects(&clean).is_empty(), "{:?}", defects(&clean));
+    let mut l = clean.clone();
+    l.y_ticks.push("2.22e-16".into());
+    l.y_ticks.push("3.1623".into());
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    let mut l = clean.clone();
+    // A line passing under the legend, with both ends outside it.
+    l.segments.push([(550.0, 80.0), (790.0, 60.0)]);
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    let mut l = clean.clone();
+    l.series.push(km_bench::chart::SeriesLayout {
+        label: "Monte Carlo 1e5".into(),
+        points: 10,
+        error_bars: 9,
+    });
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+}
+
+#[test]
+fn every_chart_of_a_tiny_run_is_drawn_without_defects() {
+    let dir = temp_dir("charts");
+    let mut opts = ReproduceOptions::tiny(&dir);
+    opts.quiet = true;
+    let summary = reproduce(&opts).unwrap();
+    assert_eq!(summary.failures(), 0, "failed recipes:\n{summary}");
+    // Every chart written is recorded, with a plotting area and tick labels.
+    let pngs = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "png"))
+        .count();
+    assert_eq!(summary.charts.len(), pngs, "one layout per chart file");
+    let mut all = Vec::new();
+    for l in &summary.charts {
+        assert!(l.plot.x1 > l.plot.x0 && l.plot.y1 > l.plot.y0, "{}: no plotting area", l.stem);
+        assert!(!l.y_ticks.is_empty() || l.kind == "polar", "{}: no tick labels recorded", l.stem);
+        for d in defects(l) {
+            all.push(format!("{}: {d}", l.stem));
+        }
+    }
+    assert!(all.is_empty(), "{} chart defects:\n{}", all.len(), all.join("\n"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
