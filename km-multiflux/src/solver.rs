@@ -98,6 +98,10 @@ pub struct MultifluxOptions {
     /// the streams resolve (`2N - 1`) even for totals, and never cut a thick
     /// layer (`docs/planner.md`). Default false: the plan is obeyed.
     pub all_effects: bool,
+    /// The second-order (IMS) part of the intensity correction at user exit
+    /// directions (`docs/multiflux.md` eq. 5a–5f; Nakajima & Tanaka 1988);
+    /// default true. The single-scattering part (TMS) comes with `delta_m`.
+    pub secondary_correction: bool,
 }
 
 impl Default for MultifluxOptions {
@@ -108,6 +112,7 @@ impl Default for MultifluxOptions {
             max_fourier_order: None,
             delta_m: true,
             all_effects: false,
+            secondary_correction: true,
         }
     }
 }
@@ -141,9 +146,12 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     let mut orders = 0;
     let mut streams = 0;
     let mut cutoff: Option<f64> = None;
+    let mut residual = 0.0f64;
     for ch in &scene.channels {
         streams = streams.max(opts.streams.unwrap_or_else(|| default_streams(ch)));
-        let (res, m) = solve_mono(ch, opts)?;
+        let r = std::cell::Cell::new(0.0);
+        let (res, m) = solve_mono_residual(ch, opts, &r)?;
+        residual = residual.max(r.get());
         orders = orders.max(m);
         channels.push(res);
         if let Some(b) = planned_cutoff(ch, opts).1 {
@@ -161,6 +169,10 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
                  neglected below it is < {b:.1e} of the incident (docs/planner.md eq. PL1)"
             )),
         );
+    }
+    if residual > 0.0 {
+        // Size of the conservation fix-up (docs/multiflux.md eq. 18a).
+        extra.insert("conservation_residual".into(), json!(residual));
     }
     extra.insert("all_effects".into(), json!(opts.all_effects));
     extra.insert("streams".into(), json!(streams));
@@ -186,10 +198,19 @@ struct Scaled {
     chi: Vec<f64>,
     n: f64,
     omega_true: f64,
-    f: f64,
     phase: km_core::phase::Phase,
     /// Delta-M factor on tau, `1 - omega f`.
     factor: f64,
+    /// Apply the second-order (IMS) correction at exit directions.
+    secondary: bool,
+}
+
+impl Scaled {
+    /// The intensity correction of this layer (TMS and IMS, eq. 5–5f) with
+    /// `n_keep` moments kept by delta-M.
+    fn correction(&self, n_keep: usize) -> Tms {
+        Tms::new(self.phase, self.omega_true, n_keep, self.secondary)
+    }
 }
 
 /// Solve one channel; returns the result and the number of Fourier orders used.
@@ -199,6 +220,16 @@ struct Scaled {
 pub fn solve_mono(
     scene: &MonoScene,
     opts: &MultifluxOptions,
+) -> Result<(ChannelResult, usize), MultifluxError> {
+    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0))
+}
+
+/// [`solve_mono`], also reporting in `out_residual` the size of the
+/// conservation fix-up of eq. 18a (0 when none was needed).
+fn solve_mono_residual(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    out_residual: &std::cell::Cell<f64>,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
     scene.validate()?;
     let streams = resolve_streams(scene, opts)?;
@@ -310,9 +341,8 @@ pub fn solve_mono(
         m_used = m;
         let (up, down) = if let Some((b, l)) = lone {
             let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-            let eval = |c: f64| l.phase.eval(c);
-            let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
-            let t = (tms_on && !dirs.is_empty() && m == 0).then_some(&t);
+            let t = (tms_on && !dirs.is_empty() && m == 0).then(|| l.correction(n_keep));
+            let t = t.as_ref();
             let (cr, ct) = slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?;
             (cr, if nodes_sub.is_some() { ct } else { Vec::new() })
         } else {
@@ -395,11 +425,22 @@ pub fn solve_mono(
             (s, d)
         }
     };
+    // Exact conservation (eq. 18a): nothing absorbs when every layer scatters
+    // conservatively and the floor does not absorb.
+    let lossless = layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
+        && (layers.last().is_some_and(|l| l.tau.is_infinite())
+            || match scene.substrate {
+                Substrate::Transparent { .. } => true,
+                Substrate::Lambertian { albedo } => albedo == 1.0,
+                Substrate::Black => false,
+            });
+    let (r_tot, t_tot, a_tot, residual) = conserve(r_tot, t_tot, lossless);
     out.reflectance = r_tot;
     out.reflectance_specular = spec;
     out.transmittance = t_tot;
     out.transmittance_direct = direct;
-    out.absorptance = 1.0 - r_tot - t_tot;
+    out.absorptance = a_tot;
+    out_residual.set(residual);
     let finite = [r_tot, t_tot, spec, direct].iter().all(|x| x.is_finite())
         && out.brdf.iter().chain(&out.btdf).all(|x| x.is_finite());
     if !finite {
@@ -409,6 +450,28 @@ pub fn solve_mono(
         });
     }
     Ok((out, m_used + 1))
+}
+
+/// Totals that obey the bounds exactly (eq. 18a of `docs/multiflux.md`):
+/// returns `(R, T, A, residual)`. In a lossless stack (`lossless`: every layer
+/// conservative, a floor that does not absorb) `A = 0` and `R = 1 - T` by
+/// construction; otherwise `R` and `T` are clamped to `[0, 1]` and, should
+/// rounding make `R + T > 1`, both are divided by `R + T` and `A = 0`.
+/// `residual` is `|R + T + A - 1|` of the computed values before the fix-up
+/// when one was made (the adding's rounding: ~1e-12..1e-10), else 0.
+fn conserve(r: f64, t: f64, lossless: bool) -> (f64, f64, f64, f64) {
+    if lossless {
+        let t = t.clamp(0.0, 1.0);
+        let residual = (r + t - 1.0).abs();
+        return (1.0 - t, t, 0.0, residual);
+    }
+    let (rc, tc) = (r.clamp(0.0, 1.0), t.clamp(0.0, 1.0));
+    let sum = rc + tc;
+    if sum > 1.0 {
+        return (rc / sum, tc / sum, 0.0, (r + t - 1.0).abs());
+    }
+    let residual = if rc != r || tc != t { (rc - r).abs().max((tc - t).abs()) } else { 0.0 };
+    (rc, tc, 1.0 - rc - tc, residual)
 }
 
 /// Delta-M scaling (eq. 4) of every layer, keeping `n_keep` moments.
@@ -425,7 +488,6 @@ fn scale_layers(scene: &MonoScene, opts: &MultifluxOptions, n_keep: usize) -> Ve
                 (chi[..n_keep].to_vec(), omega, 1.0)
             };
             let tau = l.tau();
-            let f = if opts.delta_m { chi[n_keep] } else { 0.0 };
             Scaled {
                 tau: tau * factor,
                 tau_true: tau,
@@ -433,9 +495,9 @@ fn scale_layers(scene: &MonoScene, opts: &MultifluxOptions, n_keep: usize) -> Ve
                 chi: chi_s,
                 n: l.n,
                 omega_true: omega,
-                f,
                 phase: l.phase,
                 factor,
+                secondary: opts.secondary_correction,
             }
         })
         .collect()
@@ -659,9 +721,8 @@ fn stack_operators(
         let nodes = grid.medium(l.n);
         let ex = extras_in(l.n);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-        let eval = |c: f64| l.phase.eval(c);
-        let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
-        let t = (tms && m == 0).then_some(&t);
+        let t = (tms && m == 0).then(|| l.correction(2 * grid.streams));
+        let t = t.as_ref();
         // The plan's `scattering` rule lives in `slab_operators` (a layer that
         // does not scatter is Beer–Lambert attenuation); with all effects every
         // layer of finite positive thickness is eigen-solved.
@@ -793,7 +854,7 @@ fn eigen_operators(
     w: &[f64],
     extras: &[Extra],
     p: &SlabOrder<'_>,
-    tms: Option<&Tms<'_>>,
+    tms: Option<&Tms>,
 ) -> Result<LayerOperators, MultifluxError> {
     Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
 }
