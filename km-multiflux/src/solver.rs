@@ -42,6 +42,10 @@ pub const DEFAULT_STREAMS_HARD: usize = 32;
 /// [`default_streams`].
 pub const DEFAULT_STREAMS_PEAKED: usize = 128;
 
+/// Default when exit directions are asked for in a layer with `|g| > 0.9`
+/// (BRDF/BTDF within 1 % up to g = 0.95; see [`default_streams`]).
+pub const DEFAULT_STREAMS_ANGULAR: usize = 48;
+
 /// The stream count used when the options give none: [`DEFAULT_STREAMS`], or
 /// [`DEFAULT_STREAMS_HARD`] for the slow corners (measured: |g| = 0.9 in an
 /// index of 1.5 or 2.5 is 1.2e-3 from converged at 16 streams, 3e-5 at 32;
@@ -53,8 +57,13 @@ pub const DEFAULT_STREAMS_PEAKED: usize = 128;
 /// at incidence beyond 80 degrees on an index-matched stack
 /// [`DEFAULT_STREAMS_PEAKED`] (89 degrees: 2e-2 at 16 streams, 2e-3 at 32,
 /// 1.5e-3 at 64, 9e-5 at 128 for w = 0.99, 1.5e-4 for w = 0.5; 4.5 ms).
-/// Not raised: with BRDF/BTDF directions (all `2N` Fourier orders are
-/// needed there: 1 s at 128 streams), and with refractive interfaces, where 128 streams (2-4 N
+/// With BRDF/BTDF directions the answer is the angular distribution and the
+/// rule follows its convergence (measured against DISORT at 256 streams, the
+/// worst value of 48 slabs at 30-85 degrees, `docs/multiflux.md` §8): 32
+/// streams for `0.8 < |g| <= 0.9`, [`DEFAULT_STREAMS_ANGULAR`] beyond; totals
+/// alone keep the rules above. [`DEFAULT_STREAMS_PEAKED`] is not taken with
+/// directions (all `2N` Fourier orders are
+/// needed there: 1 s at 128 streams), nor with refractive interfaces, where 128 streams (2-4 N
 /// nodes per medium) lose energy balance to 1e-8..4e-7, beyond the
 /// 1e-9 the solver otherwise keeps (g = 0.99 in n = 1.5 stays ~1e-3 off at
 /// 32 streams; ask for `streams` explicitly to trade).
@@ -67,9 +76,18 @@ pub fn default_streams(scene: &MonoScene) -> usize {
     let very_peaked = scene.layers.iter().any(|l| l.g().abs() > 0.95 && l.albedo() > 0.0);
     let matched = scene.layers.iter().all(|l| l.n == scene.ambient_n)
         && !matches!(scene.substrate, Substrate::Transparent { n } if n != scene.ambient_n);
-    if very_peaked && grazing && matched && scene.directions_deg.is_empty() {
+    // Exit directions asked for (BRDF/BTDF within 1 % or 1e-4 for |g| <= 0.95
+    // up to 85 degrees; `docs/multiflux.md` §8, table 8b): 48 streams beyond
+    // |g| = 0.9 (g = 0.95: 1.0e-2 worst at 32, 1.2e-3 at 48), 32 beyond 0.8
+    // (g = 0.9: 8.3e-4 at 24, 1.0e-4 at 32; g = 0.8: 6.9e-5 at 16).
+    let angles = !scene.directions_deg.is_empty();
+    let max_g =
+        scene.layers.iter().filter(|l| l.albedo() > 0.0).fold(0.0f64, |a, l| a.max(l.g().abs()));
+    if angles && max_g > 0.9 {
+        DEFAULT_STREAMS_ANGULAR
+    } else if very_peaked && grazing && matched && !angles {
         DEFAULT_STREAMS_PEAKED
-    } else if grazing || peaked_mismatch || very_peaked {
+    } else if grazing || peaked_mismatch || very_peaked || (angles && max_g > 0.8) {
         DEFAULT_STREAMS_HARD
     } else {
         DEFAULT_STREAMS
