@@ -2,7 +2,7 @@
 //! directions (Nakajima & Tanaka 1988; DISORT v2+, Stamnes et al. 2000
 //! §3.6): the exact single scattering (TMS) and the second-order correction
 //! of the forward peak (IMS), for one homogeneous layer, in the layer's own
-//! frame (eq. 5, 5a–5f of `docs/multiflux.md`).
+//! frame (eq. 5 and 5a–5h of `docs/multiflux.md`).
 //!
 //! Delta-M (Wiscombe 1977) writes the phase function of a layer as
 //!
@@ -57,9 +57,9 @@ pub const IMS_CONE_DEG: f64 = 10.0;
 /// beam of unit irradiance on a horizontal plane, at any exit direction.
 ///
 /// # Reference
-/// Nakajima & Tanaka 1988, J. Quant. Spectrosc. Radiat. Transfer 40, 51–69,
-/// eq. 14–15 (TMS) and 36–39 (IMS); Stamnes et al. 2000 (DISORT report v1.1)
-/// eq. 68 and A7–A19.
+/// Nakajima & Tanaka 1988, J. Quant. Spectrosc. Radiat. Transfer 40, 51–69
+/// (the TMS and IMS methods); Stamnes, Tsay, Wiscombe & Laszlo 2000 (DISORT
+/// report v1.1) eq. 68 (TMS), A7, A13, A15 and 72 (IMS, `xi`).
 #[derive(Debug, Clone)]
 pub struct PeakCorrection {
     /// The exact phase function.
@@ -217,6 +217,18 @@ fn legendre_sums3(c: f64, n: usize, chi: &[f64]) -> (f64, f64, f64) {
 /// (eq. C4; Stamnes et al. 2000 eq. 72), without cancellation: with
 /// `a = (1/mu2 - 1/mu1) tau`, the integral is `tau^2 e^{-tau/mu1} h(a)`,
 /// `h(a) = (1 - (1 + a) e^{-a})/a^2` (series `1/2 - a/3 + a^2/8 - ...` for small `|a|`).
+/// Domain: `mu1, mu2 > 0`, `tau >= 0` finite.
+///
+/// # Reference
+/// Stamnes, Tsay, Wiscombe & Laszlo 2000 (DISORT report v1.1), eq. 72.
+///
+/// ```
+/// use km_multiflux::correction::xi;
+/// // Equal cosines: tau^2 e^{-tau/mu} / (2 mu^2).
+/// let (mu, tau) = (0.6f64, 1.5f64);
+/// let exact = tau * tau * (-tau / mu).exp() / (2.0 * mu * mu);
+/// assert!((xi(mu, mu, tau) - exact).abs() < 1e-15);
+/// ```
 pub fn xi(mu1: f64, mu2: f64, tau: f64) -> f64 {
     let y = 1.0 / mu2 - 1.0 / mu1;
     let a = y * tau;

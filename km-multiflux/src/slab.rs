@@ -70,7 +70,7 @@ pub struct Extra {
 }
 
 /// The intensity correction of the beam into the probes (TMS and IMS,
-/// Nakajima & Tanaka 1988; eq. 5 and 5a–5f of `docs/multiflux.md`), applied in
+/// Nakajima & Tanaka 1988; eq. 5 and 5a–5h of `docs/multiflux.md`), applied in
 /// the `m = 0` operators: [`crate::correction::PeakCorrection`].
 pub type Tms = crate::correction::PeakCorrection;
 
@@ -782,7 +782,7 @@ impl SlabSolution {
             let mut out_up = up * beta * phi(kb + beta, self.tau);
             let mut out_dn = dn * beta * e2(kb, beta, self.tau);
             if let (Some(t), 0) = (tms, self.m) {
-                // Eq. 5 and 5a-5f of docs/multiflux.md: exact single scattering
+                // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
                 // (TMS) and the forward peak's second order (IMS), real space.
                 let (du, dd) = t.radiance(mu_b, mu_x, exx.phi_deg, self.tau);
                 out_up += du;

@@ -117,7 +117,7 @@ pub struct MultifluxOptions {
     /// layer (`docs/planner.md`). Default false: the plan is obeyed.
     pub all_effects: bool,
     /// The second-order (IMS) part of the intensity correction at user exit
-    /// directions (`docs/multiflux.md` eq. 5a–5f; Nakajima & Tanaka 1988);
+    /// directions (`docs/multiflux.md` eq. 5a–5e; Nakajima & Tanaka 1988);
     /// default true. The single-scattering part (TMS) comes with `delta_m`.
     pub secondary_correction: bool,
 }
@@ -224,7 +224,7 @@ struct Scaled {
 }
 
 impl Scaled {
-    /// The intensity correction of this layer (TMS and IMS, eq. 5–5f) with
+    /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
     /// `n_keep` moments kept by delta-M.
     fn correction(&self, n_keep: usize) -> Tms {
         Tms::new(self.phase, self.omega_true, n_keep, self.secondary)

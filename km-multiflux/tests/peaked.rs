@@ -117,7 +117,7 @@ fn secondary_correction_repairs_the_forward_peak() {
 /// hemisphere inside the layer; measured 128 vs 48 streams: <= 5e-4 on these
 /// cases, so the reference is converged well below the 1 % tested). The
 /// correction acts inside the layer on the refracted beam and directions and
-/// reaches the outside through the interface operators (eq. 5g-5i).
+/// reaches the outside through the interface operators (eq. 5f-5h).
 #[test]
 fn fresnel_interface_against_many_streams() {
     for (g, th, tau, w) in [(0.9, 60.0, 0.5, 0.99), (0.95, 30.0, 2.0, 0.9)] {
