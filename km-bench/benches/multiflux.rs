@@ -2,7 +2,8 @@
 //! one layer at N = 8, 16, 32, 64 streams per hemisphere, totals only
 //! (Fourier order 0) and a full BRDF/BTDF (all Fourier orders the phase
 //! function needs, 5 exit directions); a 3-layer stack with interfaces
-//! (totals); the seed 000 §4.4 scene (Fresnel surface, layer, Lambertian 0.8).
+//! (totals); the seed 000 §4.4 scene (Fresnel surface, layer, Lambertian 0.8);
+//! the intensity correction (TMS + IMS) of one exit direction.
 //!
 //! Short run: `cargo bench -p km-bench --bench multiflux -- --warm-up-time 1 --measurement-time 2`.
 
@@ -31,6 +32,22 @@ fn bench(c: &mut Criterion) {
         });
         g.bench_with_input(BenchmarkId::new("full brdf", n), &n, |b, _| {
             b.iter(|| solve(black_box(&brdf), &o).expect("solve"))
+        });
+    }
+    g.finish();
+
+    // The intensity correction of one exit direction inside the forward cone
+    // (both terms evaluated): g = 0.95, 2N moments.
+    let mut g = c.benchmark_group("multiflux correction per exit direction");
+    for n in [16usize, 48] {
+        let pc = km_multiflux::correction::PeakCorrection::new(
+            km_core::phase::Phase::HenyeyGreenstein { g: 0.95 },
+            0.9,
+            2 * n,
+            true,
+        );
+        g.bench_with_input(BenchmarkId::new("tms+ims", n), &n, |b, _| {
+            b.iter(|| pc.radiance(black_box(0.8), black_box(0.75), black_box(170.0), 1.5))
         });
     }
     g.finish();

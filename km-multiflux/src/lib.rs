@@ -12,6 +12,8 @@
 //! * [`slab`]: one homogeneous layer and Fourier order (seed eq. 17–20): the
 //!   half-size symmetric eigenproblem, scaled so no exponential grows, the
 //!   collimated beam's particular solution, exit directions of any angle.
+//! * [`correction`]: the intensity correction for peaked phase functions at
+//!   exit directions (TMS and IMS, Nakajima & Tanaka 1988).
 //! * [`interface`]: Fresnel interfaces and Lambertian substrates as layers (seed §3.4).
 //! * [`quadrature`]: double-Gauss quadratures per medium, mapped under Snell.
 //! * [`legendre`]: Fourier components of the phase function, delta-M.
@@ -20,6 +22,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod adding;
+pub mod correction;
 pub mod direction_set;
 pub mod error;
 pub mod flatland;
@@ -31,6 +34,6 @@ pub mod solver;
 
 pub use error::MultifluxError;
 pub use solver::{
-    DEFAULT_STREAMS, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED, InternalField, MultifluxOptions,
-    default_streams, internal_field, solve, solve_mono,
+    DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED,
+    InternalField, MultifluxOptions, default_streams, internal_field, solve, solve_mono,
 };

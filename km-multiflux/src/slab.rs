@@ -69,19 +69,10 @@ pub struct Extra {
     pub phi_deg: f64,
 }
 
-/// Exact single-scattering correction of the beam into the probes (TMS,
-/// Nakajima & Tanaka 1988, eq. 5 of `docs/multiflux.md`), applied in the
-/// `m = 0` operators: the single scattering computed with the truncated,
-/// delta-M scaled phase function is replaced by `omega p(cos Theta) / (1 - omega f)`
-/// with the exact phase function, along the scaled optical path.
-pub struct Tms<'a> {
-    /// The exact phase function `p(cos Theta)` (1/sr).
-    pub phase: &'a dyn Fn(f64) -> f64,
-    /// Unscaled single-scattering albedo.
-    pub omega: f64,
-    /// Delta-M truncation fraction `f`.
-    pub f: f64,
-}
+/// The intensity correction of the beam into the probes (TMS and IMS,
+/// Nakajima & Tanaka 1988; eq. 5 and 5a–5h of `docs/multiflux.md`), applied in
+/// the `m = 0` operators: [`crate::correction::PeakCorrection`].
+pub type Tms = crate::correction::PeakCorrection;
 
 /// The optical properties of a layer for one Fourier order.
 #[derive(Debug, Clone, Copy)]
@@ -748,7 +739,7 @@ impl SlabSolution {
         mu_b: f64,
         extras: &[Extra],
         rows: &[Option<Probe>],
-        tms: Option<&Tms<'_>>,
+        tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let dim = n + extras.len();
@@ -788,32 +779,15 @@ impl SlabSolution {
             }
             let beta = 1.0 / mu_x;
             let kb = 1.0 / mu_b;
-            if let (Some(t), 0) = (tms, self.m) {
-                // Eq. 5 of docs/multiflux.md: exact minus truncated single scattering (real space).
-                let (sx, sb) =
-                    ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
-                let cphi = (exx.phi_deg - 180.0).to_radians().cos();
-                let fix = |cos_t: f64| {
-                    let cos_t = cos_t.clamp(-1.0, 1.0);
-                    let exact = t.omega * (t.phase)(cos_t) / (1.0 - t.omega * t.f);
-                    // Truncated: omega* sum_l (2l+1) chi*_l P_l / (4 pi).
-                    let (mut p0, mut p1, mut sum) = (1.0, cos_t, self.chi[0]);
-                    if self.chi.len() > 1 {
-                        sum += self.chi[1] * p1;
-                    }
-                    for l in 2..self.chi.len() {
-                        let p2 = ((2 * l - 1) as f64 * cos_t * p1 - (l - 1) as f64 * p0) / l as f64;
-                        sum += self.chi[l] * p2;
-                        p0 = p1;
-                        p1 = p2;
-                    }
-                    (exact - self.omega * sum / (4.0 * std::f64::consts::PI)) / mu_b
-                };
-                up += fix(-mu_x * mu_b + sx * sb * cphi);
-                dn += fix(mu_x * mu_b + sx * sb * cphi);
-            }
             let mut out_up = up * beta * phi(kb + beta, self.tau);
             let mut out_dn = dn * beta * e2(kb, beta, self.tau);
+            if let (Some(t), 0) = (tms, self.m) {
+                // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
+                // (TMS) and the forward peak's second order (IMS), real space.
+                let (du, dd) = t.radiance(mu_b, mu_x, exx.phi_deg, self.tau);
+                out_up += du;
+                out_dn += dd;
+            }
             // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b), and
             // T_xq a + R_xq b with the sign of the second term flipped
             // (nothing leaves the bottom of a half-space).
@@ -929,7 +903,7 @@ impl SlabSolution {
     /// The operators on the augmented space `[nodes, extras]` (same layout for
     /// down- and up-going vectors; the layer is symmetric, so `r_bottom = r_top`
     /// and `t_up = t_down`).
-    pub fn operators(&self, extras: &[Extra], tms: Option<&Tms<'_>>) -> LayerOperators {
+    pub fn operators(&self, extras: &[Extra], tms: Option<&Tms>) -> LayerOperators {
         let n = self.n;
         let dim = n + extras.len();
         let mut rr = Mat::<f64>::zeros(dim, dim);
@@ -980,7 +954,7 @@ impl SlabSolution {
         &self,
         extras: &[Extra],
         eb: usize,
-        tms: Option<&Tms<'_>>,
+        tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let dim = n + extras.len();
@@ -1019,7 +993,7 @@ impl SlabSolution {
         mu_b: f64,
         extras: &[Extra],
         rows: &[Option<Probe>],
-        tms: Option<&Tms<'_>>,
+        tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
         // Eq. S6 is singular at k_j mu_b = 1 (the full response is not): at
         // an exact resonance (|k mu_b - 1| < 1e-9, a set of measure zero)
@@ -1166,7 +1140,7 @@ pub fn slab_operators(
     w: &[f64],
     extras: &[Extra],
     p: &SlabOrder<'_>,
-    tms: Option<&Tms<'_>>,
+    tms: Option<&Tms>,
 ) -> Result<LayerOperators, MultifluxError> {
     let scatters =
         p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
@@ -1190,7 +1164,7 @@ pub fn slab_beam_response(
     extras: &[Extra],
     eb: usize,
     p: &SlabOrder<'_>,
-    tms: Option<&Tms<'_>>,
+    tms: Option<&Tms>,
 ) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
     let scatters =
         p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);

@@ -42,6 +42,10 @@ pub const DEFAULT_STREAMS_HARD: usize = 32;
 /// [`default_streams`].
 pub const DEFAULT_STREAMS_PEAKED: usize = 128;
 
+/// Default when exit directions are asked for in a layer with `|g| > 0.9`
+/// (BRDF/BTDF within 1 % up to g = 0.95; see [`default_streams`]).
+pub const DEFAULT_STREAMS_ANGULAR: usize = 48;
+
 /// The stream count used when the options give none: [`DEFAULT_STREAMS`], or
 /// [`DEFAULT_STREAMS_HARD`] for the slow corners (measured: |g| = 0.9 in an
 /// index of 1.5 or 2.5 is 1.2e-3 from converged at 16 streams, 3e-5 at 32;
@@ -53,8 +57,13 @@ pub const DEFAULT_STREAMS_PEAKED: usize = 128;
 /// at incidence beyond 80 degrees on an index-matched stack
 /// [`DEFAULT_STREAMS_PEAKED`] (89 degrees: 2e-2 at 16 streams, 2e-3 at 32,
 /// 1.5e-3 at 64, 9e-5 at 128 for w = 0.99, 1.5e-4 for w = 0.5; 4.5 ms).
-/// Not raised: with BRDF/BTDF directions (all `2N` Fourier orders are
-/// needed there: 1 s at 128 streams), and with refractive interfaces, where 128 streams (2-4 N
+/// With BRDF/BTDF directions the answer is the angular distribution and the
+/// rule follows its convergence (measured against DISORT at 256 streams, the
+/// worst value of 48 slabs at 30-85 degrees, `docs/multiflux.md` §8): 32
+/// streams for `0.8 < |g| <= 0.9`, [`DEFAULT_STREAMS_ANGULAR`] beyond; totals
+/// alone keep the rules above. [`DEFAULT_STREAMS_PEAKED`] is not taken with
+/// directions (all `2N` Fourier orders are
+/// needed there: 1 s at 128 streams), nor with refractive interfaces, where 128 streams (2-4 N
 /// nodes per medium) lose energy balance to 1e-8..4e-7, beyond the
 /// 1e-9 the solver otherwise keeps (g = 0.99 in n = 1.5 stays ~1e-3 off at
 /// 32 streams; ask for `streams` explicitly to trade).
@@ -67,9 +76,18 @@ pub fn default_streams(scene: &MonoScene) -> usize {
     let very_peaked = scene.layers.iter().any(|l| l.g().abs() > 0.95 && l.albedo() > 0.0);
     let matched = scene.layers.iter().all(|l| l.n == scene.ambient_n)
         && !matches!(scene.substrate, Substrate::Transparent { n } if n != scene.ambient_n);
-    if very_peaked && grazing && matched && scene.directions_deg.is_empty() {
+    // Exit directions asked for (BRDF/BTDF within 1 % or 1e-4 for |g| <= 0.95
+    // up to 85 degrees; `docs/multiflux.md` §8, table 8b): 48 streams beyond
+    // |g| = 0.9 (g = 0.95: 1.0e-2 worst at 32, 1.2e-3 at 48), 32 beyond 0.8
+    // (g = 0.9: 8.3e-4 at 24, 1.0e-4 at 32; g = 0.8: 6.9e-5 at 16).
+    let angles = !scene.directions_deg.is_empty();
+    let max_g =
+        scene.layers.iter().filter(|l| l.albedo() > 0.0).fold(0.0f64, |a, l| a.max(l.g().abs()));
+    if angles && max_g > 0.9 {
+        DEFAULT_STREAMS_ANGULAR
+    } else if very_peaked && grazing && matched && !angles {
         DEFAULT_STREAMS_PEAKED
-    } else if grazing || peaked_mismatch || very_peaked {
+    } else if grazing || peaked_mismatch || very_peaked || (angles && max_g > 0.8) {
         DEFAULT_STREAMS_HARD
     } else {
         DEFAULT_STREAMS
@@ -98,6 +116,10 @@ pub struct MultifluxOptions {
     /// the streams resolve (`2N - 1`) even for totals, and never cut a thick
     /// layer (`docs/planner.md`). Default false: the plan is obeyed.
     pub all_effects: bool,
+    /// The second-order (IMS) part of the intensity correction at user exit
+    /// directions (`docs/multiflux.md` eq. 5a–5e; Nakajima & Tanaka 1988);
+    /// default true. The single-scattering part (TMS) comes with `delta_m`.
+    pub secondary_correction: bool,
 }
 
 impl Default for MultifluxOptions {
@@ -108,6 +130,7 @@ impl Default for MultifluxOptions {
             max_fourier_order: None,
             delta_m: true,
             all_effects: false,
+            secondary_correction: true,
         }
     }
 }
@@ -141,9 +164,12 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     let mut orders = 0;
     let mut streams = 0;
     let mut cutoff: Option<f64> = None;
+    let mut residual = 0.0f64;
     for ch in &scene.channels {
         streams = streams.max(opts.streams.unwrap_or_else(|| default_streams(ch)));
-        let (res, m) = solve_mono(ch, opts)?;
+        let r = std::cell::Cell::new(0.0);
+        let (res, m) = solve_mono_residual(ch, opts, &r)?;
+        residual = residual.max(r.get());
         orders = orders.max(m);
         channels.push(res);
         if let Some(b) = planned_cutoff(ch, opts).1 {
@@ -161,6 +187,10 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
                  neglected below it is < {b:.1e} of the incident (docs/planner.md eq. PL1)"
             )),
         );
+    }
+    if residual > 0.0 {
+        // Size of the conservation fix-up (docs/multiflux.md eq. 18a).
+        extra.insert("conservation_residual".into(), json!(residual));
     }
     extra.insert("all_effects".into(), json!(opts.all_effects));
     extra.insert("streams".into(), json!(streams));
@@ -186,10 +216,19 @@ struct Scaled {
     chi: Vec<f64>,
     n: f64,
     omega_true: f64,
-    f: f64,
     phase: km_core::phase::Phase,
     /// Delta-M factor on tau, `1 - omega f`.
     factor: f64,
+    /// Apply the second-order (IMS) correction at exit directions.
+    secondary: bool,
+}
+
+impl Scaled {
+    /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
+    /// `n_keep` moments kept by delta-M.
+    fn correction(&self, n_keep: usize) -> Tms {
+        Tms::new(self.phase, self.omega_true, n_keep, self.secondary)
+    }
 }
 
 /// Solve one channel; returns the result and the number of Fourier orders used.
@@ -199,6 +238,16 @@ struct Scaled {
 pub fn solve_mono(
     scene: &MonoScene,
     opts: &MultifluxOptions,
+) -> Result<(ChannelResult, usize), MultifluxError> {
+    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0))
+}
+
+/// [`solve_mono`], also reporting in `out_residual` the size of the
+/// conservation fix-up of eq. 18a (0 when none was needed).
+fn solve_mono_residual(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    out_residual: &std::cell::Cell<f64>,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
     scene.validate()?;
     let streams = resolve_streams(scene, opts)?;
@@ -310,9 +359,8 @@ pub fn solve_mono(
         m_used = m;
         let (up, down) = if let Some((b, l)) = lone {
             let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-            let eval = |c: f64| l.phase.eval(c);
-            let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
-            let t = (tms_on && !dirs.is_empty() && m == 0).then_some(&t);
+            let t = (tms_on && !dirs.is_empty() && m == 0).then(|| l.correction(n_keep));
+            let t = t.as_ref();
             let (cr, ct) = slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?;
             (cr, if nodes_sub.is_some() { ct } else { Vec::new() })
         } else {
@@ -395,11 +443,22 @@ pub fn solve_mono(
             (s, d)
         }
     };
+    // Exact conservation (eq. 18a): nothing absorbs when every layer scatters
+    // conservatively and the floor does not absorb.
+    let lossless = layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
+        && (layers.last().is_some_and(|l| l.tau.is_infinite())
+            || match scene.substrate {
+                Substrate::Transparent { .. } => true,
+                Substrate::Lambertian { albedo } => albedo == 1.0,
+                Substrate::Black => false,
+            });
+    let (r_tot, t_tot, a_tot, residual) = conserve(r_tot, t_tot, lossless);
     out.reflectance = r_tot;
     out.reflectance_specular = spec;
     out.transmittance = t_tot;
     out.transmittance_direct = direct;
-    out.absorptance = 1.0 - r_tot - t_tot;
+    out.absorptance = a_tot;
+    out_residual.set(residual);
     let finite = [r_tot, t_tot, spec, direct].iter().all(|x| x.is_finite())
         && out.brdf.iter().chain(&out.btdf).all(|x| x.is_finite());
     if !finite {
@@ -409,6 +468,28 @@ pub fn solve_mono(
         });
     }
     Ok((out, m_used + 1))
+}
+
+/// Totals that obey the bounds exactly (eq. 18a of `docs/multiflux.md`):
+/// returns `(R, T, A, residual)`. In a lossless stack (`lossless`: every layer
+/// conservative, a floor that does not absorb) `A = 0` and `R = 1 - T` by
+/// construction; otherwise `R` and `T` are clamped to `[0, 1]` and, should
+/// rounding make `R + T > 1`, both are divided by `R + T` and `A = 0`.
+/// `residual` is `|R + T + A - 1|` of the computed values before the fix-up
+/// when one was made (the adding's rounding: ~1e-12..1e-10), else 0.
+fn conserve(r: f64, t: f64, lossless: bool) -> (f64, f64, f64, f64) {
+    if lossless {
+        let t = t.clamp(0.0, 1.0);
+        let residual = (r + t - 1.0).abs();
+        return (1.0 - t, t, 0.0, residual);
+    }
+    let (rc, tc) = (r.clamp(0.0, 1.0), t.clamp(0.0, 1.0));
+    let sum = rc + tc;
+    if sum > 1.0 {
+        return (rc / sum, tc / sum, 0.0, (r + t - 1.0).abs());
+    }
+    let residual = if rc != r || tc != t { (rc - r).abs().max((tc - t).abs()) } else { 0.0 };
+    (rc, tc, 1.0 - rc - tc, residual)
 }
 
 /// Delta-M scaling (eq. 4) of every layer, keeping `n_keep` moments.
@@ -425,7 +506,6 @@ fn scale_layers(scene: &MonoScene, opts: &MultifluxOptions, n_keep: usize) -> Ve
                 (chi[..n_keep].to_vec(), omega, 1.0)
             };
             let tau = l.tau();
-            let f = if opts.delta_m { chi[n_keep] } else { 0.0 };
             Scaled {
                 tau: tau * factor,
                 tau_true: tau,
@@ -433,9 +513,9 @@ fn scale_layers(scene: &MonoScene, opts: &MultifluxOptions, n_keep: usize) -> Ve
                 chi: chi_s,
                 n: l.n,
                 omega_true: omega,
-                f,
                 phase: l.phase,
                 factor,
+                secondary: opts.secondary_correction,
             }
         })
         .collect()
@@ -659,9 +739,8 @@ fn stack_operators(
         let nodes = grid.medium(l.n);
         let ex = extras_in(l.n);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-        let eval = |c: f64| l.phase.eval(c);
-        let t = Tms { phase: &eval, omega: l.omega_true, f: l.f };
-        let t = (tms && m == 0).then_some(&t);
+        let t = (tms && m == 0).then(|| l.correction(2 * grid.streams));
+        let t = t.as_ref();
         // The plan's `scattering` rule lives in `slab_operators` (a layer that
         // does not scatter is Beer–Lambert attenuation); with all effects every
         // layer of finite positive thickness is eigen-solved.
@@ -793,7 +872,7 @@ fn eigen_operators(
     w: &[f64],
     extras: &[Extra],
     p: &SlabOrder<'_>,
-    tms: Option<&Tms<'_>>,
+    tms: Option<&Tms>,
 ) -> Result<LayerOperators, MultifluxError> {
     Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
 }
