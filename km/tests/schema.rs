@@ -73,29 +73,30 @@ fn check(root: &Value, s: &Value, v: &Value, path: &str, out: &mut Vec<String>) 
             return;
         }
     }
-    if let Some(c) = s.get("const") {
-        if c != v {
-            out.push(format!("{path}: {v} != {c}"));
-        }
+    if let Some(c) = s.get("const")
+        && c != v
+    {
+        out.push(format!("{path}: {v} != {c}"));
     }
-    if let Some(e) = s.get("enum").and_then(Value::as_array) {
-        if !e.contains(v) {
-            out.push(format!("{path}: {v} not in {e:?}"));
-        }
+    if let Some(e) = s.get("enum").and_then(Value::as_array)
+        && !e.contains(v)
+    {
+        out.push(format!("{path}: {v} not in {e:?}"));
     }
-    if let (Some(m), Some(x)) = (s.get("minimum").and_then(Value::as_f64), v.as_f64()) {
-        if x < m {
-            out.push(format!("{path}: {x} < {m}"));
-        }
+    if let (Some(m), Some(x)) = (s.get("minimum").and_then(Value::as_f64), v.as_f64())
+        && x < m
+    {
+        out.push(format!("{path}: {x} < {m}"));
     }
-    if let Some(any) = s.get("anyOf").and_then(Value::as_array) {
-        if !any.iter().any(|a| {
-            let mut e = Vec::new();
-            check(root, a, v, path, &mut e);
-            e.is_empty()
-        }) {
-            out.push(format!("{path}: {v} matches none of anyOf"));
-        }
+    let matches = |a: &Value| {
+        let mut e = Vec::new();
+        check(root, a, v, path, &mut e);
+        e.is_empty()
+    };
+    if let Some(any) = s.get("anyOf").and_then(Value::as_array)
+        && !any.iter().any(matches)
+    {
+        out.push(format!("{path}: {v} matches none of anyOf"));
     }
     if let (Some(items), Some(a)) = (s.get("items"), v.as_array()) {
         for (i, x) in a.iter().enumerate() {
