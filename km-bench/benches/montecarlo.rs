@@ -59,7 +59,7 @@ fn figure_of_merit() {
                 (0..3).map(|_| solve(&scene, &opts(samples, est)).expect("valid scene")).collect();
             let t = runs.iter().map(|s| s.seconds).fold(f64::INFINITY, f64::min);
             let sol = &runs[0];
-            let se = sol.channels[0].stderr.as_ref().and_then(|m| m["reflectance"].as_f64());
+            let se = sol.channels[0].stderr.as_ref().and_then(|m| m.get("reflectance"));
             let se = se.unwrap_or(f64::NAN);
             let ev = sol.extra["mc"]["interactions"].as_f64().unwrap_or(f64::NAN);
             println!(
