@@ -2,6 +2,10 @@
 //!
 //! Thin: parse the command line and the scene file, call the libraries, print.
 
+mod fit;
+#[cfg(km_fit_km)]
+#[rustfmt::skip]
+mod fit_km;
 mod methods;
 mod output;
 
@@ -48,6 +52,8 @@ km solve examples/marble-half-space.toml --method dipole\n  \
 km solve examples/cloud-deck.toml --method multiflux --tolerance 1e-4 --json"
     )]
     Solve(SolveArgs),
+    /// Optical properties from measured reflectance and transmittance (the inverse problem).
+    Fit(fit::FitArgs),
     /// Combine Monte Carlo shard files into the result of one run.
     #[command(
         after_help = "Example:\n  km merge part0.json part1.json part2.json part3.json --json"
@@ -353,6 +359,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Fit(args) => fit::run(&args),
         Command::Check { scene } => {
             let s = km_core::Scene::from_path(&scene)?;
             print!("{}", output::describe(&s));
