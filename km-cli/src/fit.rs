@@ -218,26 +218,40 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 meas.sigma_t = meas.sigma_t.or(args.sigma_t);
                 meas.sigma_u = meas.sigma_u.or(args.sigma_u);
                 let o = FitOptions { g: row.g.or(opts.g), ..opts };
-                let r = km_inverse::fit(&setup, &meas, &o).with_context(|| {
-                    match row.wavelength_nm {
-                        Some(w) => format!("at {w} nm"),
-                        None => "at a row".to_string(),
-                    }
-                })?;
-                results.push((row.wavelength_nm, r));
+                // A bad row (e.g. M_T = 0) is reported in its place; the others are fitted.
+                results.push((row.wavelength_nm, km_inverse::fit(&setup, &meas, &o)));
             }
+            let failed = results.iter().filter(|(_, r)| r.is_err()).count();
             if args.json {
                 let list: Vec<serde_json::Value> = results
                     .iter()
-                    .map(|(w, r)| {
-                        let mut v = r.to_json();
-                        v["wavelength_nm"] = json!(w);
-                        v
+                    .map(|(w, r)| match r {
+                        Ok(r) => {
+                            let mut v = r.to_json();
+                            v["wavelength_nm"] = json!(w);
+                            v
+                        }
+                        Err(e) => json!({
+                            "wavelength_nm": w, "status": "invalid", "error": e.to_string()
+                        }),
                     })
                     .collect();
                 println!("{}", serde_json::to_string_pretty(&list)?);
             } else {
-                print!("{}", table(&results));
+                let ok: Vec<(Option<f64>, FitResult)> = results
+                    .iter()
+                    .filter_map(|(w, r)| r.as_ref().ok().map(|r| (*w, r.clone())))
+                    .collect();
+                print!("{}", table(&ok));
+                for (w, r) in &results {
+                    if let Err(e) = r {
+                        let w = w.map_or("-".to_string(), |w| format!("{w:.1}"));
+                        println!("{w:>9} invalid: {e}");
+                    }
+                }
+            }
+            if failed == results.len() {
+                bail!("no row of {} could be fitted", path.display());
             }
             Ok(())
         }
