@@ -53,8 +53,8 @@ fn covariance_matches_monte_carlo() {
             (draws.iter().map(|d| (d[k] - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
         };
         let predicted = [u.albedo, u.tau, u.mu_a, u.mu_s_prime];
-        for k in 0..4 {
-            let ratio = sd(k) / predicted[k];
+        for (k, p) in predicted.iter().enumerate() {
+            let ratio = sd(k) / p;
             let tol = 3.5 / (2.0 * (n - 1) as f64).sqrt();
             assert!((ratio - 1.0).abs() < tol, "{truth:?} parameter {k}: MC/linear = {ratio}");
         }
