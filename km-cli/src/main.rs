@@ -2,7 +2,7 @@
 //!
 //! Thin: parse the command line and the scene file, call the libraries, print.
 
-#[allow(dead_code)]
+mod fit;
 mod fit_km;
 mod methods;
 
@@ -40,6 +40,7 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
+#[allow(clippy::large_enum_variant)] // parsed once per process; boxing buys nothing
 enum Command {
     /// Solve a scene file with one method and print the result.
     #[command(
@@ -51,6 +52,8 @@ km solve examples/marble-half-space.toml --method dipole\n  \
 km solve examples/cloud-deck.toml --method multiflux --tolerance 1e-4 --json"
     )]
     Solve(SolveArgs),
+    /// Optical properties from measured reflectance and transmittance (the inverse problem).
+    Fit(fit::FitArgs),
     /// Combine Monte Carlo shard files into the result of one run.
     #[command(
         after_help = "Example:\n  km merge part0.json part1.json part2.json part3.json --json"
@@ -343,6 +346,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Fit(args) => fit::run(&args),
         Command::Check { scene } => {
             let s = km::Scene::from_path(&scene)?;
             print!("{}", km::text::describe(&s));

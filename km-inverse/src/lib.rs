@@ -1,5 +1,17 @@
 //! # km-inverse: from measurements to materials
 //!
+//! The inverse problems of km: what absorbs and scatters inside a sample,
+//! given what was measured outside it; and the colour of what km computes.
+//!
+//! * [`slab`]: Prahl's inverse adding–doubling problem (iad) solved with
+//!   km's multi-flux forward model: the albedo `a`, optical thickness `b`
+//!   and asymmetry `g` of a slab (between optional glass slides) from its
+//!   measured total reflectance `M_R`, total transmittance `M_T` and
+//!   optionally unscattered transmittance `M_U`, with the covariance of the
+//!   answer ([`slab::fit`], [`slab::FitResult`]).
+//! * [`forward`]: the measured stack as a km scene and its totals.
+//! * [`sphere`]: single- and double-integrating-sphere measurement equations.
+//! * [`rxt`]: iad's `.rxt` measurement files and a plain CSV of spectra.
 //! * [`kubelka`]: the paint engineer's Kubelka–Munk inverse. `K` and `S` of a
 //!   film from its reflectance over black and over white grounds (Kubelka
 //!   1948), or from `R_inf` and `R_0`; Saunderson's correction between measured
@@ -14,9 +26,19 @@
 //!   (`data/cie_cmf_1nm.csv`, `data/cie_illuminants_5nm.csv`: CIE 015:2018,
 //!   extracted from the `colour-science` package).
 //!   Errors: [`colour::ColourError`].
+//! * [`InverseError`]: every refusal of the slab inverse, naming the offending value.
 //!
-//! The theory notes are `docs/inverse-km.md` and `docs/colour.md`.
+//! The theory notes are `docs/inverse.md`, `docs/inverse-km.md` and `docs/colour.md`.
 #![deny(missing_docs)]
 
 pub mod colour;
+pub mod error;
+pub mod forward;
 pub mod kubelka;
+pub mod linalg;
+pub mod rxt;
+pub mod slab;
+pub mod sphere;
+
+pub use error::InverseError;
+pub use slab::{FitOptions, FitResult, Measurement, Setup, Status, fit};
