@@ -7,6 +7,8 @@
 //! delta-M scaling, and adding of layers, interfaces and substrates.
 //!
 //! * [`solve`] / [`MultifluxOptions`]: the scene entry point (DESIGN.md §5).
+//! * [`bsdf`]: the whole BSDF of a stack from one set of operators per Fourier
+//!   order, its checks and its files (npz, csv, Fourier BSDF).
 //! * [`adding`]: the Redheffer star product of two layers' reflection and
 //!   transmission operators (seed eq. 14) and its truncated Neumann series (eq. 21).
 //! * [`slab`]: one homogeneous layer and Fourier order (seed eq. 17–20): the
@@ -20,6 +22,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod adding;
+pub mod bsdf;
 pub mod direction_set;
 pub mod error;
 pub mod flatland;
