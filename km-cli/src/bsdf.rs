@@ -156,7 +156,6 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<Computed> {
     };
     let theta_o = match &args.theta_o {
         Some(t) => parse_angles("theta-o", t)?,
-        None if format == Format::Fourier || args.theta_i.is_none() => default_theta.clone(),
         None => theta_i.clone(),
     };
     let phi = match &args.phi {

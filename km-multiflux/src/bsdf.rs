@@ -105,7 +105,7 @@ impl Default for BsdfOptions {
 
 /// The correction data of one scattering layer (eq. B1, second line).
 #[derive(Debug, Clone)]
-struct TmsLayer {
+pub(crate) struct TmsLayer {
     /// Unscaled albedo, truncation fraction, scaled albedo.
     omega_true: f64,
     f: f64,
@@ -149,7 +149,7 @@ pub struct ChannelBsdf {
     /// The same for the BTDF (all zero for an opaque substrate).
     coef_t: Vec<f64>,
     orders: usize,
-    tms: Vec<TmsLayer>,
+    pub(crate) tms: Vec<TmsLayer>,
     /// Total reflectance and transmittance per incidence (delta parts included).
     pub reflectance: Vec<f64>,
     /// Total transmittance per incidence.

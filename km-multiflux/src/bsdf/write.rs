@@ -245,18 +245,15 @@ impl<'a> Table<'a> {
 }
 
 /// Fourier coefficients `a_k` (`k < kmax`) of a real even function of
-/// `x = phi - 180 deg` sampled at `x_j = 2 pi j / p` (`p >= 2 kmax`):
-/// `a_0 = mean`, `a_k = 2/p sum_j f_j cos(k x_j)` (exact for a cosine series
-/// of order below `p/2`).
-fn cosine_coefficients(f: &[f64], kmax: usize) -> Vec<f64> {
+/// `x = phi - 180 deg` sampled at `x_j = 2 pi j / p`, with the table
+/// `cos_t[k * p + j] = cos(k x_j)`: `a_0 = mean`, `a_k = 2/p sum_j f_j cos(k x_j)`
+/// (exact for a cosine series of order below `p/2`).
+fn cosine_coefficients(f: &[f64], kmax: usize, cos_t: &[f64]) -> Vec<f64> {
     let p = f.len();
     (0..kmax)
         .map(|k| {
-            let s: f64 = f
-                .iter()
-                .enumerate()
-                .map(|(j, v)| v * (2.0 * std::f64::consts::PI * (k * j) as f64 / p as f64).cos())
-                .sum();
+            let row = &cos_t[k * p..(k + 1) * p];
+            let s: f64 = f.iter().zip(row).map(|(v, c)| v * c).sum();
             if k == 0 { s / p as f64 } else { 2.0 * s / p as f64 }
         })
         .collect()
@@ -291,7 +288,7 @@ pub struct FourierSettings {
 
 impl Default for FourierSettings {
     fn default() -> Self {
-        FourierSettings { max_orders: 128, tail: 1e-5 }
+        FourierSettings { max_orders: 64, tail: 1e-5 }
     }
 }
 
@@ -354,8 +351,16 @@ pub fn fourier(
         Some(nb) if above.transmits => nb / above.n_in,
         _ => 1.0,
     };
-    let kmax = settings.max_orders.max(1);
-    let p = 4 * kmax;
+    // Orders: the solver's series, and for the single-scattering correction
+    // (not a short cosine series) up to `max_orders`.
+    let solver_orders = (0..nc).map(|c| above.orders(c)).max().unwrap_or(1);
+    let corrected = above.channels.iter().any(|c| !c.tms.is_empty());
+    let kmax =
+        if corrected { settings.max_orders.max(solver_orders) } else { solver_orders }.max(1);
+    let p = 2 * kmax;
+    let cos_t: Vec<f64> = (0..kmax * p)
+        .map(|q| (2.0 * std::f64::consts::PI * ((q / p) * (q % p)) as f64 / p as f64).cos())
+        .collect();
     let phis: Vec<f64> = (0..p).map(|j| 180.0 + 360.0 * j as f64 / p as f64).collect();
     let mut buf = vec![0.0; p];
     let mut pairs: Vec<Vec<Vec<f64>>> = vec![Vec::new(); n_mu * n_mu]; // [O*nMu+I][channel][k]
@@ -383,7 +388,7 @@ pub fn fourier(
             let mut chans = Vec::with_capacity(nc);
             for c in 0..nc {
                 table.eval_into(c, gi, go, &phis, transmitted, &mut buf);
-                let a: Vec<f64> = cosine_coefficients(&buf, kmax);
+                let a: Vec<f64> = cosine_coefficients(&buf, kmax, &cos_t);
                 chans.push(a.iter().map(|x| x * scale).collect::<Vec<f64>>());
             }
             if nc == 3 {
