@@ -112,6 +112,8 @@ pub(crate) struct TmsLayer {
     omega: f64,
     /// `(2l + 1) chi*_l`, the scaled moments.
     chiw: Vec<f64>,
+    /// Legendre recurrence coefficients `((2l - 1)/l, (l - 1)/l)`.
+    rec: Vec<(f64, f64)>,
     phase: km_core::phase::Phase,
     /// Cosines in this layer of the beams and of the BRDF / BTDF probes.
     mu_b: Vec<Option<f64>>,
@@ -123,21 +125,30 @@ pub(crate) struct TmsLayer {
 }
 
 impl TmsLayer {
-    /// `F(cos Theta)` of eq. B1 (the same sums as the solver's correction).
-    fn fix(&self, cos_t: f64, mu_b: f64) -> f64 {
-        let cos_t = cos_t.clamp(-1.0, 1.0);
-        let exact = self.omega_true * self.phase.eval(cos_t) / (1.0 - self.omega_true * self.f);
-        let (mut p0, mut p1, mut sum) = (1.0, cos_t, self.chiw[0]);
+    /// `F(cos Theta)` of eq. B1 at two cosines at once (the same sums as the
+    /// solver's correction; the Legendre recurrence `P_l = a_l x P_{l-1} -
+    /// b_l P_{l-2}` with `a_l = (2l-1)/l`, `b_l = (l-1)/l` from `rec`, two
+    /// independent chains for instruction-level parallelism).
+    fn fix2(&self, c1: f64, c2: f64, mu_b: f64) -> (f64, f64) {
+        let (c1, c2) = (c1.clamp(-1.0, 1.0), c2.clamp(-1.0, 1.0));
+        let k = self.omega_true / (1.0 - self.omega_true * self.f);
+        let (e1, e2) = (k * self.phase.eval(c1), k * self.phase.eval(c2));
+        let (mut s1, mut s2) = (self.chiw[0], self.chiw[0]);
+        let (mut p0a, mut p1a, mut p0b, mut p1b) = (1.0, c1, 1.0, c2);
         if self.chiw.len() > 1 {
-            sum += self.chiw[1] * p1;
+            s1 += self.chiw[1] * c1;
+            s2 += self.chiw[1] * c2;
         }
         for l in 2..self.chiw.len() {
-            let p2 = ((2 * l - 1) as f64 * cos_t * p1 - (l - 1) as f64 * p0) / l as f64;
-            sum += self.chiw[l] * p2;
-            p0 = p1;
-            p1 = p2;
+            let (a, b) = self.rec[l];
+            let pa = a * c1 * p1a - b * p0a;
+            let pb = a * c2 * p1b - b * p0b;
+            s1 += self.chiw[l] * pa;
+            s2 += self.chiw[l] * pb;
+            (p0a, p1a, p0b, p1b) = (p1a, pa, p1b, pb);
         }
-        (exact - self.omega * sum / (4.0 * std::f64::consts::PI)) / mu_b
+        let q = self.omega / (4.0 * std::f64::consts::PI);
+        ((e1 - q * s1) / mu_b, (e2 - q * s2) / mu_b)
     }
 }
 
@@ -374,8 +385,9 @@ impl Bsdf {
                 ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
             for (k, &p) in phi_deg.iter().enumerate() {
                 let cphi = (p - 180.0).to_radians().cos();
-                out[k] += w[0] * l.fix(-mu_x * mu_b + sx * sb * cphi, mu_b)
-                    + w[1] * l.fix(mu_x * mu_b + sx * sb * cphi, mu_b);
+                let (f_r, f_t) =
+                    l.fix2(-mu_x * mu_b + sx * sb * cphi, mu_x * mu_b + sx * sb * cphi, mu_b);
+                out[k] += w[0] * f_r + w[1] * f_t;
             }
         }
     }
@@ -589,11 +601,18 @@ fn channel(
                 let chiw: Vec<f64> =
                     s.chi.iter().enumerate().map(|(k, c)| (2 * k + 1) as f64 * c).collect();
                 let mu_in = |a: usize| mu_of_invariant(ex[a].0, s.n);
+                let rec = (0..chiw.len())
+                    .map(|l| {
+                        let lf = l.max(1) as f64;
+                        ((2.0 * lf - 1.0) / lf, (lf - 1.0) / lf)
+                    })
+                    .collect();
                 let mut tl = TmsLayer {
                     omega_true: s.omega_true,
                     f: s.f,
                     omega: s.omega,
                     chiw,
+                    rec,
                     phase: s.phase,
                     mu_b: (0..ni).map(mu_in).collect(),
                     mu_r: (r0..r0 + no).map(mu_in).collect(),
