@@ -14,6 +14,7 @@
 //! * [`recipes`]: one function per figure of the seed's §4 and per study.
 #![deny(missing_docs)]
 
+pub mod bsdf_plot;
 pub mod chart;
 pub mod data;
 pub mod font;

@@ -2,6 +2,7 @@
 //!
 //! Thin: parse the command line and the scene file, call the libraries, print.
 
+mod bsdf;
 mod fit;
 mod fit_km;
 mod methods;
@@ -54,6 +55,14 @@ km solve examples/cloud-deck.toml --method multiflux --tolerance 1e-4 --json"
     Solve(SolveArgs),
     /// Optical properties from measured reflectance and transmittance (the inverse problem).
     Fit(fit::FitArgs),
+    /// The whole BSDF of the stack as a table (npz, csv) or a Fourier BSDF file (Mitsuba 0.6, pbrt-v3).
+    #[command(
+        after_help = "Examples:\n  km bsdf examples/paint-over-primer.toml --out paint.npz\n  \
+km bsdf examples/fresnel-slab.toml --out slab.csv --theta-i 0,30,60 --theta-o 0:90:5 --phi 0,180\n  \
+km bsdf examples/paint-over-primer.toml --out paint.bsdf --format fourier\n  \
+km bsdf examples/seed-three-layers.toml --out seed.npz --plot out/bsdf"
+    )]
+    Bsdf(bsdf::BsdfArgs),
     /// Combine Monte Carlo shard files into the result of one run.
     #[command(
         after_help = "Example:\n  km merge part0.json part1.json part2.json part3.json --json"
@@ -314,6 +323,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             print_solution(&sol, Some(&scene), args.json)
         }
+        Command::Bsdf(args) => bsdf::main(&args),
         Command::Merge { parts, json, out } => {
             let mut read = Vec::with_capacity(parts.len());
             for p in &parts {

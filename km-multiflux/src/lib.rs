@@ -7,6 +7,8 @@
 //! delta-M scaling, and adding of layers, interfaces and substrates.
 //!
 //! * [`solve`] / [`MultifluxOptions`]: the scene entry point (docs/scene-file.md, docs/cli.md).
+//! * [`bsdf`]: the whole BSDF of a stack from one set of operators per Fourier
+//!   order, its checks and its files (npz, csv, Fourier BSDF).
 //! * [`adding`]: the Redheffer star product of two layers' reflection and
 //!   transmission operators (seed eq. 14) and its truncated Neumann series (eq. 21).
 //! * [`slab`]: one homogeneous layer and Fourier order (seed eq. 17–20): the
@@ -22,6 +24,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod adding;
+pub mod bsdf;
 pub mod correction;
 pub mod direction_set;
 pub mod error;

@@ -210,24 +210,24 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
 
 /// One layer after delta-M scaling.
 #[derive(Clone)]
-struct Scaled {
-    tau: f64,
-    tau_true: f64,
-    omega: f64,
-    chi: Vec<f64>,
-    n: f64,
-    omega_true: f64,
-    phase: km_core::phase::Phase,
+pub(crate) struct Scaled {
+    pub(crate) tau: f64,
+    pub(crate) tau_true: f64,
+    pub(crate) omega: f64,
+    pub(crate) chi: Vec<f64>,
+    pub(crate) n: f64,
+    pub(crate) omega_true: f64,
+    pub(crate) phase: km_core::phase::Phase,
     /// Delta-M factor on tau, `1 - omega f`.
-    factor: f64,
+    pub(crate) factor: f64,
     /// Apply the second-order (IMS) correction at exit directions.
-    secondary: bool,
+    pub(crate) secondary: bool,
 }
 
 impl Scaled {
     /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
     /// `n_keep` moments kept by delta-M.
-    fn correction(&self, n_keep: usize) -> Tms {
+    pub(crate) fn correction(&self, n_keep: usize) -> Tms {
         Tms::new(self.phase, self.omega_true, n_keep, self.secondary)
     }
 }
@@ -494,7 +494,11 @@ fn conserve(r: f64, t: f64, lossless: bool) -> (f64, f64, f64, f64) {
 }
 
 /// Delta-M scaling (eq. 4) of every layer, keeping `n_keep` moments.
-fn scale_layers(scene: &MonoScene, opts: &MultifluxOptions, n_keep: usize) -> Vec<Scaled> {
+pub(crate) fn scale_layers(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    n_keep: usize,
+) -> Vec<Scaled> {
     scene
         .layers
         .iter()
@@ -690,7 +694,7 @@ pub fn internal_field(
 }
 
 /// `2 pi sum_i w_i mu_i I_i`: the flux of a radiance vector at the nodes.
-fn flux(nodes: &MediumNodes, i: &[f64]) -> f64 {
+pub(crate) fn flux(nodes: &MediumNodes, i: &[f64]) -> f64 {
     2.0 * std::f64::consts::PI
         * nodes.mu.iter().zip(&nodes.w).zip(i).map(|((u, w), x)| u * w * x).sum::<f64>()
 }
@@ -699,7 +703,7 @@ fn apply(m: &Mat<f64>, a: &[f64]) -> Vec<f64> {
     (0..m.nrows()).map(|i| (0..m.ncols()).map(|j| m[(i, j)] * a[j]).sum()).collect()
 }
 
-fn combine(
+pub(crate) fn combine(
     acc: Option<LayerOperators>,
     next: LayerOperators,
     neumann: Option<usize>,
@@ -791,7 +795,12 @@ fn stack_operators(
 /// Mirror reflectance and unscattered transmittance of a direction of Snell
 /// invariant `s` entering from above: a one-direction adding pass with the
 /// true optical thicknesses and flux (not radiance) Fresnel factors.
-fn delta_parts(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>, s: f64) -> (f64, f64) {
+pub(crate) fn delta_parts(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+    s: f64,
+) -> (f64, f64) {
     // Scalar operators (r_top, t_down, r_bottom, t_up) and their star product
     // (eq. A4 of the adding module with 1 x 1 operators).
     type Op = (f64, f64, f64, f64);
@@ -839,7 +848,10 @@ fn delta_parts(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>, s: f64)
 }
 
 /// The stream count of `opts`, or the scene's default; `1..=512`.
-fn resolve_streams(scene: &MonoScene, opts: &MultifluxOptions) -> Result<usize, MultifluxError> {
+pub(crate) fn resolve_streams(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+) -> Result<usize, MultifluxError> {
     let streams = opts.streams.unwrap_or_else(|| default_streams(scene));
     if streams == 0 || streams > 512 {
         return Err(MultifluxError::Option {
@@ -853,7 +865,7 @@ fn resolve_streams(scene: &MonoScene, opts: &MultifluxOptions) -> Result<usize, 
 
 /// The media of the stack, top to bottom (ambient, layers, and a transparent
 /// substrate unless a half-space hides it), and their Snell-mapped grid.
-fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, AngularGrid) {
+pub(crate) fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, AngularGrid) {
     let half = scene.layers.last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
     let n_sub = match scene.substrate {
         Substrate::Transparent { n } if !half => Some(n),
@@ -883,7 +895,10 @@ fn eigen_operators(
 /// bound of the incident light comes back from below it, the stack is cut
 /// there and that layer becomes a half-space. Returns the cut scene (`None`
 /// when nothing is cut, or with all effects) and the bound.
-fn planned_cutoff(scene: &MonoScene, opts: &MultifluxOptions) -> (Option<MonoScene>, Option<f64>) {
+pub(crate) fn planned_cutoff(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+) -> (Option<MonoScene>, Option<f64>) {
     if opts.all_effects {
         return (None, None);
     }

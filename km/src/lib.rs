@@ -46,6 +46,9 @@ pub use km_core::{
 pub use km_dipole::{DipoleModel, DipoleOptions, FdrModel};
 pub use km_montecarlo::{Estimator, McOptions, Progress};
 pub use km_multiflux::MultifluxOptions;
+/// The whole BSDF of a stack from one multi-flux solve, its checks and its
+/// files (npz, csv, Fourier BSDF): see `docs/bsdf.md`.
+pub use km_multiflux::bsdf;
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
 pub use solver::{MethodOptions, Options, Solver};
