@@ -10,8 +10,11 @@
 //! * [`presets`]: measured materials (Jensen et al. 2001).
 //! * [`Solution`]: what every method returns, and its JSON contract.
 //! * [`CoreError`]: every refusal, naming the offending key or value.
+//! * [`atomic_file`]: output files written whole or not at all, never over
+//!   a device, a link or an input.
 #![deny(missing_docs)]
 
+pub mod atomic_file;
 pub mod error;
 pub mod fresnel;
 pub mod layer;
