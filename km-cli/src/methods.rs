@@ -23,6 +23,7 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
             km_core::two_flux::solve(scene, &opts)?
         }
         Method::Multiflux => {
+            budget_factor(args)?;
             let opts = multiflux_options(args);
             match args.tolerance {
                 Some(tol) if args.streams.is_none() => {
@@ -111,15 +112,28 @@ fn multiflux_options(args: &SolveArgs) -> km_multiflux::MultifluxOptions {
         streams: args.streams,
         neumann_order: args.order,
         all_effects: args.all_effects,
+        max_work: Some(km_multiflux::budget::DEFAULT_MAX_WORK * args.budget),
         ..Default::default()
     }
+}
+
+/// `--budget FACTOR`: finite and > 0 (docs/limits.md).
+fn budget_factor(args: &SolveArgs) -> Result<f64> {
+    if !(args.budget.is_finite() && args.budget > 0.0) {
+        bail!("--budget {}: must be a finite factor > 0", args.budget);
+    }
+    Ok(args.budget)
 }
 
 fn mc_options(args: &SolveArgs) -> Result<km_montecarlo::McOptions> {
     if args.samples == 0 {
         bail!("--samples must be at least 1");
     }
+    let factor = budget_factor(args)?;
+    let scale = |x: u64| (x as f64 * factor).min(u64::MAX as f64) as u64;
     Ok(km_montecarlo::McOptions {
+        max_events: Some(scale(km_montecarlo::options::DEFAULT_MAX_EVENTS)),
+        max_tally_bytes: scale(km_montecarlo::options::DEFAULT_MAX_TALLY_BYTES),
         samples: args.samples,
         seed: args.seed,
         threads: args.threads,
@@ -177,8 +191,8 @@ pub fn profile(
     seed: u64,
     json: bool,
 ) -> Result<()> {
-    if points == 0 {
-        bail!("--points must be at least 1");
+    if points == 0 || points > km_montecarlo::options::MAX_RADIAL_BINS {
+        bail!("--points {points}: must lie in 1..=1000000 (docs/limits.md)");
     }
     // Default range: 10 transport mean free paths of the first channel's layer.
     let l = &scene.channels[0].layers[0];
@@ -212,20 +226,21 @@ pub fn profile(
             "stderr": se.map(|s| if s.len() == 1 { serde_json::json!(s[0]) } else { serde_json::json!(s) }),
             "channels": scene.labels,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&v)?))
     } else {
-        print!("{:>12}", "r");
+        use std::fmt::Write;
+        let mut t = format!("{:>12}", "r");
         for l in &scene.labels {
-            print!("{:>16}", format!("Rd {l}"));
+            let _ = write!(t, "{:>16}", format!("Rd {l}"));
         }
-        println!();
+        t.push('\n');
         for (i, ri) in r.iter().enumerate() {
-            print!("{ri:>12.5}");
+            let _ = write!(t, "{ri:>12.5}");
             for c in &rd {
-                print!("{:>16.6e}", c[i]);
+                let _ = write!(t, "{:>16.6e}", c[i]);
             }
-            println!();
+            t.push('\n');
         }
+        crate::stdout::print(&t)
     }
-    Ok(())
 }

@@ -503,7 +503,9 @@ fn check_theta(key: &str, theta: f64, line: Option<usize>) -> Result<(), CoreErr
 fn check_incidence(theta: f64, line: Option<usize>) -> Result<(), CoreError> {
     let key = "light.theta_deg";
     check_theta(key, theta, line)?;
-    if 90.0 - theta < GRAZING_MARGIN_DEG {
+    // The margin less one part in 10^6, so that 89.999999 itself (stored as
+    // 89.99999899999999...) is accepted.
+    if 90.0 - theta < GRAZING_MARGIN_DEG * (1.0 - 1e-6) {
         return Err(CoreError::scene(
             key,
             line,

@@ -16,7 +16,8 @@
 //! batching (`batch_count = ceil(samples / batch_size)`, no more shards than
 //! batches, every shard's batches present), the layout lengths against the
 //! vectors actually stored, every sum finite, and per batch the balance
-//! `R + T + A + lost = photons` with `R, T, lost >= 0` (eq. S1 below). The
+//! `R + T + A + lost = photons` with `R, T, lost >= 0` and, for the analog
+//! estimator, `A >= 0` (eq. S1 below). The
 //! checksum detects corruption (a flipped bit, an edited number), not a
 //! forgery: anyone can recompute it.
 //!
@@ -370,14 +371,14 @@ fn check_part(i: usize, p: &Partial) -> Result<(), McError> {
             want.end - want.start
         )));
     }
-    let slack = (p.options.roulette_threshold / p.options.roulette_survival - 1.0).max(0.0);
+    let analog = p.options.estimator == crate::options::Estimator::Analog;
     for (b, w) in p.batches.iter().zip(want) {
         let photons = batch_photons(p.options.samples, p.batch_size, w);
         if b.index != w || b.photons != photons || b.channels.len() != p.channels.len() {
             return Err(bad(format!("batch {} is not batch {w} of the run", b.index)));
         }
         for (c, (cb, m)) in b.channels.iter().zip(&p.channels).enumerate() {
-            check_batch(cb, m, photons, slack, p.options.max_steps_per_photon)
+            check_batch(cb, m, photons, analog, p.options.max_steps_per_photon)
                 .map_err(|why| bad(format!("batch {w}, channel {c}: {why}")))?;
         }
     }
@@ -399,7 +400,7 @@ fn check_batch(
     cb: &ChannelBatch,
     m: &ChannelMeta,
     photons: u64,
-    roulette_slack: f64,
+    analog: bool,
     max_steps: u64,
 ) -> Result<(), String> {
     let l = m.layout();
@@ -425,9 +426,14 @@ fn check_batch(
     if s[Layout::R_SPEC] > r + eps || s[Layout::T_DIRECT] > t + eps {
         return Err("a specular or direct part exceeds its total".into());
     }
-    // Absorption is >= 0 but for roulette wins (weight threshold / survival).
-    if a < -(roulette_slack * n + eps) {
-        return Err(format!("absorbed weight {a} is negative"));
+    // Analog absorption is a count of whole photons, >= 0. With survival
+    // biasing a won roulette raises a weight from below the threshold to
+    // threshold / survival, and the gain is booked as negative absorption (so
+    // that eq. S1 holds photon by photon): a batch's absorbed weight can be
+    // slightly negative (-9e-4 of 20 photons was seen at grazing incidence on
+    // a weakly absorbing Fresnel slab), so only its balance is checked.
+    if analog && a < -eps {
+        return Err(format!("absorbed weight {a} is negative (analog estimator)"));
     }
     if (r + t + a + lost - n).abs() > eps {
         return Err(format!(

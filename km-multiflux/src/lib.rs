@@ -20,6 +20,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod adding;
+pub mod budget;
 pub mod direction_set;
 pub mod error;
 pub mod flatland;

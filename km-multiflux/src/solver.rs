@@ -98,6 +98,10 @@ pub struct MultifluxOptions {
     /// the streams resolve (`2N - 1`) even for totals, and never cut a thick
     /// layer (`docs/planner.md`). Default false: the plan is obeyed.
     pub all_effects: bool,
+    /// Work budget of one solve (eq. W1 of [`crate::budget`]; `None`:
+    /// [`crate::budget::DEFAULT_MAX_WORK`]). A solve estimated above it is refused before
+    /// it starts.
+    pub max_work: Option<f64>,
 }
 
 impl Default for MultifluxOptions {
@@ -108,6 +112,7 @@ impl Default for MultifluxOptions {
             max_fourier_order: None,
             delta_m: true,
             all_effects: false,
+            max_work: None,
         }
     }
 }
@@ -133,6 +138,7 @@ impl Default for MultifluxOptions {
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-12);
 /// ```
 pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, MultifluxError> {
+    crate::budget::check(scene, opts)?;
     // The matrices are small (tens of rows): faer runs sequentially, one core
     // per solve (parallelise over channels or scenes outside).
     faer::set_global_parallelism(faer::Par::Seq);
