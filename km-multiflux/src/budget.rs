@@ -111,11 +111,11 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
             operators += 1;
         }
     }
-    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate, scene.layers.last()) {
-        if n != last.n || opts.all_effects {
-            per_order += nodes(n.max(last.n)).powi(3);
-            operators += 1;
-        }
+    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate, scene.layers.last())
+        && (n != last.n || opts.all_effects)
+    {
+        per_order += nodes(n.max(last.n)).powi(3);
+        operators += 1;
     }
     let beam = matches!(scene.light, Light::Collimated { .. });
     let angles = (!scene.directions_deg.is_empty() && beam) || opts.all_effects;
