@@ -29,8 +29,13 @@ pub fn init() {
     }
 }
 
-/// Whether file descriptor 1 is open for writing. Rust's standard output
-/// reports success on a closed descriptor (EBADF), so this is asked first.
+/// Whether file descriptor 1 is open for writing.
+///
+/// Rust's standard output reports success on a closed descriptor (EBADF),
+/// and before `main` the Rust runtime reopens a closed descriptor 0, 1 or 2
+/// on `/dev/null` *read-write*: a standard output that is `/dev/null` opened
+/// read-write is therefore taken for a closed one (a shell's `> /dev/null`
+/// opens it write-only and is accepted).
 fn check_writable() -> Result<()> {
     // SAFETY: F_GETFL only reads the descriptor's flags.
     let flags = unsafe { libc::fcntl(1, libc::F_GETFL) };
@@ -40,7 +45,25 @@ fn check_writable() -> Result<()> {
     if flags & libc::O_ACCMODE == libc::O_RDONLY {
         return Err(anyhow!("cannot write to standard output: it is open for reading only"));
     }
+    if flags & libc::O_ACCMODE == libc::O_RDWR && is_dev_null(1) {
+        return Err(anyhow!(
+            "cannot write to standard output: it is closed (the runtime put /dev/null in its place)"
+        ));
+    }
     Ok(())
+}
+
+/// Whether descriptor `fd` is the `/dev/null` device.
+fn is_dev_null(fd: libc::c_int) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    // SAFETY: fstat writes into a zeroed stat buffer of the right type.
+    let mut st: libc::stat = unsafe { std::mem::zeroed() };
+    if unsafe { libc::fstat(fd, &mut st) } != 0 {
+        return false;
+    }
+    let is_chr = st.st_mode & libc::S_IFMT == libc::S_IFCHR;
+    let null_rdev = std::fs::metadata("/dev/null").map(|m| m.rdev()).ok();
+    is_chr && Some(st.st_rdev) == null_rdev
 }
 
 /// Write `text` to standard output and flush it.

@@ -366,7 +366,8 @@ pub fn reduce_channels(scene: &Scene) -> (Scene, Vec<usize>) {
         if f == i {
             keep.push(i);
         }
-        map.push(keep.iter().position(|&k| k == f).unwrap_or(0));
+        // `keep` is increasing: the rank of `f` by binary search (a linear search was quadratic).
+        map.push(keep.partition_point(|&k| k < f));
     }
     let reduced = Scene {
         channels: keep.iter().map(|&i| scene.channels[i].clone()).collect(),

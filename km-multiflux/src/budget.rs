@@ -16,23 +16,31 @@
 //! where the operators are the layers and the interfaces between media of
 //! different index (every boundary with `all_effects`), `N_o` the node count
 //! of the operator's denser medium, `M` the number of Fourier orders (1 for
-//! totals; `2 streams` when BRDF/BTDF directions are asked under a beam or
-//! with `all_effects`: an upper bound, the solver stops earlier when the
-//! azimuthal series has converged) and `K` the truncation order of the
+//! totals; with BRDF/BTDF directions under a beam, `min(2 streams,
+//! TYPICAL_ORDERS)`: the solver stops the azimuthal series once two orders
+//! are negligible, after 10 orders for `g = 0.6` at 64 and at 192 streams on
+//! `examples/paint-over-primer.toml`; `2 streams` with `all_effects`) and `K`
+//! the truncation order of the
 //! Neumann series (`neumann_order`; 0 for exact adding, whose cost the `1`
 //! accounts for).
 //!
-//! Calibration (this machine, 2026-11): a stack of 60 layers of distinct
-//! indices at 16 streams, `W = 2.7e10`, took 17.7 s, about 0.7 ns per unit;
-//! the default budget [`DEFAULT_MAX_WORK`] is `1e10` (about 7 s).
+//! Calibration (2026-11, a 2-core machine): a stack of 60 layers of distinct
+//! indices at 16 streams (`W = 2.8e10`) took 17.7 s unloaded, about 0.7 ns
+//! per unit; under load 1.5 to 2.6 ns per unit were measured (10 layers at 64
+//! streams, `W = 2.3e9`: 3.4 s; paint-over-primer at 192 streams, `W = 8e9`:
+//! 17.9 s). The default budget [`DEFAULT_MAX_WORK`] is `1e10`: 7 to 25 s.
 
 use km_core::{Light, MonoScene, Scene, Substrate};
 
 use crate::error::MultifluxError;
 use crate::solver::MultifluxOptions;
 
-/// Default work budget of one solve (eq. W1 units): 10^10, about 7 s.
+/// Default work budget of one solve (eq. W1 units): 10^10, 7 to 25 s.
 pub const DEFAULT_MAX_WORK: f64 = 1e10;
+
+/// Fourier orders assumed when angles are asked (eq. W1's `M`), unless the
+/// streams resolve fewer.
+pub const TYPICAL_ORDERS: usize = 12;
 
 /// Largest truncation order of the Neumann series (`neumann_order`): past
 /// ~10^4 round trips the truncated series equals exact adding to rounding in
@@ -118,8 +126,14 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
         operators += 1;
     }
     let beam = matches!(scene.light, Light::Collimated { .. });
-    let angles = (!scene.directions_deg.is_empty() && beam) || opts.all_effects;
-    let mut orders = if angles { 2.0 * streams } else { 1.0 };
+    let angles = !scene.directions_deg.is_empty() && beam;
+    let mut orders = if opts.all_effects {
+        2.0 * streams
+    } else if angles {
+        (2.0 * streams).min(TYPICAL_ORDERS as f64)
+    } else {
+        1.0
+    };
     if let Some(m) = opts.max_fourier_order {
         orders = orders.min(m as f64 + 1.0);
     }
