@@ -11,11 +11,14 @@
 //! not the layer count, is what grows. The estimate, in units of one
 //! `N^3` step, is
 //!
-//! `W = sum_channels  M  sum_{operators o} N_o^3 (1 + K)`   (eq. W1)
+//! `W = sum_channels  M  sum_{operators o} (N_o + E)^3 (1 + K)`   (eq. W1)
 //!
 //! where the operators are the layers and the interfaces between media of
 //! different index (every boundary with `all_effects`), `N_o` the node count
-//! of the operator's denser medium, `M` the number of Fourier orders (1 for
+//! of the operator's denser medium, `E` the extra columns carried through
+//! every operator (the beam, and one probe per output direction on each
+//! side: 2 x 10^4 directions make operators of 4 x 10^4 rows, 13 GB each),
+//! `M` the number of Fourier orders (1 for
 //! totals; with BRDF/BTDF directions under a beam, `min(2 streams,
 //! TYPICAL_ORDERS)`: the solver stops the azimuthal series once two orders
 //! are negligible, after 10 orders for `g = 0.6` at 64 and at 192 streams on
@@ -75,9 +78,10 @@ pub struct WorkEstimate {
 /// use km_multiflux::{MultifluxOptions, budget::estimate};
 /// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\nn = 1.5\n").unwrap();
 /// let w = estimate(&s, &MultifluxOptions { streams: Some(16), ..Default::default() });
-/// // Ambient 1.0 and layer 1.5: 32 nodes in the layer; one layer and two interfaces.
+/// // Ambient 1.0 and layer 1.5: 32 nodes in the layer, 1 extra column (the
+/// // beam); one layer and two interfaces.
 /// assert_eq!(w.max_nodes, 32);
-/// assert_eq!(w.units, 3.0 * 32f64.powi(3));
+/// assert_eq!(w.units, 3.0 * 33f64.powi(3));
 /// ```
 pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut est = WorkEstimate { units: 0.0, max_nodes: 0, orders: 0, operators: 0, channels: 0 };
@@ -104,25 +108,30 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut distinct: Vec<f64> = media.iter().copied().filter(|x| x.is_finite()).collect();
     distinct.sort_by(|a, b| a.total_cmp(b));
     distinct.dedup();
+    // Extra columns: the beam, and a probe per direction above (and below
+    // when the substrate is transparent).
+    let below = matches!(scene.substrate, Substrate::Transparent { .. });
+    let extras = 1.0 + scene.directions_deg.len() as f64 * if below { 2.0 } else { 1.0 };
     let nodes = |n: f64| streams * distinct.partition_point(|&x| x <= n).max(1) as f64;
+    let size = |n: f64| nodes(n) + extras;
     let mut per_order = 0.0;
     let mut operators = 0;
     let mut max_nodes = 0.0f64;
     for (i, l) in scene.layers.iter().enumerate() {
         let n_layer = nodes(l.n);
         max_nodes = max_nodes.max(n_layer);
-        per_order += n_layer.powi(3);
+        per_order += size(l.n).powi(3);
         operators += 1;
         let above = media[i];
         if above != l.n || opts.all_effects {
-            per_order += nodes(above.max(l.n)).powi(3);
+            per_order += size(above.max(l.n)).powi(3);
             operators += 1;
         }
     }
     if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate, scene.layers.last())
         && (n != last.n || opts.all_effects)
     {
-        per_order += nodes(n.max(last.n)).powi(3);
+        per_order += size(n.max(last.n)).powi(3);
         operators += 1;
     }
     let beam = matches!(scene.light, Light::Collimated { .. });
