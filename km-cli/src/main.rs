@@ -366,7 +366,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             opts.seed = seed;
             let summary = km_bench::reproduce(&opts)?;
-            stdout::print(&summary.to_string())
+            stdout::print(&summary.to_string())?;
+            if summary.failures() > 0 {
+                bail!("{} item(s) of the reproduction failed (see the report)", summary.failures());
+            }
+            Ok(())
         }
     }
 }
