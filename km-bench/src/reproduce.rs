@@ -303,6 +303,12 @@ pub fn reproduce_with_progress(
     }
     std::fs::create_dir_all(&opts.out_dir)
         .with_context(|| format!("creating {}", opts.out_dir.display()))?;
+    // Writable before any computing (a read-only directory was found only
+    // after 34-43 s of work): write and remove a probe file.
+    let probe = opts.out_dir.join(".km-write-probe");
+    km_core::atomic_file::write_atomic(&probe, b"")
+        .and_then(|()| std::fs::remove_file(&probe))
+        .with_context(|| format!("{} is not writable", opts.out_dir.display()))?;
     let size = opts.size();
     let mut ctx = Ctx::new(&opts.out_dir, size, opts.seed);
     let mut report = Report {

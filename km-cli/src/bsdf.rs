@@ -142,10 +142,11 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<Computed> {
     if args.out.is_none() && args.plot.is_none() {
         bail!("km bsdf needs --out FILE, --plot DIR, or both");
     }
-    let text = std::fs::read_to_string(&args.scene)
-        .with_context(|| format!("cannot read {}", args.scene.display()))?;
-    let scene =
-        km::Scene::from_toml_str(&text).with_context(|| format!("{}", args.scene.display()))?;
+    let limits = km::SceneLimits::from_env();
+    let text = km::read_scene_text(&args.scene, limits.max_bytes)
+        .with_context(|| format!("{}", args.scene.display()))?;
+    let scene = km::Scene::from_toml_str_with(&text, &limits)
+        .with_context(|| format!("{}", args.scene.display()))?;
     let format = resolve_format(args);
     let fourier_grid: Vec<f64> = (0..48).map(|k| 1.875 * k as f64).collect();
     let default_theta =

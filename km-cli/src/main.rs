@@ -6,6 +6,7 @@ mod bsdf;
 mod fit;
 mod fit_km;
 mod methods;
+mod stdout;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -202,6 +203,10 @@ pub struct SolveArgs {
     /// Run shard I of N (0-based) and write its partial tally to --out [mc].
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
+    /// Multiply every default work and memory budget (Monte Carlo photon steps and tally
+    /// memory, multi-flux work) by this factor; see docs/limits.md [mc, multiflux].
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub budget: f64,
     /// How F_dr is computed [dipole].
     #[arg(long, value_enum, default_value_t = FdrArg::Exact)]
     pub fdr: FdrArg,
@@ -256,6 +261,7 @@ pub enum DipoleArg {
 }
 
 fn main() -> ExitCode {
+    stdout::init();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -268,16 +274,21 @@ fn main() -> ExitCode {
 
 fn print_solution(sol: &km::Solution, scene: Option<&km::Scene>, json: bool) -> anyhow::Result<()> {
     if json {
-        println!("{}", serde_json::to_string_pretty(&sol.to_json())?);
+        stdout::print(&format!("{}\n", serde_json::to_string_pretty(&sol.to_json())?))
     } else {
-        print!("{}", km::text::table(sol, scene));
+        stdout::print(&km::text::table(sol, scene))
     }
-    Ok(())
 }
 
-fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::Result<()> {
+/// Write `value` to `path` atomically, never over one of `inputs` (docs/limits.md).
+fn write_json(
+    path: &std::path::Path,
+    value: &serde_json::Value,
+    inputs: &[PathBuf],
+) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(value)?;
-    km_montecarlo::write_atomic(path, text.as_bytes())
+    let opts = km::atomic_file::WriteOptions { inputs: inputs.to_vec(), ..Default::default() };
+    km::atomic_file::write_atomic_with(path, text.as_bytes(), &opts)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -293,12 +304,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match command {
         Command::Demo => {
             let scene = km::Scene::from_toml_str(DEMO_SCENE)?;
-            println!("km: built-in example (examples/seed-three-layers.toml)\n");
+            stdout::print("km: built-in example (examples/seed-three-layers.toml)\n\n")?;
             for method in [Method::Km, Method::Multiflux, Method::Mc] {
                 let args = SolveArgs::defaults(method);
                 let sol = methods::solve(&scene, &args)?;
-                print!("{}", km::text::table(&sol, Some(&scene)));
-                println!();
+                stdout::print(&format!("{}\n", km::text::table(&sol, Some(&scene))))?;
             }
             Ok(())
         }
@@ -313,29 +323,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     bail!("--shard {shard} needs --out FILE for the partial tally");
                 };
                 let part = methods::mc_shard(&scene, &args, i, n)?;
-                write_json(out, &serde_json::to_value(&part)?)?;
+                write_json(out, &serde_json::to_value(&part)?, std::slice::from_ref(&args.scene))?;
                 eprintln!("wrote shard {i}/{n} to {}", out.display());
                 return Ok(());
             }
             let sol = methods::solve(&scene, &args)?;
             if let Some(out) = &args.out {
-                write_json(out, &sol.to_json())?;
+                write_json(out, &sol.to_json(), std::slice::from_ref(&args.scene))?;
             }
             print_solution(&sol, Some(&scene), args.json)
         }
         Command::Bsdf(args) => bsdf::main(&args),
         Command::Merge { parts, json, out } => {
-            let mut read = Vec::with_capacity(parts.len());
-            for p in &parts {
-                let text = std::fs::read_to_string(p)
-                    .with_context(|| format!("cannot read {}", p.display()))?;
-                let part: km_montecarlo::Partial = serde_json::from_str(&text)
-                    .with_context(|| format!("{} is not a km shard file", p.display()))?;
-                read.push(part);
-            }
-            let sol = km_montecarlo::merge(&read)?;
+            let sol = km_montecarlo::merge_files(&parts)?;
             if let Some(out) = &out {
-                write_json(out, &sol.to_json())?;
+                write_json(out, &sol.to_json(), &parts)?;
             }
             print_solution(&sol, None, json)
         }
@@ -350,17 +352,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if json {
                 let mut v = plan.to_json();
                 v["method"] = serde_json::json!(method.name());
-                println!("{}", serde_json::to_string_pretty(&v)?);
+                stdout::print(&format!("{}\n", serde_json::to_string_pretty(&v)?))
             } else {
-                print!("{}", km::text::plan_words(&plan, method));
+                stdout::print(&km::text::plan_words(&plan, method))
             }
-            Ok(())
         }
         Command::Fit(args) => fit::run(&args),
         Command::Check { scene } => {
             let s = km::Scene::from_path(&scene)?;
-            print!("{}", km::text::describe(&s));
-            Ok(())
+            stdout::print(&km::text::describe(&s))
         }
         Command::Reproduce { out, quick: _, full, seed, quiet, only } => {
             let mut opts = if full {
@@ -372,7 +372,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             opts.quiet = quiet;
             opts.only = only;
             let summary = km_bench::reproduce(&opts)?;
-            print!("{summary}");
+            stdout::print(&summary.to_string())?;
+            if summary.failures() > 0 {
+                bail!("{} item(s) of the reproduction failed (see the report)", summary.failures());
+            }
             Ok(())
         }
     }
@@ -398,6 +401,7 @@ impl SolveArgs {
             shard: None,
             fdr: FdrArg::Exact,
             dipole: DipoleArg::Jensen2001,
+            budget: 1.0,
         }
     }
 

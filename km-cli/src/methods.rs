@@ -43,6 +43,7 @@ pub fn options(args: &SolveArgs) -> Result<km::Options> {
             streams: args.streams,
             neumann_order: args.order,
             all_effects: args.all_effects,
+            max_work: Some(km::multiflux_budget::DEFAULT_MAX_WORK * budget_factor(args)?),
             ..Default::default()
         }),
         Method::Mc => km::MethodOptions::Mc(mc_options(args)?),
@@ -59,11 +60,23 @@ fn km_mapping(m: KmMappingArg) -> km::KmMapping {
     }
 }
 
+/// `--budget FACTOR`: finite and > 0 (docs/limits.md).
+fn budget_factor(args: &SolveArgs) -> Result<f64> {
+    if !(args.budget.is_finite() && args.budget > 0.0) {
+        bail!("--budget {}: must be a finite factor > 0", args.budget);
+    }
+    Ok(args.budget)
+}
+
 fn mc_options(args: &SolveArgs) -> Result<km::McOptions> {
     if args.samples == 0 {
         bail!("--samples must be at least 1");
     }
+    let factor = budget_factor(args)?;
+    let scale = |x: u64| (x as f64 * factor).min(u64::MAX as f64) as u64;
     Ok(km::McOptions {
+        max_events: Some(scale(km_montecarlo::options::DEFAULT_MAX_EVENTS)),
+        max_tally_bytes: scale(km_montecarlo::options::DEFAULT_MAX_TALLY_BYTES),
         samples: args.samples,
         seed: args.seed,
         threads: args.threads,
@@ -140,20 +153,20 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<(
         e => anyhow::Error::new(e).context(format!("--method {}", opts.method.name())),
     })?;
     if json {
-        println!("{}", serde_json::to_string_pretty(&p.to_json())?);
-        return Ok(());
+        return crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&p.to_json())?));
     }
-    print!("{:>12}", "r");
+    use std::fmt::Write;
+    let mut t = format!("{:>12}", "r");
     for l in &p.labels {
-        print!("{:>16}", format!("Rd {l}"));
+        let _ = write!(t, "{:>16}", format!("Rd {l}"));
     }
-    println!();
+    t.push('\n');
     for (i, ri) in p.r.iter().enumerate() {
-        print!("{ri:>12.5}");
+        let _ = write!(t, "{ri:>12.5}");
         for c in &p.rd {
-            print!("{:>16.6e}", c[i]);
+            let _ = write!(t, "{:>16.6e}", c[i]);
         }
-        println!();
+        t.push('\n');
     }
-    Ok(())
+    crate::stdout::print(&t)
 }

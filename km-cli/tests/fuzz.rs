@@ -7,10 +7,16 @@
 //! reproducible; a failure prints the mutated text so it can be pinned as a
 //! regression test.
 //!
+//! A second property test grows scenes instead: huge numbers (near the
+//! overflow of f64 and of TOML's i64), huge lists (thousands of channels or
+//! directions) and huge counts (thousands of layers); each case must end, by
+//! an answer or a refusal, within a bound of time (docs/limits.md).
+//!
 //! A fixed-seed generator keeps the run reproducible; a failure prints the
 //! mutated text so it can be pinned as a regression test.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::time::Instant;
 
 use km_core::Scene;
 use rand::{RngExt, SeedableRng};
@@ -117,6 +123,66 @@ fn mutate(rng: &mut Pcg64, text: &str) -> String {
     lines.join("\n")
 }
 
+const HUGE_NUMBERS: &[&str] = &[
+    "1e308",
+    "1.7976931348623157e308",
+    "-1.7976931348623157e308",
+    "1e-308",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "18446744073709551615",
+    "99999999999999999999999999",
+    "89.9999999",
+    "89.999999",
+    "1e16",
+];
+
+/// Grow a scene: a huge number in one assignment, a huge list, many layers,
+/// many directions.
+fn grow(rng: &mut Pcg64, text: &str) -> String {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let assignments: Vec<usize> = (0..lines.len()).filter(|&i| lines[i].contains('=')).collect();
+    match rng.random_range(0..4) {
+        0 if !assignments.is_empty() => {
+            let i = assignments[rng.random_range(0..assignments.len())];
+            let key = lines[i][..lines[i].find('=').unwrap_or(0)].to_string();
+            let tok = HUGE_NUMBERS[rng.random_range(0..HUGE_NUMBERS.len())];
+            lines[i] = format!("{key}= {tok}");
+        }
+        1 if !assignments.is_empty() => {
+            // A list of up to 20 000 values.
+            let i = assignments[rng.random_range(0..assignments.len())];
+            let key = lines[i][..lines[i].find('=').unwrap_or(0)].to_string();
+            let n = 10usize.pow(rng.random_range(1..5)) * 2;
+            let x: f64 = rng.random();
+            let v: Vec<String> = (0..n).map(|k| format!("{}", x + k as f64 * 1e-9)).collect();
+            lines[i] = format!("{key}= [{}]", v.join(", "));
+        }
+        2 => {
+            // Up to 20 000 more layers.
+            let n = 2 * 10usize.pow(rng.random_range(1..5));
+            let n_idx = rng.random_bool(0.5);
+            for k in 0..n {
+                let n_line = if n_idx {
+                    format!("n = {}\n", 1.0 + k as f64 / n as f64)
+                } else {
+                    String::new()
+                };
+                lines.push(format!("[[layer]]\ntau = 0.01\nalbedo = 0.5\n{n_line}"));
+            }
+        }
+        _ => {
+            // Up to 20 000 output directions.
+            let n = 2 * 10usize.pow(rng.random_range(1..5));
+            let v: Vec<String> =
+                (0..n).map(|k| format!("[{}, 0]", 80.0 * k as f64 / n as f64)).collect();
+            lines.retain(|l| !l.starts_with("directions_deg") && l.trim() != "[output]");
+            lines.push(format!("[output]\ndirections_deg = [{}]", v.join(", ")));
+        }
+    }
+    lines.join("\n")
+}
+
 /// Parse and solve one text; Err(message) if anything misbehaves.
 fn exercise(text: &str, heavy: bool) -> Result<bool, String> {
     let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<bool, String> {
@@ -215,4 +281,40 @@ fn mutated_scenes_never_panic_any_solver() {
     // Both outcomes must be exercised, or the mutations are too weak (or too strong).
     assert!(accepted > total / 20, "only {accepted} of {total} mutated scenes parsed");
     assert!(accepted < total * 19 / 20, "{accepted} of {total} mutated scenes parsed");
+}
+
+#[test]
+fn grown_scenes_end_within_their_budgets() {
+    let _ = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let mut rng = Pcg64::seed_from_u64(0x0060_2026);
+    let total = 240usize;
+    let (mut accepted, mut slowest, mut slowest_case) = (0usize, 0.0f64, 0usize);
+    for k in 0..total {
+        let base = CORPUS[k % CORPUS.len()];
+        let text = grow(&mut rng, base);
+        let t0 = Instant::now();
+        // Every case goes through every solver at the default budgets.
+        match exercise(&text, true) {
+            Ok(ok) => accepted += usize::from(ok),
+            Err(what) => {
+                let _ = std::panic::take_hook();
+                panic!("case {k}: {what} on input of {} bytes:\n{:.400}", text.len(), text);
+            }
+        }
+        let dt = t0.elapsed().as_secs_f64();
+        if dt > slowest {
+            (slowest, slowest_case) = (dt, k);
+        }
+    }
+    let _ = std::panic::take_hook();
+    println!(
+        "{accepted} of {total} grown scenes solved; slowest case {slowest_case}: {slowest:.2} s"
+    );
+    // Bound: the largest accepted work is a 20 000-layer two-flux solve and a
+    // multi-flux solve under its budget at 6 streams (a fraction of a
+    // second); 20 s leaves room for a loaded machine without admitting the
+    // minutes-long runs of unbounded input.
+    assert!(slowest < 20.0, "case {slowest_case} took {slowest:.1} s");
+    assert!(accepted > total / 10 && accepted < total, "{accepted} of {total} accepted");
 }

@@ -11,8 +11,11 @@
 //! * [`plan`]: the planner (docs/planner.md).
 //! * [`Solution`]: what every method returns, and its JSON contract (docs/cli.md).
 //! * [`CoreError`]: every refusal, naming the offending key or value.
+//! * [`atomic_file`]: output files written whole or not at all, never over
+//!   a device, a link or an input.
 #![deny(missing_docs)]
 
+pub mod atomic_file;
 pub mod error;
 pub mod fresnel;
 pub mod layer;
@@ -25,5 +28,5 @@ pub mod two_flux;
 
 pub use error::CoreError;
 pub use layer::Layer;
-pub use scene::{Light, MonoScene, Scene, Substrate};
+pub use scene::{Light, MonoScene, Scene, SceneLimits, Substrate, read_scene_text};
 pub use solution::{AccuracyReport, ChannelResult, Solution, Uncertainty};

@@ -7,8 +7,16 @@
 //! Every refusal is a [`CoreError::Scene`] naming the key and, when the value
 //! is in the file, its 1-based line. The full key reference is
 //! `docs/scene-file.md`.
+//!
+//! Reading is bounded ([`SceneLimits`], docs/limits.md): the file must be a
+//! regular file (or `-` for standard input) of at most 16 MiB, line numbers
+//! come from one index built in one pass, and the expanded scene (channels x
+//! (layers + directions)) is refused before it is allocated when it exceeds
+//! its cell budget.
 
+use std::io::Read;
 use std::ops::Range;
+use std::path::Path;
 
 use serde::Deserialize;
 use toml::{Spanned, Value};
@@ -16,6 +24,60 @@ use toml::{Spanned, Value};
 use crate::error::CoreError;
 use crate::layer::Layer;
 use crate::presets;
+
+/// Default largest scene file, bytes (16 MiB): a scene of 10^5 layers is
+/// about 3 MB, so this leaves a factor of five over any scene seen in use.
+pub const DEFAULT_MAX_SCENE_BYTES: u64 = 16 << 20;
+
+/// Default largest expanded scene, in cells: one cell is one layer or one
+/// output direction of one channel, so the validated [`Scene`] holds
+/// `channels x (layers + directions)` cells (about 50 bytes each, and the
+/// solvers' results one or two `f64` per direction cell). 2^22 cells keep the
+/// scene and a result under about 300 MB.
+pub const DEFAULT_MAX_SCENE_CELLS: u64 = 1 << 22;
+
+/// Smallest distance to grazing incidence accepted for `light.theta_deg`,
+/// degrees. At `90 - theta < 1e-6` degrees (`mu0 < 1.7e-8`) the beam's
+/// path through a layer, `tau / mu0`, exceeds 10^7 optical depths per unit
+/// `tau`, and the methods part ways in floating point (multi-flux gave
+/// R = 0 at 89.9999999 degrees, R = 0.505 at 89.999999): such scenes are
+/// refused rather than answered differently by each method.
+pub const GRAZING_MARGIN_DEG: f64 = 1e-6;
+
+/// Bounds on what reading a scene may cost (docs/limits.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SceneLimits {
+    /// Largest scene file or standard input, bytes (default [`DEFAULT_MAX_SCENE_BYTES`]).
+    pub max_bytes: u64,
+    /// Largest `channels x (layers + directions)` (default [`DEFAULT_MAX_SCENE_CELLS`]).
+    pub max_cells: u64,
+}
+
+impl Default for SceneLimits {
+    fn default() -> Self {
+        SceneLimits { max_bytes: DEFAULT_MAX_SCENE_BYTES, max_cells: DEFAULT_MAX_SCENE_CELLS }
+    }
+}
+
+impl SceneLimits {
+    /// The defaults, raised (or lowered) by the environment variables
+    /// `KM_MAX_SCENE_BYTES` and `KM_MAX_SCENE_CELLS` (positive integers;
+    /// anything else is ignored).
+    pub fn from_env() -> SceneLimits {
+        let get = |name: &str, default: u64| {
+            std::env::var(name)
+                .ok()
+                .and_then(|v| v.trim().parse::<u64>().ok())
+                .filter(|&v| v > 0)
+                .unwrap_or(default)
+        };
+        let d = SceneLimits::default();
+        SceneLimits {
+            max_bytes: get("KM_MAX_SCENE_BYTES", d.max_bytes),
+            max_cells: get("KM_MAX_SCENE_CELLS", d.max_cells),
+        }
+    }
+}
 
 /// How the stack is lit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,7 +154,7 @@ impl MonoScene {
             return Err(CoreError::scene("layer", None, "the stack has no layer"));
         }
         if let Light::Collimated { theta_deg } = self.light {
-            check_theta("light.theta_deg", theta_deg, None)?;
+            check_incidence(theta_deg, None)?;
         }
         if !self.ambient_n.is_finite() || self.ambient_n < 1.0 {
             return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
@@ -102,6 +164,8 @@ impl MonoScene {
                 && l.sigma_a >= 0.0
                 && l.sigma_s.is_finite()
                 && l.sigma_s >= 0.0
+                && (l.sigma_a + l.sigma_s).is_finite()
+                && (l.thickness.is_infinite() || l.tau().is_finite())
                 && l.thickness >= 0.0
                 && l.n.is_finite()
                 && l.n >= 1.0
@@ -168,19 +232,39 @@ impl Scene {
     /// assert!((s.channels[1].layers[0].albedo() - 0.9).abs() < 1e-15);
     /// ```
     pub fn from_toml_str(text: &str) -> Result<Scene, CoreError> {
-        let raw: RawScene = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
-        Parser { text }.scene(raw)
+        Scene::from_toml_str_with(text, &SceneLimits::default())
     }
 
-    /// Read and parse a scene file from disk.
+    /// [`Scene::from_toml_str`] under explicit [`SceneLimits`].
     ///
     /// # Errors
-    /// I/O errors (as a scene error on key `file`) and those of [`Scene::from_toml_str`].
-    pub fn from_path(path: &std::path::Path) -> Result<Scene, CoreError> {
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            CoreError::scene("file", None, format!("cannot read {}: {e}", path.display()))
-        })?;
-        Scene::from_toml_str(&text)
+    /// Those of [`Scene::from_toml_str`], and a text or an expanded scene over its limit.
+    pub fn from_toml_str_with(text: &str, limits: &SceneLimits) -> Result<Scene, CoreError> {
+        if text.len() as u64 > limits.max_bytes {
+            return Err(too_big("scene text", text.len() as u64, limits.max_bytes));
+        }
+        let raw: RawScene = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
+        Parser { lines: LineIndex::new(text), limits: *limits }.scene(raw)
+    }
+
+    /// Read and parse a scene file from disk (`-`: standard input), under
+    /// [`SceneLimits::from_env`].
+    ///
+    /// # Errors
+    /// I/O errors, a path that is not a regular file (directory, FIFO,
+    /// device, socket), a file over the size limit (all as a scene error on
+    /// key `file`), and those of [`Scene::from_toml_str`].
+    pub fn from_path(path: &Path) -> Result<Scene, CoreError> {
+        Scene::from_path_with(path, &SceneLimits::from_env())
+    }
+
+    /// [`Scene::from_path`] under explicit [`SceneLimits`].
+    ///
+    /// # Errors
+    /// Those of [`Scene::from_path`].
+    pub fn from_path_with(path: &Path, limits: &SceneLimits) -> Result<Scene, CoreError> {
+        let text = read_scene_text(path, limits.max_bytes)?;
+        Scene::from_toml_str_with(&text, limits)
     }
 
     /// A one-channel scene from a [`MonoScene`] built in code (validated).
@@ -270,13 +354,134 @@ impl Coef {
     }
 }
 
-struct Parser<'a> {
-    text: &'a str,
+struct Parser {
+    lines: LineIndex,
+    limits: SceneLimits,
+}
+
+/// Byte offsets of the line starts of a text, built in one pass, so that the
+/// line of a byte offset is a binary search (the parser asks for one line per
+/// value: a scan from the start for each was quadratic in the file size).
+struct LineIndex {
+    starts: Vec<usize>,
+}
+
+impl LineIndex {
+    fn new(text: &str) -> LineIndex {
+        let mut starts = vec![0];
+        starts.extend(text.bytes().enumerate().filter(|&(_, b)| b == b'\n').map(|(i, _)| i + 1));
+        LineIndex { starts }
+    }
+
+    /// 1-based line of byte offset `at` (offsets past the end give the last line).
+    fn line(&self, at: usize) -> usize {
+        // Number of line starts at or before `at`.
+        self.starts.partition_point(|&s| s <= at)
+    }
 }
 
 fn line_of(text: &str, span: Range<usize>) -> usize {
-    let end = span.start.min(text.len());
-    text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+    LineIndex::new(text).line(span.start.min(text.len()))
+}
+
+fn too_big(what: &str, bytes: u64, max: u64) -> CoreError {
+    CoreError::scene(
+        "file",
+        None,
+        format!(
+            "{what} of {bytes} bytes is over the limit of {max} bytes \
+             (set KM_MAX_SCENE_BYTES to raise it; docs/limits.md)"
+        ),
+    )
+}
+
+/// What a file system object is, in words, for refusals.
+fn file_kind(ft: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if ft.is_dir() {
+        "a directory"
+    } else if ft.is_fifo() {
+        "a FIFO (named pipe)"
+    } else if ft.is_char_device() {
+        "a character device"
+    } else if ft.is_block_device() {
+        "a block device"
+    } else if ft.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// Read at most `max` bytes of a scene: `-` is standard input; anything else
+/// must be a regular file (checked before opening, so a FIFO without a writer
+/// or `/dev/zero` is refused at once), opened without blocking.
+/// The text of a scene file read as [`Scene::from_path`] reads it: a regular
+/// file (or `-` for standard input) of at most `max` bytes.
+///
+/// # Errors
+/// Those of [`Scene::from_path`] about the file.
+pub fn read_scene_text(path: &Path, max: u64) -> Result<String, CoreError> {
+    let shown = path.display();
+    let io =
+        |e: std::io::Error| CoreError::scene("file", None, format!("cannot read {shown}: {e}"));
+    let mut buf = Vec::new();
+    if path.as_os_str() == "-" {
+        std::io::stdin().lock().take(max + 1).read_to_end(&mut buf).map_err(io)?;
+        if buf.len() as u64 > max {
+            return Err(too_big("standard input", buf.len() as u64, max));
+        }
+    } else {
+        // The type before opening: opening a FIFO with no writer blocks.
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
+            return Err(CoreError::scene(
+                "file",
+                None,
+                format!(
+                    "{shown} is {}: a scene must be a regular file (or - for standard input)",
+                    file_kind(&meta.file_type())
+                ),
+            ));
+        }
+        if meta.len() > max {
+            return Err(too_big(&format!("{shown}"), meta.len(), max));
+        }
+        // O_NONBLOCK: should the path be swapped for a FIFO after the check,
+        // the open does not hang.
+        use std::os::unix::fs::OpenOptionsExt;
+        let f = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(path)
+            .map_err(io)?;
+        let meta = f.metadata().map_err(io)?;
+        if !meta.is_file() {
+            return Err(CoreError::scene(
+                "file",
+                None,
+                format!(
+                    "{shown} is {}: a scene must be a regular file",
+                    file_kind(&meta.file_type())
+                ),
+            ));
+        }
+        // A file that grows while read is cut at max + 1 bytes and refused.
+        f.take(max + 1).read_to_end(&mut buf).map_err(io)?;
+        if buf.len() as u64 > max {
+            return Err(too_big(&format!("{shown}"), buf.len() as u64, max));
+        }
+    }
+    String::from_utf8(buf).map_err(|e| {
+        CoreError::scene(
+            "file",
+            None,
+            format!(
+                "{shown} is not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
 }
 
 fn toml_error(text: &str, e: &toml::de::Error) -> CoreError {
@@ -299,9 +504,31 @@ fn check_theta(key: &str, theta: f64, line: Option<usize>) -> Result<(), CoreErr
     Ok(())
 }
 
-impl Parser<'_> {
+/// The incidence angle: [`check_theta`], and at least [`GRAZING_MARGIN_DEG`] from grazing.
+fn check_incidence(theta: f64, line: Option<usize>) -> Result<(), CoreError> {
+    let key = "light.theta_deg";
+    check_theta(key, theta, line)?;
+    // The margin less one part in 10^6, so that 89.999999 itself (stored as
+    // 89.99999899999999...) is accepted.
+    if 90.0 - theta < GRAZING_MARGIN_DEG * (1.0 - 1e-6) {
+        return Err(CoreError::scene(
+            key,
+            line,
+            format!(
+                "{theta} is within {GRAZING_MARGIN_DEG:e} degrees of grazing, where the methods \
+                 lose all precision (mu0 = {:.1e}); use theta_deg <= {} (at grazing a Fresnel \
+                 interface reflects everything: R -> 1)",
+                theta.to_radians().cos(),
+                90.0 - GRAZING_MARGIN_DEG
+            ),
+        ));
+    }
+    Ok(())
+}
+
+impl Parser {
     fn line(&self, span: Range<usize>) -> Option<usize> {
-        Some(line_of(self.text, span))
+        Some(self.lines.line(span.start))
     }
 
     /// One number: integer, float, or the strings "inf" / "infinity".
@@ -361,7 +588,7 @@ impl Parser<'_> {
                             Some(t) => {
                                 let line = self.line(t.span());
                                 let x = self.number("light.theta_deg", line, t.get_ref())?;
-                                check_theta("light.theta_deg", x, line)?;
+                                check_incidence(x, line)?;
                                 x
                             }
                         };
@@ -495,6 +722,24 @@ impl Parser<'_> {
             }
         }
 
+        // The expanded scene's size, before it is allocated.
+        let cells = channels as u64 * (n_layers as u64 + directions_deg.len() as u64);
+        if cells > self.limits.max_cells {
+            let (key, line) = first.map(|f| (f.0.clone(), f.1)).unwrap_or(("layer".into(), None));
+            return Err(CoreError::scene(
+                key,
+                line,
+                format!(
+                    "{channels} channel(s) x ({n_layers} layer(s) + {} direction(s)) = {cells} \
+                     cells, about {} MB in memory, over the budget of {} cells; use fewer \
+                     channels or directions, split the spectrum over several files, or set \
+                     KM_MAX_SCENE_CELLS (docs/limits.md)",
+                    directions_deg.len(),
+                    cells * 64 / 1_000_000,
+                    self.limits.max_cells
+                ),
+            ));
+        }
         let mut out = Vec::with_capacity(channels);
         for ch in 0..channels {
             let mut ls = Vec::with_capacity(n_layers);
@@ -696,6 +941,40 @@ impl Parser<'_> {
                 check(&a, &|x| x.is_finite() && x >= 0.0, "must be finite and >= 0")?;
                 check(&b, &|x| x.is_finite() && x >= 0.0, "must be finite and >= 0")?;
                 check(&thickness, &|x| x >= 0.0, "must be >= 0 (or \"inf\" for a half-space)")?;
+                // sigma_t = sigma_a + sigma_s and tau = sigma_t * thickness must be
+                // representable: 1e308 + 1e308 overflows, and the methods then
+                // disagree (R = 0 or R = 1) instead of failing.
+                let len = a.values.len().max(b.values.len()).max(thickness.values.len());
+                // Lists of different lengths are refused later, with their lines.
+                let same = [&a, &b, &thickness]
+                    .iter()
+                    .all(|c| matches!(c.values.len(), 1) || c.values.len() == len);
+                for c in (0..len).filter(|_| same) {
+                    let (sa, ss, d) = (a.at(c), b.at(c), thickness.at(c));
+                    let sigma_t = sa + ss;
+                    if !sigma_t.is_finite() {
+                        return Err(CoreError::scene(
+                            b.key.clone(),
+                            b.line,
+                            format!(
+                                "sigma_a + sigma_s = {sa:e} + {ss:e} overflows (> {:e}); \
+                                 rescale the length unit",
+                                f64::MAX
+                            ),
+                        ));
+                    }
+                    if d.is_finite() && !(sigma_t * d).is_finite() {
+                        return Err(CoreError::scene(
+                            thickness.key.clone(),
+                            thickness.line,
+                            format!(
+                                "the optical thickness (sigma_a + sigma_s) * thickness = \
+                                 {sigma_t:e} * {d:e} overflows; give thickness = \"inf\" for an \
+                                 opaque half-space or rescale the length unit"
+                            ),
+                        ));
+                    }
+                }
             }
             Form::Tau => {
                 check(&a, &|x| x >= 0.0, "must be >= 0 (or \"inf\" for a half-space)")?;

@@ -44,6 +44,27 @@ pub enum McError {
         /// What to change.
         hint: String,
     },
+    /// The run's tallies would exceed their memory budget (`McOptions::max_tally_bytes`).
+    #[error("refused: the tallies need about {bytes:.3e} bytes (budget {budget:.3e}); {hint}")]
+    TooMuchMemory {
+        /// Projected bytes of tallies.
+        bytes: f64,
+        /// The budget.
+        budget: f64,
+        /// What to change.
+        hint: String,
+    },
+    /// More shards than the run has batches.
+    #[error(
+        "refused: {count} shards of a run of {batches} batches (each shard traces whole \
+         batches): use at most {batches} shards"
+    )]
+    TooManyShards {
+        /// Requested number of shards.
+        count: u64,
+        /// Batches of the run.
+        batches: u64,
+    },
     /// The thread pool could not be built.
     #[error("cannot build a thread pool of {threads} threads: {reason}")]
     Threads {

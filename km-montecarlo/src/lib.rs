@@ -48,4 +48,6 @@ mod transport;
 pub use error::McError;
 pub use options::{Estimator, McOptions, Progress, RadialBins};
 pub use run::{RadialProfile, radial_profile, run_shard, solve};
-pub use shard::{Partial, merge, shard_batches, write_atomic};
+pub use shard::{
+    Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,
+};

@@ -95,6 +95,37 @@ pub struct McOptions {
     /// the expected answer.
     #[serde(default)]
     pub all_effects: bool,
+    /// Allow more than [`max_threads`] worker threads (default false: a
+    /// larger `threads` is refused). Never changes the result.
+    #[serde(default)]
+    pub force_threads: bool,
+    /// Budget of tally memory, bytes: the run keeps every batch's sums
+    /// (batches x channels x (8 + layers + 2 directions + 2 rings + annuli)
+    /// `f64`s) for the standard errors, and is refused before it starts when
+    /// they would exceed this. Default [`DEFAULT_MAX_TALLY_BYTES`].
+    #[serde(default = "default_max_tally_bytes")]
+    pub max_tally_bytes: u64,
+}
+
+/// Default [`McOptions::max_events`]: 2 x 10^10 photon steps, about five
+/// minutes on one core at the ~7 x 10^7 steps per second measured for the
+/// examples.
+pub const DEFAULT_MAX_EVENTS: u64 = 20_000_000_000;
+
+/// Default [`McOptions::max_tally_bytes`]: 256 MiB.
+pub const DEFAULT_MAX_TALLY_BYTES: u64 = 256 << 20;
+
+/// Largest number of radial annuli ([`RadialBins::count`]): 10^6.
+pub const MAX_RADIAL_BINS: usize = 1_000_000;
+
+fn default_max_tally_bytes() -> u64 {
+    DEFAULT_MAX_TALLY_BYTES
+}
+
+/// The largest thread count accepted without [`McOptions::force_threads`]:
+/// four times the cores the system reports (at least 4).
+pub fn max_threads() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).saturating_mul(4).max(4)
 }
 
 impl Default for McOptions {
@@ -106,7 +137,7 @@ impl Default for McOptions {
             estimator: Estimator::SurvivalBiasing,
             batch_size: None,
             max_steps_per_photon: 1_000_000,
-            max_events: Some(20_000_000_000),
+            max_events: Some(DEFAULT_MAX_EVENTS),
             roulette_threshold: 1e-4,
             roulette_survival: 0.1,
             bin_half_angle_deg: 5.0,
@@ -114,6 +145,8 @@ impl Default for McOptions {
             radial: None,
             progress: None,
             all_effects: false,
+            force_threads: false,
+            max_tally_bytes: DEFAULT_MAX_TALLY_BYTES,
         }
     }
 }
@@ -133,6 +166,13 @@ impl McOptions {
         }
         if self.threads == Some(0) {
             return Err(bad("threads", 0, "need at least one thread"));
+        }
+        if let Some(n) = self.threads.filter(|&n| n > max_threads() && !self.force_threads) {
+            return Err(bad(
+                "threads",
+                n,
+                "more than 4 x the cores of this machine (set force_threads to insist)",
+            ));
         }
         if self.batch_size == Some(0) {
             return Err(bad("batch_size", 0, "need at least one photon per batch"));
@@ -171,6 +211,9 @@ impl McOptions {
             if r.count == 0 {
                 return Err(bad("radial.count", 0, "need at least one annulus"));
             }
+            if r.count > MAX_RADIAL_BINS {
+                return Err(bad("radial.count", r.count, "more than 10^6 annuli"));
+            }
         }
         Ok(())
     }
@@ -201,7 +244,14 @@ impl McOptions {
     /// The options with the fields that never change the result (threads,
     /// progress) cleared: what two runs must share to be merged.
     pub fn result_key(&self) -> McOptions {
-        McOptions { threads: None, progress: None, ..self.clone() }
+        McOptions {
+            threads: None,
+            progress: None,
+            force_threads: false,
+            max_tally_bytes: DEFAULT_MAX_TALLY_BYTES,
+            max_events: Some(DEFAULT_MAX_EVENTS),
+            ..self.clone()
+        }
     }
 }
 

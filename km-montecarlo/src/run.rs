@@ -68,6 +68,9 @@ pub fn run_shard(
     if count == 0 || index >= count {
         return Err(McError::Shard { index, count });
     }
+    if count > opts.batch_count() {
+        return Err(McError::TooManyShards { count, batches: opts.batch_count() });
+    }
     for ch in &scene.channels {
         ch.validate()?;
     }
@@ -96,7 +99,26 @@ pub fn run_shard(
         .collect();
     let batch_size = opts.effective_batch_size();
     let batch_count = opts.batch_count();
-    let mine: Vec<u64> = shard_batches(batch_count, index, count).collect();
+    let range = shard_batches(batch_count, index, count);
+    // Budgets, before any work: tally memory, then photon steps.
+    let sums_per_batch: u128 = metas.iter().map(|m| m.layout().len() as u128).sum();
+    let tally_bytes = (range.end - range.start) as u128 * sums_per_batch * 8;
+    if tally_bytes > opts.max_tally_bytes as u128 {
+        return Err(McError::TooMuchMemory {
+            bytes: tally_bytes as f64,
+            budget: opts.max_tally_bytes as f64,
+            hint: format!(
+                "{} batches x {sums_per_batch} sums per batch; use fewer channels, \
+                 directions or annuli, or run the batches as shards",
+                range.end - range.start
+            ),
+        });
+    }
+    let shard_photons = (range.start..range.end)
+        .map(|b| batch_photons(opts.samples, batch_size, b) as f64)
+        .sum::<f64>();
+    preflight(&tracers, opts, shard_photons)?;
+    let mine: Vec<u64> = range.collect();
 
     let t0 = Instant::now();
     let run = || trace_batches(&tracers, opts, batch_size, &mine, t0);
@@ -121,7 +143,87 @@ pub fn run_shard(
         channels: metas,
         batches,
         seconds,
-    })
+        checksum: String::new(),
+    }
+    .seal())
+}
+
+/// Pilot photons per sampled channel, and channels sampled, of [`preflight`].
+const PILOT_PHOTONS: u64 = 256;
+const PILOT_CHANNELS: usize = 16;
+/// A sampled channel's pilot stops once it has taken this many steps.
+const PILOT_STEPS: u64 = 200_000;
+/// Seed offset of the pilot's streams (never those of the run's batches).
+const PILOT_SEED: u64 = 0x7069_6c6f_745f_6d63;
+
+/// Refuse a run whose projected photon steps exceed `opts.max_events`,
+/// before any batch is traced.
+///
+/// First the bound that needs no tracing (every photon takes at least one
+/// step: `steps >= photons x channels`); then, when even the step cap
+/// (`photons x channels x max_steps_per_photon`) does not prove the run
+/// cheap, a pilot: up to [`PILOT_PHOTONS`] photons in each of up to
+/// [`PILOT_CHANNELS`] evenly spaced channels, on streams of their own (the
+/// run's result does not depend on it), gives the mean steps per photon
+/// `s`, and the projection is `photons x channels x s`. The check during the
+/// run stays as the safety net for a pilot that underestimates.
+fn preflight(tracers: &[Tracer], opts: &McOptions, shard_photons: f64) -> Result<(), McError> {
+    let Some(budget) = opts.max_events else {
+        return Ok(());
+    };
+    let nch = tracers.len() as f64;
+    let hint = |what: &str| {
+        format!(
+            "{what}; lower samples, split the run into shards (each shard has its own \
+             budget), or raise the budget (km: --budget FACTOR; library: max_events)"
+        )
+    };
+    let floor = shard_photons * nch;
+    if floor > budget as f64 {
+        return Err(McError::TooExpensive {
+            expected_events: floor,
+            budget: budget as f64,
+            expected_seconds: floor / 7e7,
+            hint: hint(&format!(
+                "{shard_photons:.3e} photons x {nch} channel(s) take at least one step each"
+            )),
+        });
+    }
+    if floor * opts.max_steps_per_photon as f64 <= budget as f64 {
+        return Ok(());
+    }
+    // The pilot.
+    let t0 = Instant::now();
+    let step = (tracers.len() / PILOT_CHANNELS).max(1);
+    let (mut steps, mut photons) = (0u64, 0u64);
+    for (c, t) in tracers.iter().enumerate().step_by(step).take(PILOT_CHANNELS) {
+        let mut rng = batch_rng(opts.seed ^ PILOT_SEED, c as u64, u64::MAX);
+        let mut sums = vec![0.0; t.layout().len()];
+        let mut s = 0;
+        for _ in 0..PILOT_PHOTONS.min(opts.samples) {
+            s += t.run_batch(&mut rng, 1, &mut sums).steps;
+            photons += 1;
+            if s > PILOT_STEPS {
+                break;
+            }
+        }
+        steps += s;
+    }
+    let per_photon = steps as f64 / photons.max(1) as f64;
+    let projected = floor * per_photon;
+    if projected > budget as f64 {
+        let rate = steps as f64 / t0.elapsed().as_secs_f64().max(1e-9);
+        return Err(McError::TooExpensive {
+            expected_events: projected,
+            budget: budget as f64,
+            expected_seconds: projected / rate,
+            hint: hint(&format!(
+                "a pilot of {photons} photons took {per_photon:.1} steps per photon (a thick, \
+                 nearly conservative layer costs about tau^2 steps per photon that crosses it)"
+            )),
+        });
+    }
+    Ok(())
 }
 
 /// Trace the listed batches in parallel; results in the listed order.
@@ -176,8 +278,10 @@ fn trace_batches(
                             expected_seconds: projected / rate,
                             hint: format!(
                                 "measured {:.1} steps per photon over {d} batch(es); lower \
-                                 samples or raise max_events (a thick, nearly conservative \
-                                 layer costs about tau^2 steps per photon that crosses it)",
+                                 samples, split the run into shards, or raise the budget (km: \
+                                 --budget FACTOR; library: max_events) (a thick, nearly \
+                                 conservative layer costs about tau^2 steps per photon that \
+                                 crosses it)",
                                 s as f64 / (d * batch_size) as f64 / tracers.len() as f64,
                             ),
                         });

@@ -9,10 +9,27 @@
 //! orders all batches by index and accumulates them exactly as a single run
 //! does, so the [`Solution`] is bit-identical (only `seconds` differs: it is
 //! the sum of the shards' tracing times).
+//!
+//! Integrity: a [`Partial`] carries an FNV-1a checksum of its canonical JSON
+//! serialisation ([`Partial::content_checksum`]), and [`merge`] re-checks every part
+//! before it allocates anything from a number in it: the checksum, the
+//! batching (`batch_count = ceil(samples / batch_size)`, no more shards than
+//! batches, every shard's batches present), the layout lengths against the
+//! vectors actually stored, every sum finite, and per batch the balance
+//! `R + T + A + lost = photons` with `R, T, lost >= 0` and, for the analog
+//! estimator, `A >= 0` (eq. S1 below). The
+//! checksum detects corruption (a flipped bit, an edited number), not a
+//! forgery: anyone can recompute it.
+//!
+//! `R + T + A + lost = n_b` per batch within `1e-9 n_b`   (eq. S1)
+//!
+//! holds photon by photon in the tracer (roulette outcomes are booked as
+//! absorption, docs/montecarlo.md §4), so a batch's sums meet it up to the
+//! rounding of `n_b` additions (relative 1e-16 each; 1e-9 leaves a wide margin).
 
 use std::collections::BTreeSet;
-use std::io::Write;
-use std::path::Path;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
 
 use km_core::{ChannelResult, Solution};
 use serde::{Deserialize, Serialize};
@@ -23,7 +40,13 @@ use crate::options::McOptions;
 use crate::tally::{BatchStats, Layout};
 
 /// Format tag of [`Partial`] files.
-pub const PARTIAL_FORMAT: &str = "km-montecarlo-partial-1";
+pub const PARTIAL_FORMAT: &str = "km-montecarlo-partial-2";
+
+/// Default largest shard file read by [`read_partial`], bytes (256 MiB;
+/// raise with the environment variable `KM_MAX_SHARD_BYTES`). A shard of the
+/// default 1000 batches with 100 layout entries per channel is about 2 MB
+/// per channel.
+pub const DEFAULT_MAX_SHARD_BYTES: u64 = 256 << 20;
 
 /// Exact `f64` vectors in text formats: stored as their IEEE-754 bit patterns.
 mod bits {
@@ -122,6 +145,123 @@ pub struct Partial {
     pub batches: Vec<BatchRecord>,
     /// Tracing wall time of this shard, seconds.
     pub seconds: f64,
+    /// FNV-1a 64-bit hash (16 hex digits) of every other field's canonical
+    /// JSON ([`Partial::content_checksum`]); verified by [`merge`].
+    pub checksum: String,
+}
+
+/// A writer that only hashes (FNV-1a 64), for checksums without a copy.
+struct FnvWriter(u64);
+
+impl Write for FnvWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        for &b in buf {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Partial {
+    /// The checksum of this part: FNV-1a 64 (Fowler, Noll & Vo) of the JSON
+    /// serialisation of every field but `checksum`, in declaration order,
+    /// with `seconds` as its bit pattern; 16 hex digits.
+    pub fn content_checksum(&self) -> String {
+        let mut w = FnvWriter(0xcbf2_9ce4_8422_2325);
+        let fields = (
+            &self.format,
+            &self.scene_hash,
+            &self.options,
+            self.shard_index,
+            self.shard_count,
+            self.batch_count,
+            self.batch_size,
+            &self.labels,
+            &self.channels,
+            &self.batches,
+            self.seconds.to_bits(),
+        );
+        // Serialising plain data into a hashing writer cannot fail.
+        let _ = serde_json::to_writer(&mut w, &fields);
+        format!("{:016x}", w.0)
+    }
+
+    /// Set [`Partial::checksum`] from the content.
+    pub fn seal(mut self) -> Partial {
+        self.checksum = self.content_checksum();
+        self
+    }
+}
+
+/// Read one shard file: a regular file of at most `KM_MAX_SHARD_BYTES`
+/// (default [`DEFAULT_MAX_SHARD_BYTES`]) holding a [`Partial`] in JSON.
+/// Only the parse is done here; [`merge`] checks the content.
+///
+/// # Errors
+/// [`McError::Merge`] naming the file: not a regular file, too large, not
+/// readable, not a shard file.
+pub fn read_partial(path: &Path) -> Result<Partial, McError> {
+    let max = std::env::var("KM_MAX_SHARD_BYTES")
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .filter(|&v| v > 0)
+        .unwrap_or(DEFAULT_MAX_SHARD_BYTES);
+    let shown = path.display();
+    let fail = |why: String| McError::Merge(format!("{shown}: {why}"));
+    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    if !meta.is_file() {
+        return Err(fail("not a regular file".into()));
+    }
+    if meta.len() > max {
+        return Err(fail(format!(
+            "{} bytes, over the limit of {max} bytes (KM_MAX_SHARD_BYTES)",
+            meta.len()
+        )));
+    }
+    let f = std::fs::File::open(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    let mut text = String::new();
+    f.take(max + 1).read_to_string(&mut text).map_err(|e| fail(format!("cannot read: {e}")))?;
+    if text.len() as u64 > max {
+        return Err(fail(format!("over the limit of {max} bytes (KM_MAX_SHARD_BYTES)")));
+    }
+    parse_partial(&text).map_err(|e| fail(e.to_string()))
+}
+
+/// Parse the JSON of a [`Partial`] (no content checks; see [`merge`]).
+///
+/// # Errors
+/// [`McError::Merge`] with serde's message when the text is not a shard file.
+pub fn parse_partial(text: &str) -> Result<Partial, McError> {
+    serde_json::from_str(text).map_err(|e| McError::Merge(format!("not a km shard file: {e}")))
+}
+
+/// Read the shard files and merge them ([`read_partial`], [`merge`]);
+/// refusals name the file.
+///
+/// # Errors
+/// Those of [`read_partial`] and [`merge`].
+pub fn merge_files(paths: &[PathBuf]) -> Result<Solution, McError> {
+    let mut parts = Vec::with_capacity(paths.len());
+    for p in paths {
+        parts.push(read_partial(p)?);
+    }
+    merge(&parts).map_err(|e| match e {
+        McError::Merge(m) => {
+            // "part K ..." becomes "part K (FILE) ...".
+            let named = paths.iter().enumerate().rev().fold(m, |m, (k, p)| {
+                m.replace(
+                    &format!("part {} ", k + 1),
+                    &format!("part {} ({}) ", k + 1, p.display()),
+                )
+            });
+            McError::Merge(named)
+        }
+        other => other,
+    })
 }
 
 /// The batch indices of shard `index` of `count` among `batches` batches.
@@ -150,19 +290,175 @@ fn mismatch(what: &str, i: usize) -> McError {
     McError::Merge(format!("part {} differs from part 1 in {what}", i + 1))
 }
 
+/// The checks of one part on its own, before anything is allocated from its numbers.
+fn check_part(i: usize, p: &Partial) -> Result<(), McError> {
+    let bad = |what: String| {
+        McError::Merge(format!(
+            "part {} (shard {}/{}) is damaged: {what}",
+            i + 1,
+            p.shard_index,
+            p.shard_count
+        ))
+    };
+    if p.format != PARTIAL_FORMAT {
+        return Err(McError::Merge(format!(
+            "part {} has format {:?}, expected {PARTIAL_FORMAT:?} (shards of older versions \
+             cannot be verified: run them again)",
+            i + 1,
+            p.format
+        )));
+    }
+    let sum = p.content_checksum();
+    if p.checksum != sum {
+        return Err(bad(format!("checksum {:?}, content hashes to {sum:?}", p.checksum)));
+    }
+    p.options.validate().map_err(|e| bad(format!("options: {e}")))?;
+    // Batching: the run's own, every shard non-empty.
+    if p.batch_size != p.options.effective_batch_size() || p.batch_count != p.options.batch_count()
+    {
+        return Err(bad(format!(
+            "batching {} x {} does not match samples = {}",
+            p.batch_count, p.batch_size, p.options.samples
+        )));
+    }
+    if p.batch_count == 0 || p.shard_count == 0 || p.shard_count > p.batch_count {
+        return Err(bad(format!(
+            "{} shard(s) of a run of {} batch(es): need 1 <= shards <= batches",
+            p.shard_count, p.batch_count
+        )));
+    }
+    if p.shard_index >= p.shard_count {
+        return Err(McError::Merge(format!(
+            "part {} claims shard {} of {}",
+            i + 1,
+            p.shard_index,
+            p.shard_count
+        )));
+    }
+    if !(p.seconds.is_finite() && p.seconds >= 0.0) {
+        return Err(bad(format!("seconds = {}", p.seconds)));
+    }
+    if p.channels.is_empty() || p.labels.len() != p.channels.len() {
+        return Err(bad(format!("{} channel(s), {} label(s)", p.channels.len(), p.labels.len())));
+    }
+    // Layouts: the counts against the vectors actually stored (a count is
+    // never used to allocate before it has matched real data).
+    for (c, m) in p.channels.iter().enumerate() {
+        let lens_ok = m.cone.len() == m.dirs
+            && m.cone_t.len() == m.dirs
+            && m.ring.len() == m.rings
+            && m.annulus.len() == m.radial
+            && m.layers >= 1;
+        let norms_ok = [&m.cone, &m.cone_t, &m.ring, &m.annulus]
+            .iter()
+            .all(|v| v.iter().all(|x| x.is_finite() && *x > 0.0));
+        let len = layout_len(m);
+        let stored = p.batches.first().and_then(|b| b.channels.get(c)).map(|cb| cb.sums.len());
+        if !lens_ok || !norms_ok || len.is_none() || len != stored {
+            return Err(bad(format!(
+                "channel {c}: layout (layers {}, directions {}, rings {}, annuli {}) does not \
+                 match the stored vectors",
+                m.layers, m.dirs, m.rings, m.radial
+            )));
+        }
+    }
+    // The batches of the shard, complete and in order.
+    let want = shard_batches(p.batch_count, p.shard_index, p.shard_count);
+    if p.batches.len() as u64 != want.end - want.start {
+        return Err(bad(format!(
+            "{} batch(es) stored, the shard has {}",
+            p.batches.len(),
+            want.end - want.start
+        )));
+    }
+    let analog = p.options.estimator == crate::options::Estimator::Analog;
+    for (b, w) in p.batches.iter().zip(want) {
+        let photons = batch_photons(p.options.samples, p.batch_size, w);
+        if b.index != w || b.photons != photons || b.channels.len() != p.channels.len() {
+            return Err(bad(format!("batch {} is not batch {w} of the run", b.index)));
+        }
+        for (c, (cb, m)) in b.channels.iter().zip(&p.channels).enumerate() {
+            check_batch(cb, m, photons, analog, p.options.max_steps_per_photon)
+                .map_err(|why| bad(format!("batch {w}, channel {c}: {why}")))?;
+        }
+    }
+    Ok(())
+}
+
+/// Length of a channel's vector of sums, `None` on overflow.
+fn layout_len(m: &ChannelMeta) -> Option<usize> {
+    let two = |x: usize| x.checked_mul(2);
+    8usize
+        .checked_add(m.layers)?
+        .checked_add(two(m.dirs)?)?
+        .checked_add(two(m.rings)?)?
+        .checked_add(m.radial)
+}
+
+/// One batch of one channel: finite sums, non-negative escapes, balance (eq. S1).
+fn check_batch(
+    cb: &ChannelBatch,
+    m: &ChannelMeta,
+    photons: u64,
+    analog: bool,
+    max_steps: u64,
+) -> Result<(), String> {
+    let l = m.layout();
+    if cb.sums.len() != l.len() {
+        return Err(format!("{} sums, the layout has {}", cb.sums.len(), l.len()));
+    }
+    if let Some(k) = cb.sums.iter().position(|x| !x.is_finite()) {
+        return Err(format!("sum {k} is {}", cb.sums[k]));
+    }
+    let n = photons as f64;
+    // Rounding of n additions of weights <= 1 (eq. S1's margin).
+    let eps = 1e-9 * n + 1e-12;
+    let s = &cb.sums;
+    // Escaping and lost weight, and every bin, are sums of positive weights.
+    let mut positive: Vec<usize> =
+        vec![Layout::R, Layout::R_SPEC, Layout::T, Layout::T_DIRECT, Layout::LOST];
+    positive.push(Layout::RD_OVERFLOW);
+    positive.extend(l.brdf(0)..l.len());
+    if let Some(&k) = positive.iter().find(|&&k| s[k] < 0.0) {
+        return Err(format!("sum {k} = {} is negative", s[k]));
+    }
+    let (r, t, a, lost) = (s[Layout::R], s[Layout::T], s[Layout::A], s[Layout::LOST]);
+    if s[Layout::R_SPEC] > r + eps || s[Layout::T_DIRECT] > t + eps {
+        return Err("a specular or direct part exceeds its total".into());
+    }
+    // Analog absorption is a count of whole photons, >= 0. With survival
+    // biasing a won roulette raises a weight from below the threshold to
+    // threshold / survival, and the gain is booked as negative absorption (so
+    // that eq. S1 holds photon by photon): a batch's absorbed weight can be
+    // slightly negative (-9e-4 of 20 photons was seen at grazing incidence on
+    // a weakly absorbing Fresnel slab), so only its balance is checked.
+    if analog && a < -eps {
+        return Err(format!("absorbed weight {a} is negative (analog estimator)"));
+    }
+    if (r + t + a + lost - n).abs() > eps {
+        return Err(format!(
+            "R + T + A + lost = {r} + {t} + {a} + {lost} = {}, not the batch's {photons} \
+             photons (eq. S1)",
+            r + t + a + lost
+        ));
+    }
+    let steps_max = photons.saturating_mul(max_steps);
+    if cb.capped > photons || cb.steps > steps_max || cb.interactions > cb.steps {
+        return Err(format!(
+            "counters (interactions {}, steps {}, capped {}) impossible for {photons} photons",
+            cb.interactions, cb.steps, cb.capped
+        ));
+    }
+    Ok(())
+}
+
 /// Check that `parts` are the complete set of shards of one run.
 fn validate(parts: &[Partial]) -> Result<(), McError> {
     let Some(p0) = parts.first() else {
         return Err(McError::Merge("no parts given".into()));
     };
     for (i, p) in parts.iter().enumerate() {
-        if p.format != PARTIAL_FORMAT {
-            return Err(McError::Merge(format!(
-                "part {} has format {:?}, expected {PARTIAL_FORMAT:?}",
-                i + 1,
-                p.format
-            )));
-        }
+        check_part(i, p)?;
         if p.scene_hash != p0.scene_hash {
             return Err(mismatch("the scene (hash)", i));
         }
@@ -190,34 +486,13 @@ fn validate(parts: &[Partial]) -> Result<(), McError> {
         if p.labels != p0.labels || p.channels != p0.channels {
             return Err(mismatch("channels", i));
         }
-        if p.shard_index >= p.shard_count {
-            return Err(McError::Merge(format!(
-                "part {} claims shard {} of {}",
-                i + 1,
-                p.shard_index,
-                p.shard_count
-            )));
-        }
-        // The batches must be exactly those of the shard, complete.
-        let want = shard_batches(p.batch_count, p.shard_index, p.shard_count);
-        let ok = p.batches.len() as u64 == want.end - want.start
-            && p.batches.iter().zip(want).all(|(b, w)| {
-                b.index == w
-                    && b.photons == batch_photons(p.options.samples, p.batch_size, w)
-                    && b.channels.len() == p.channels.len()
-                    && b.channels
-                        .iter()
-                        .zip(&p.channels)
-                        .all(|(c, m)| c.sums.len() == m.layout().len())
-            });
-        if !ok {
-            return Err(McError::Merge(format!(
-                "part {} (shard {}/{}) does not hold its batches intact",
-                i + 1,
-                p.shard_index,
-                p.shard_count
-            )));
-        }
+    }
+    if parts.len() as u64 > p0.shard_count {
+        return Err(McError::Merge(format!(
+            "{} parts given for a run of {} shard(s)",
+            parts.len(),
+            p0.shard_count
+        )));
     }
     let mut seen = BTreeSet::new();
     for p in parts {
@@ -265,9 +540,9 @@ pub(crate) fn accumulate(parts: &[Partial]) -> Result<Merged, McError> {
         for b in &p.batches {
             for (c, cb) in b.channels.iter().enumerate() {
                 m.stats[c].push(b.photons, &cb.sums);
-                m.interactions[c] += cb.interactions;
-                m.steps[c] += cb.steps;
-                m.capped[c] += cb.capped;
+                m.interactions[c] = m.interactions[c].saturating_add(cb.interactions);
+                m.steps[c] = m.steps[c].saturating_add(cb.steps);
+                m.capped[c] = m.capped[c].saturating_add(cb.capped);
             }
         }
     }
@@ -408,26 +683,15 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
     }
 }
 
-/// Write `bytes` to `path` atomically: into a temporary file in the same
-/// directory, flushed to disk, then renamed over `path` (POSIX rename is
-/// atomic), so an interrupted writer leaves either the old file or the new
-/// one, never a truncated one.
+/// Write `bytes` to `path` atomically, by [`km_core::atomic_file::write_atomic`]:
+/// a temporary file created exclusively beside the target, flushed, renamed
+/// over it; targets that are not regular files (devices, FIFOs, directories,
+/// symbolic links) are refused, and the temporary file is removed on errors
+/// and on SIGINT/SIGTERM.
 ///
 /// # Errors
 /// [`McError::Io`] naming the path.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), McError> {
-    let io = |source| McError::Io { path: path.display().to_string(), source };
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io)
+    km_core::atomic_file::write_atomic(path, bytes)
+        .map_err(|source| McError::Io { path: path.display().to_string(), source })
 }

@@ -138,7 +138,9 @@ fn bad_input_is_refused_with_clear_errors() {
     assert!(msg(merge(&[p0.clone(), other_scene])).contains("scene"));
     let mut cut = p1.clone();
     cut.batches.pop();
-    assert!(msg(merge(&[p0.clone(), cut])).contains("intact"));
+    // The checksum catches the edit; resealed, the batch count does.
+    assert!(msg(merge(&[p0.clone(), cut.clone()])).contains("checksum"));
+    assert!(msg(merge(&[p0.clone(), cut.seal()])).contains("batch(es) stored"));
     assert!(merge(&[p1, p0]).is_ok());
 }
 

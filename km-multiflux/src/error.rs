@@ -31,6 +31,17 @@ pub enum MultifluxError {
         /// Details (sizes, parameters of the layer).
         detail: String,
     },
+    /// The solve's estimated work exceeds its budget (`MultifluxOptions::max_work`,
+    /// [`crate::budget`]).
+    #[error("refused: this solve needs about {work:.3e} work units (budget {budget:.3e}): {hint}")]
+    TooExpensive {
+        /// The estimate of eq. W1.
+        work: f64,
+        /// The budget.
+        budget: f64,
+        /// Where the work comes from and what to change.
+        hint: String,
+    },
     /// The scene is invalid or the method cannot treat it.
     #[error(transparent)]
     Scene(#[from] km_core::CoreError),

@@ -25,6 +25,7 @@
 
 pub mod adding;
 pub mod bsdf;
+pub mod budget;
 pub mod correction;
 pub mod direction_set;
 pub mod error;

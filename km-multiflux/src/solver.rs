@@ -120,6 +120,10 @@ pub struct MultifluxOptions {
     /// directions (`docs/multiflux.md` eq. 5a–5e; Nakajima & Tanaka 1988);
     /// default true. The single-scattering part (TMS) comes with `delta_m`.
     pub secondary_correction: bool,
+    /// Work budget of one solve (eq. W1 of [`crate::budget`]; `None`:
+    /// [`crate::budget::DEFAULT_MAX_WORK`]). A solve estimated above it is refused before
+    /// it starts.
+    pub max_work: Option<f64>,
 }
 
 impl Default for MultifluxOptions {
@@ -131,6 +135,7 @@ impl Default for MultifluxOptions {
             delta_m: true,
             all_effects: false,
             secondary_correction: true,
+            max_work: None,
         }
     }
 }
@@ -156,6 +161,7 @@ impl Default for MultifluxOptions {
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-12);
 /// ```
 pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, MultifluxError> {
+    crate::budget::check(scene, opts)?;
     // The matrices are small (tens of rows): faer runs sequentially, one core
     // per solve (parallelise over channels or scenes outside). The workspace
     // builds faer without its rayon feature, so its global default is already

@@ -37,11 +37,14 @@ mod solver;
 pub mod text;
 
 pub use error::{KmError, Reason, Unsupported};
+/// Output files written atomically, never over devices, links or inputs (`docs/limits.md`).
+pub use km_core::atomic_file;
 pub use km_core::plan::{Plan, Request, Simplification};
 pub use km_core::solution::AccuracyReport;
 pub use km_core::two_flux::{KmMapping, KmOptions};
 pub use km_core::{
-    ChannelResult, Layer, Light, MonoScene, Scene, Solution, Substrate, Uncertainty,
+    ChannelResult, Layer, Light, MonoScene, Scene, SceneLimits, Solution, Substrate, Uncertainty,
+    read_scene_text,
 };
 pub use km_dipole::{DipoleModel, DipoleOptions, FdrModel};
 pub use km_montecarlo::{Estimator, McOptions, Progress};
@@ -49,6 +52,8 @@ pub use km_multiflux::MultifluxOptions;
 /// The whole BSDF of a stack from one multi-flux solve, its checks and its
 /// files (npz, csv, Fourier BSDF): see `docs/bsdf.md`.
 pub use km_multiflux::bsdf;
+/// The multi-flux work budget (eq. W1; `docs/limits.md`).
+pub use km_multiflux::budget as multiflux_budget;
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
 pub use solver::{MethodOptions, Options, Solver};

@@ -88,6 +88,9 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
     if opts.points == 0 {
         return bad("points", "0".into(), "at least 1 radius is needed");
     }
+    if opts.points > km_montecarlo::options::MAX_RADIAL_BINS {
+        return bad("points", opts.points.to_string(), "at most 1000000 radii (docs/limits.md)");
+    }
     let Some(l) = scene.channels.first().and_then(|c| c.layers.first()) else {
         return bad("scene", "no layer".into(), "a profile needs a layer");
     };

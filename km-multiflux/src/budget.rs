@@ -1,0 +1,253 @@
+//! The work budget of a multi-flux solve, estimated from the scene and the
+//! options before any matrix is built.
+//!
+//! The solver's cost is dominated by dense `N x N` linear algebra (eigen
+//! decomposition of each layer, products and inverses of the adding method),
+//! `O(N^3)` each, where `N` is the number of quadrature nodes of the medium:
+//! on the Snell-mapped grid of [`crate::quadrature::AngularGrid`] a medium of
+//! index `n` has `streams x d(n)` nodes per hemisphere, `d(n)` being the
+//! number of distinct indices of the stack that are `<= n`. A stack of `k`
+//! layers of distinct indices thus costs `~ streams^3 k^4 / 4`: the grid,
+//! not the layer count, is what grows. The estimate, in units of one
+//! `N^3` step, is
+//!
+//! `W = sum_channels  M  sum_{operators o} (N_o + E)^3 (1 + K)`   (eq. W1)
+//!
+//! where the operators are the layers and the interfaces between media of
+//! different index (every boundary with `all_effects`), `N_o` the node count
+//! of the operator's denser medium, `E` the extra columns carried through
+//! every operator (the beam, and one probe per output direction on each
+//! side: 2 x 10^4 directions make operators of 4 x 10^4 rows, 13 GB each),
+//! `M` the number of Fourier orders (1 for
+//! totals; with BRDF/BTDF directions under a beam, `min(2 streams,
+//! TYPICAL_ORDERS)`: the solver stops the azimuthal series once two orders
+//! are negligible, after 10 orders for `g = 0.6` at 64 and at 192 streams on
+//! `examples/paint-over-primer.toml`; `2 streams` with `all_effects`) and `K`
+//! the truncation order of the
+//! Neumann series (`neumann_order`; 0 for exact adding, whose cost the `1`
+//! accounts for).
+//!
+//! Calibration (2026-11, a 2-core machine): a stack of 60 layers of distinct
+//! indices at 16 streams (`W = 2.8e10`) took 17.7 s unloaded, about 0.7 ns
+//! per unit; under load 1.5 to 2.6 ns per unit were measured (10 layers at 64
+//! streams, `W = 2.3e9`: 3.4 s; paint-over-primer at 192 streams, `W = 8e9`:
+//! 17.9 s). The default budget [`DEFAULT_MAX_WORK`] is `1e10`: 7 to 25 s.
+
+use km_core::{Light, MonoScene, Scene, Substrate};
+
+use crate::error::MultifluxError;
+use crate::solver::MultifluxOptions;
+
+/// Default work budget of one solve (eq. W1 units): 10^10, 7 to 25 s.
+pub const DEFAULT_MAX_WORK: f64 = 1e10;
+
+/// Fourier orders assumed when angles are asked (eq. W1's `M`), unless the
+/// streams resolve fewer.
+pub const TYPICAL_ORDERS: usize = 12;
+
+/// Largest truncation order of the Neumann series (`neumann_order`): past
+/// ~10^4 round trips the truncated series equals exact adding to rounding in
+/// any stack whose interreflection factor is below `1 - 1e-3`, and exact
+/// adding (`neumann_order = None`) costs less.
+pub const MAX_NEUMANN_ORDER: usize = 100_000;
+
+/// The estimated work of a solve (eq. W1) and its parts, for messages.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkEstimate {
+    /// `W` of eq. W1, in `N^3` units.
+    pub units: f64,
+    /// Largest node count `N` of any medium, one hemisphere.
+    pub max_nodes: usize,
+    /// Largest number of Fourier orders `M` of any channel.
+    pub orders: usize,
+    /// Largest number of operators (layers + interfaces) of any channel.
+    pub operators: usize,
+    /// Channels solved.
+    pub channels: usize,
+}
+
+/// Estimate the work of solving `scene` with `opts` (eq. W1), without
+/// building anything: `O(channels x layers log layers)` arithmetic.
+///
+/// # Reference
+/// The cost model of dense eigen and adding steps, `O(N^3)`: Golub & Van
+/// Loan, *Matrix Computations*, 4th ed. (2013), §7.5; the node count of the
+/// Snell-mapped grid: `docs/multiflux.md` (eq. Q1, Q2).
+///
+/// ```
+/// use km_multiflux::{MultifluxOptions, budget::estimate};
+/// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\nn = 1.5\n").unwrap();
+/// let w = estimate(&s, &MultifluxOptions { streams: Some(16), ..Default::default() });
+/// // Ambient 1.0 and layer 1.5: 32 nodes in the layer, 1 extra column (the
+/// // beam); one layer and two interfaces.
+/// assert_eq!(w.max_nodes, 32);
+/// assert_eq!(w.units, 3.0 * 33f64.powi(3));
+/// ```
+pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
+    let mut est = WorkEstimate { units: 0.0, max_nodes: 0, orders: 0, operators: 0, channels: 0 };
+    for ch in &scene.channels {
+        let w = estimate_mono(ch, opts);
+        est.units += w.units;
+        est.max_nodes = est.max_nodes.max(w.max_nodes);
+        est.orders = est.orders.max(w.orders);
+        est.operators = est.operators.max(w.operators);
+        est.channels += 1;
+    }
+    est
+}
+
+fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
+    let streams = opts.streams.unwrap_or_else(|| crate::solver::default_streams(scene)) as f64;
+    // Media top to bottom; the substrate is a medium when it is transparent.
+    let mut media: Vec<f64> = vec![scene.ambient_n];
+    media.extend(scene.layers.iter().map(|l| l.n));
+    if let Substrate::Transparent { n } = scene.substrate {
+        media.push(n);
+    }
+    // d(n): rank of n among the distinct indices (sorted once, then a binary search).
+    let mut distinct: Vec<f64> = media.iter().copied().filter(|x| x.is_finite()).collect();
+    distinct.sort_by(|a, b| a.total_cmp(b));
+    distinct.dedup();
+    // Extra columns: the beam, and a probe per direction above (and below
+    // when the substrate is transparent).
+    let below = matches!(scene.substrate, Substrate::Transparent { .. });
+    let extras = 1.0 + scene.directions_deg.len() as f64 * if below { 2.0 } else { 1.0 };
+    let nodes = |n: f64| streams * distinct.partition_point(|&x| x <= n).max(1) as f64;
+    let size = |n: f64| nodes(n) + extras;
+    let mut per_order = 0.0;
+    let mut operators = 0;
+    let mut max_nodes = 0.0f64;
+    for (i, l) in scene.layers.iter().enumerate() {
+        let n_layer = nodes(l.n);
+        max_nodes = max_nodes.max(n_layer);
+        per_order += size(l.n).powi(3);
+        operators += 1;
+        let above = media[i];
+        if above != l.n || opts.all_effects {
+            per_order += size(above.max(l.n)).powi(3);
+            operators += 1;
+        }
+    }
+    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate, scene.layers.last())
+        && (n != last.n || opts.all_effects)
+    {
+        per_order += size(n.max(last.n)).powi(3);
+        operators += 1;
+    }
+    let beam = matches!(scene.light, Light::Collimated { .. });
+    let angles = !scene.directions_deg.is_empty() && beam;
+    let mut orders = if opts.all_effects {
+        2.0 * streams
+    } else if angles {
+        (2.0 * streams).min(TYPICAL_ORDERS as f64)
+    } else {
+        1.0
+    };
+    if let Some(m) = opts.max_fourier_order {
+        orders = orders.min(m as f64 + 1.0);
+    }
+    let neumann = opts.neumann_order.map_or(0.0, |k| k as f64);
+    WorkEstimate {
+        units: orders * per_order * (1.0 + neumann),
+        max_nodes: max_nodes as usize,
+        orders: orders as usize,
+        operators,
+        channels: 1,
+    }
+}
+
+/// Refuse a solve whose estimate (eq. W1) exceeds its budget
+/// (`opts.max_work`, default [`DEFAULT_MAX_WORK`]) or whose Neumann order
+/// exceeds [`MAX_NEUMANN_ORDER`]; called first thing by [`crate::solve`].
+///
+/// # Errors
+/// [`MultifluxError::TooExpensive`] naming the estimate, its parts and what
+/// to change; [`MultifluxError::Option`] for the Neumann order or a budget
+/// that is not a positive number.
+pub fn check(scene: &Scene, opts: &MultifluxOptions) -> Result<WorkEstimate, MultifluxError> {
+    if let Some(k) = opts.neumann_order.filter(|&k| k > MAX_NEUMANN_ORDER) {
+        return Err(MultifluxError::Option {
+            name: "neumann_order",
+            value: k as f64,
+            reason: "must be <= 100000 (leave it unset for exact adding, which is cheaper)",
+        });
+    }
+    let budget = opts.max_work.unwrap_or(DEFAULT_MAX_WORK);
+    if budget.is_nan() || budget <= 0.0 {
+        return Err(MultifluxError::Option {
+            name: "max_work",
+            value: budget,
+            reason: "must be a positive number",
+        });
+    }
+    let est = estimate(scene, opts);
+    if est.units > budget {
+        return Err(MultifluxError::TooExpensive {
+            work: est.units,
+            budget,
+            hint: format!(
+                "{} channel(s), up to {} operators (layers and interfaces) of up to {} nodes, \
+                 {} Fourier order(s){}; about {:.0} s at 0.7 ns per unit. Use fewer streams, \
+                 fewer distinct refractive indices (each adds a Snell segment of `streams` \
+                 nodes), fewer channels or directions, or raise the budget (km: --budget \
+                 FACTOR; library: max_work)",
+                est.channels,
+                est.operators,
+                est.max_nodes,
+                est.orders,
+                opts.neumann_order.map(|k| format!(", Neumann order {k}")).unwrap_or_default(),
+                est.units * 0.7e-9,
+            ),
+        });
+    }
+    Ok(est)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stack(k: usize) -> Scene {
+        let mut t = String::new();
+        for i in 0..k {
+            t.push_str(&format!(
+                "[[layer]]\ntau = 0.1\nalbedo = 0.9\nn = {}\n",
+                1.0 + 0.5 * i as f64 / k as f64
+            ));
+        }
+        Scene::from_toml_str(&t).unwrap()
+    }
+
+    #[test]
+    fn distinct_indices_grow_the_grid_as_k_to_the_fourth() {
+        // eq. W1 with N_i = 16 i (layer i has the i-th distinct index):
+        // doubling k multiplies the sum of N^3 by about 2^4.
+        let o = MultifluxOptions { streams: Some(16), ..Default::default() };
+        let w20 = estimate(&stack(20), &o).units;
+        let w40 = estimate(&stack(40), &o).units;
+        assert!((w40 / w20 - 16.0).abs() < 2.0, "{}", w40 / w20);
+    }
+
+    #[test]
+    fn the_issue_stacks_are_refused_and_small_ones_pass() {
+        let o = MultifluxOptions::default();
+        assert!(check(&stack(3), &o).is_ok());
+        for k in [100, 1000] {
+            let e = check(&stack(k), &o).unwrap_err();
+            assert!(matches!(e, MultifluxError::TooExpensive { .. }), "{e}");
+            assert!(e.to_string().contains("--budget"), "{e}");
+        }
+        let raised = MultifluxOptions { max_work: Some(1e14), ..Default::default() };
+        assert!(check(&stack(100), &raised).is_ok());
+    }
+
+    #[test]
+    fn neumann_order_is_capped_and_priced() {
+        let s = stack(2);
+        let big = MultifluxOptions { neumann_order: Some(usize::MAX), ..Default::default() };
+        assert!(matches!(check(&s, &big), Err(MultifluxError::Option { .. })));
+        let o1 = MultifluxOptions { neumann_order: Some(1), ..Default::default() };
+        let o9 = MultifluxOptions { neumann_order: Some(9), ..Default::default() };
+        assert_eq!(estimate(&s, &o9).units, 5.0 * estimate(&s, &o1).units);
+    }
+}
