@@ -10,6 +10,9 @@
 //!   survival biasing vs analog absorption (printed before the benchmarks;
 //!   se from batch statistics of a 1e6-photon (vdH) or 3e5-photon (paint)
 //!   run, t its tracing time, best of three).
+//! * `mc photons/...`: photons per second per core, survival biasing, on the
+//!   scenes of the side-by-side comparison with MCML (tau-2 slab, three-layer
+//!   skin).
 //!
 //! Short run: `cargo bench -p km-bench --bench montecarlo -- --warm-up-time 1 --measurement-time 2`.
 
@@ -39,6 +42,12 @@ albedo = 0.8
 [output]
 directions_deg = [[0.0, 0.0], [45.0, 180.0], [70.0, 0.0]]
 "#;
+
+/// Three-layer skin (epidermis, dermis, subcutis; cm^-1 and cm) for the
+/// photon rate side by side with MCML.
+const SKIN: &str = "[[layer]]\nsigma_a = 1.0\nsigma_s = 100.0\nthickness = 0.01\ng = 0.8\nn = 1.4\n\
+                    [[layer]]\nsigma_a = 0.3\nsigma_s = 200.0\nthickness = 0.2\ng = 0.9\nn = 1.4\n\
+                    [[layer]]\nsigma_a = 0.5\nsigma_s = 100.0\nthickness = 0.3\ng = 0.8\nn = 1.44\n";
 
 fn opts(samples: u64, estimator: Estimator) -> McOptions {
     McOptions { samples, estimator, threads: Some(1), seed: 3, ..Default::default() }
@@ -90,6 +99,18 @@ fn bench(c: &mut Criterion) {
                 b.iter(|| solve(black_box(&scene), &o))
             });
         }
+    }
+    g.finish();
+    // Photons per second per core on the two scenes of the side-by-side
+    // comparison with MCML (docs/montecarlo.md §11): the tau-2 slab and a
+    // three-layer skin model (cm^-1, cm), survival biasing, roulette 1e-4 / 0.1.
+    let mut g = c.benchmark_group("mc photons");
+    g.sample_size(10);
+    for (name, text, photons) in [("vdH slab", VDH, 20_000), ("skin 3 layers", SKIN, 500)] {
+        let scene = Scene::from_toml_str(text).expect("valid scene");
+        let o = opts(photons, Estimator::SurvivalBiasing);
+        g.throughput(Throughput::Elements(photons));
+        g.bench_function(name, |b| b.iter(|| solve(black_box(&scene), &o)));
     }
     g.finish();
 }

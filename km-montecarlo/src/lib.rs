@@ -41,6 +41,7 @@ pub mod error;
 pub mod options;
 mod rng;
 pub mod run;
+mod sampling;
 pub mod shard;
 mod tally;
 mod transport;

@@ -20,7 +20,8 @@
 //!
 //! Scattering turns the direction by a polar cosine drawn from the layer's
 //! phase function ([`PhaseFunction::sample_cos`]) and a uniform azimuth
-//! (eq. M3, MCML eq. 3.24 "Spin").
+//! (eq. M3, MCML eq. 3.24 "Spin"), whose cosine and sine come from
+//! [`azimuth`] (rejection in the unit disc, no trigonometric call).
 
 use std::f64::consts::PI;
 
@@ -34,6 +35,7 @@ use crate::bins::{
 };
 use crate::options::{Estimator, McOptions, RadialBins};
 use crate::rng::uniform;
+use crate::sampling::azimuth;
 use crate::tally::Layout;
 
 /// One layer as the tracer needs it.
@@ -43,6 +45,8 @@ struct Slab {
     top: f64,
     bottom: f64,
     sigma_t: f64,
+    /// `1 / sigma_t` (infinite in a clear layer): free path per unit optical path.
+    inv_sigma_t: f64,
     /// `sigma_a / sigma_t` (fraction absorbed per interaction).
     absorb: f64,
     /// `sigma_s / sigma_t`.
@@ -123,6 +127,7 @@ impl Tracer {
                 top: z,
                 bottom,
                 sigma_t,
+                inv_sigma_t: 1.0 / sigma_t,
                 absorb: if sigma_t > 0.0 { l.sigma_a / sigma_t } else { 0.0 },
                 albedo: l.albedo(),
                 phase: l.phase,
@@ -325,9 +330,9 @@ impl Tracer {
             Light::Diffuse => {
                 // Cosine-weighted hemisphere: mu = sqrt(xi1), phi = 2 pi xi2.
                 let mu = uniform(rng).sqrt();
-                let phi = 2.0 * PI * uniform(rng);
+                let (cos_p, sin_p) = azimuth(rng);
                 let s = (1.0 - mu * mu).max(0.0).sqrt();
-                (s * phi.cos(), s * phi.sin(), mu)
+                (s * cos_p, s * sin_p, mu)
             }
         };
         let mut w = 1.0;
@@ -376,15 +381,14 @@ impl Tracer {
             if s_left <= 0.0 {
                 s_left = -(1.0 - uniform(rng)).ln();
             }
-            // Step 2: distance to the boundary ahead and free path.
-            let d_b = if uz > 0.0 {
-                (slab.bottom - z) / uz
-            } else if uz < 0.0 {
-                (slab.top - z) / uz
-            } else {
-                f64::INFINITY
-            };
-            let d = if slab.sigma_t > 0.0 { s_left / slab.sigma_t } else { f64::INFINITY };
+            // Step 2: distance to the boundary ahead and free path. The
+            // boundary is chosen by a select (no jump on the sign of uz, which
+            // is a coin toss); only a horizontal path (uz = 0) takes a branch.
+            let z_b = if uz > 0.0 { slab.bottom } else { slab.top };
+            let d_b = if uz != 0.0 { (z_b - z) / uz } else { f64::INFINITY };
+            // A clear layer has inv_sigma_t = inf: d is inf (or NaN for a
+            // zero path, s_left = 0), and either fails `d < d_b` below.
+            let d = s_left * slab.inv_sigma_t;
 
             if d < d_b {
                 // Step 3a: interaction inside the layer.
@@ -399,8 +403,8 @@ impl Tracer {
                 }
                 // Scattering (eq. M3).
                 let cos_t = slab.phase.sample_cos(uniform(rng));
-                let psi = 2.0 * PI * uniform(rng);
-                (ux, uy, uz) = spin(ux, uy, uz, cos_t, psi);
+                let (cos_p, sin_p) = azimuth(rng);
+                (ux, uy, uz) = spin(ux, uy, uz, cos_t, cos_p, sin_p);
                 scattered = true;
                 continue;
             }
@@ -449,9 +453,9 @@ impl Tracer {
                         }
                         // Cosine-weighted re-emission upward.
                         let mu = uniform(rng).sqrt();
-                        let phi = 2.0 * PI * uniform(rng);
+                        let (cos_p, sin_p) = azimuth(rng);
                         let s = (1.0 - mu * mu).max(0.0).sqrt();
-                        (ux, uy, uz) = (s * phi.cos(), s * phi.sin(), -mu);
+                        (ux, uy, uz) = (s * cos_p, s * sin_p, -mu);
                         continue;
                     }
                     Below::Black => {
@@ -524,18 +528,26 @@ fn cone_half_angles(scene: &MonoScene, opts: &McOptions, top: bool) -> Vec<f64> 
         .collect()
 }
 
-/// New direction after scattering by polar cosine `cos_t` and azimuth `psi`
-/// (MCML eq. 3.24; for `|uz|` near 1 eq. 3.25).
+/// New direction after scattering by polar cosine `cos_t` and an azimuth of
+/// cosine `cos_p` and sine `sin_p` (MCML eq. 3.24; for `|uz|` near 1 eq. 3.25).
 #[inline]
-pub(crate) fn spin(ux: f64, uy: f64, uz: f64, cos_t: f64, psi: f64) -> (f64, f64, f64) {
+pub(crate) fn spin(
+    ux: f64,
+    uy: f64,
+    uz: f64,
+    cos_t: f64,
+    cos_p: f64,
+    sin_p: f64,
+) -> (f64, f64, f64) {
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (sin_p, cos_p) = psi.sin_cos();
     if uz.abs() > 0.99999 {
         return (sin_t * cos_p, sin_t * sin_p, cos_t * uz.signum());
     }
     let tmp = (1.0 - uz * uz).sqrt();
-    let nx = sin_t * (ux * uz * cos_p - uy * sin_p) / tmp + ux * cos_t;
-    let ny = sin_t * (uy * uz * cos_p + ux * sin_p) / tmp + uy * cos_t;
+    // One division: sin_t / tmp multiplies both lateral terms.
+    let k = sin_t / tmp;
+    let nx = k * (ux * uz * cos_p - uy * sin_p) + ux * cos_t;
+    let ny = k * (uy * uz * cos_p + ux * sin_p) + uy * cos_t;
     let nz = -sin_t * cos_p * tmp + uz * cos_t;
     // Renormalise against the slow drift of repeated rotations.
     let inv = 1.0 / (nx * nx + ny * ny + nz * nz).sqrt();
@@ -550,7 +562,8 @@ mod tests {
     fn spin_keeps_the_scattering_angle() {
         let (ux, uy, uz) = (0.3, -0.4, (1.0f64 - 0.25).sqrt());
         for &(c, p) in &[(0.5, 0.3), (-0.9, 2.0), (0.99, 5.0)] {
-            let (a, b, d) = spin(ux, uy, uz, c, p);
+            let (sp, cp) = f64::sin_cos(p);
+            let (a, b, d) = spin(ux, uy, uz, c, cp, sp);
             assert!(((a * a + b * b + d * d) - 1.0).abs() < 1e-12);
             assert!((a * ux + b * uy + d * uz - c).abs() < 1e-12);
         }
