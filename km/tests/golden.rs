@@ -12,6 +12,13 @@
 //! every method now has); `stderr`/`error_estimate` of several channels
 //! change from a list of objects to an object of lists; `"directions"` added
 //! next to `brdf`/`btdf`. `seconds` is ignored.
+//!
+//! Re-recorded deliberately since (with the format-2 command line):
+//! `cloud-deck.multiflux` when scenes that ask for exit directions got more
+//! default streams for peaked phase functions (`docs/multiflux.md` §8: 32
+//! streams for 0.8 < |g| <= 0.9, was 16); the five `*.mc` outputs when the
+//! Monte Carlo azimuth became a rejection sample in the unit disc
+//! (`docs/montecarlo.md` eq. M4: another random sequence for the same seed).
 
 use std::path::PathBuf;
 
