@@ -94,15 +94,19 @@ class Batch:
                 tail = tail[1:]
             return a.reshape(self.shape + tail)
 
-        for k in _SCALARS:
-            setattr(self, k, fit(columns[k]))
-        self.brdf = fit(columns["brdf"])
-        self.btdf = fit(columns["btdf"])
-        for k in ("stderr", "error_estimate"):
-            d = columns[k]
-            setattr(self, k, None if d is None else {key: fit(v) for key, v in d.items()})
-        errs = columns["errors"]
-        self.errors = np.array(errs, dtype=object).reshape(self.shape)
+        def fit_all(d: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
+            return None if d is None else {key: fit(v) for key, v in d.items()}
+
+        self.reflectance: np.ndarray = fit(columns["reflectance"])
+        self.reflectance_specular: np.ndarray = fit(columns["reflectance_specular"])
+        self.transmittance: np.ndarray = fit(columns["transmittance"])
+        self.transmittance_direct: np.ndarray = fit(columns["transmittance_direct"])
+        self.absorptance: np.ndarray = fit(columns["absorptance"])
+        self.brdf: np.ndarray = fit(columns["brdf"])
+        self.btdf: np.ndarray = fit(columns["btdf"])
+        self.stderr: dict[str, np.ndarray] | None = fit_all(columns["stderr"])
+        self.error_estimate: dict[str, np.ndarray] | None = fit_all(columns["error_estimate"])
+        self.errors: np.ndarray = np.array(columns["errors"], dtype=object).reshape(self.shape)
 
     def to_dict(self) -> dict[str, Any]:
         """The arrays by name."""
