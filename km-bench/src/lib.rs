@@ -9,7 +9,7 @@
 //!   as SVG and PNG with an embedded font ([`font`]).
 //! * [`data`]: CSV files with the parameters and the seed in their header.
 //! * [`report`]: the Markdown report.
-//! * [`methods`]: one entry point over every solver ([`methods::Method`]).
+//! * [`methods`]: a method at a setting ([`methods::Setting`]) through the library's solver interface.
 //! * [`scenes`]: the scenes of the recipes (the seed's §4.4 example, study scenes).
 //! * [`recipes`]: one function per figure of the seed's §4 and per study.
 #![deny(missing_docs)]

@@ -1,16 +1,22 @@
-//! One entry point over every solver of the workspace, so that the recipes
-//! can run "a method at a setting" on a scene and compare the answers.
+//! "A method at a setting" for the recipes, run through the library's one
+//! solver interface ([`km::Solver`]), so that the studies can compare the
+//! answers. The direction-set mode of km-multiflux, a study of the seed's
+//! own discretisation, is not one of the library's methods and is run here.
 
 use std::fmt;
 use std::time::Instant;
 
+use km::Solver;
 use km_core::{ChannelResult, Light, Scene, Solution};
 use km_multiflux::direction_set::{self, Combine};
-use serde_json::Value;
 
-/// A method at one accuracy setting.
+/// The studies' name for [`Setting`].
+pub use self::Setting as Method;
+
+/// A method of the library ([`km::Method`]) at one accuracy setting, or the
+/// direction-set mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Method {
+pub enum Setting {
     /// Two-flux Kubelka–Munk (km-core, seed 000 §2), the seed's identity mapping.
     TwoFlux,
     /// Multi-flux, Fourier–Gauss mode (km-multiflux) with `streams` Gauss
@@ -42,7 +48,7 @@ pub enum Method {
     Dipole,
 }
 
-impl fmt::Display for Method {
+impl fmt::Display for Setting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Method::TwoFlux => write!(f, "two-flux KM"),
@@ -55,7 +61,36 @@ impl fmt::Display for Method {
     }
 }
 
-impl Method {
+impl Setting {
+    /// The library's method, if it is one of them (`None`: the direction set).
+    pub fn method(&self) -> Option<km::Method> {
+        match self {
+            Method::TwoFlux => Some(km::Method::Km),
+            Method::Multiflux { .. } | Method::Neumann { .. } => Some(km::Method::Multiflux),
+            Method::MonteCarlo { .. } => Some(km::Method::Mc),
+            Method::Dipole => Some(km::Method::Dipole),
+            Method::DirectionSet { .. } => None,
+        }
+    }
+
+    /// The library options of this setting (`None`: the direction set).
+    pub fn options(&self) -> Option<km::MethodOptions> {
+        use km::MethodOptions as O;
+        Some(match *self {
+            Method::TwoFlux => O::Km(km::KmOptions::default()),
+            Method::Multiflux { streams } => {
+                O::Multiflux(km::MultifluxOptions { streams: Some(streams), ..Default::default() })
+            }
+            Method::Neumann { order } => O::Multiflux(km::MultifluxOptions {
+                neumann_order: Some(order),
+                ..Default::default()
+            }),
+            Method::MonteCarlo { samples, seed } => O::Mc(mc_options(samples, seed)),
+            Method::Dipole => O::Dipole(km::DipoleOptions::default()),
+            Method::DirectionSet { .. } => return None,
+        })
+    }
+
     /// The family name (one Pareto curve per family).
     pub fn family(&self) -> &'static str {
         match self {
@@ -105,23 +140,10 @@ pub fn mc_options(samples: u64, seed: u64) -> km_montecarlo::McOptions {
 /// # Errors
 /// The solver's refusal (e.g. the dipole on a finite slab), as text.
 pub fn solve(method: Method, scene: &Scene) -> anyhow::Result<Solution> {
-    match method {
-        Method::TwoFlux => {
-            Ok(km_core::two_flux::solve(scene, &km_core::two_flux::KmOptions::default())?)
-        }
-        Method::Multiflux { streams } => Ok(km_multiflux::solve(
-            scene,
-            &km_multiflux::MultifluxOptions { streams: Some(streams), ..Default::default() },
-        )?),
-        Method::Neumann { order } => Ok(km_multiflux::solve(
-            scene,
-            &km_multiflux::MultifluxOptions { neumann_order: Some(order), ..Default::default() },
-        )?),
-        Method::DirectionSet { directions } => direction_set_solve(scene, directions),
-        Method::MonteCarlo { samples, seed } => {
-            Ok(km_montecarlo::solve(scene, &mc_options(samples, seed))?)
-        }
-        Method::Dipole => Ok(km_dipole::solve(scene, &km_dipole::DipoleOptions::default())?),
+    match (method, method.options()) {
+        (_, Some(opts)) => Ok(opts.solve(scene)?),
+        (Method::DirectionSet { directions }, None) => direction_set_solve(scene, directions),
+        (m, None) => anyhow::bail!("{m}: no solver"),
     }
 }
 
@@ -140,12 +162,12 @@ pub fn solve_bounded(
 ) -> anyhow::Result<Solution> {
     match method {
         Method::MonteCarlo { samples, seed } => {
-            let opts = km_montecarlo::McOptions {
+            let opts = km::McOptions {
                 max_steps_per_photon: max_steps,
                 max_events: Some(max_events),
                 ..mc_options(samples, seed)
             };
-            Ok(km_montecarlo::solve(scene, &opts)?)
+            Ok(opts.solve(scene)?)
         }
         _ => solve(method, scene),
     }
@@ -186,7 +208,7 @@ fn direction_set_solve(scene: &Scene, directions: usize) -> anyhow::Result<Solut
         channels,
         labels: scene.labels.clone(),
         seconds: start.elapsed().as_secs_f64(),
-        extra: Default::default(),
+        ..Default::default()
     })
 }
 
@@ -219,15 +241,12 @@ pub fn repeats(method: Method) -> usize {
 
 /// The standard error of a Monte Carlo number (`key` in the first channel's `stderr`).
 pub fn stderr_of(sol: &Solution, key: &str) -> Option<f64> {
-    sol.channels.first()?.stderr.as_ref()?.get(key)?.as_f64()
+    sol.channels.first()?.stderr.as_ref()?.get(key)
 }
 
 /// The standard errors of a Monte Carlo list (`brdf`, `btdf`).
 pub fn stderr_list(sol: &Solution, key: &str) -> Option<Vec<f64>> {
-    match sol.channels.first()?.stderr.as_ref()?.get(key)? {
-        Value::Array(a) => Some(a.iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()),
-        _ => None,
-    }
+    Some(sol.channels.first()?.stderr.as_ref()?.get_list(key)?.to_vec())
 }
 
 /// Streams of the converged reference of the studies.

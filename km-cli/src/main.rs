@@ -3,14 +3,15 @@
 //! Thin: parse the command line and the scene file, call the libraries, print.
 
 mod methods;
-mod output;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
+use clap::builder::TypedValueParser;
 use clap::{Parser, Subcommand, ValueEnum};
+use km::Method;
 
 /// The scene solved by `km demo`.
 const DEMO_SCENE: &str = include_str!("../../examples/seed-three-layers.toml");
@@ -70,7 +71,7 @@ km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --
         /// Scene file (its single layer must be a half-space for the dipole).
         scene: PathBuf,
         /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
-        #[arg(long, short, value_enum, default_value_t = Method::Dipole)]
+        #[arg(long, short, value_parser = method_parser(), default_value = "dipole")]
         method: Method,
         /// Largest radius, in the scene's length unit (default: 10 transport lengths).
         #[arg(long)]
@@ -95,7 +96,7 @@ km plan examples/paint-over-primer.toml --method mc --json")]
         /// Scene file (TOML, see docs/scene-file.md).
         scene: PathBuf,
         /// Method whose decisions to show.
-        #[arg(long, short, value_enum, default_value_t = Method::Multiflux)]
+        #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
         method: Method,
         /// Print JSON instead of words.
         #[arg(long)]
@@ -139,7 +140,7 @@ pub struct SolveArgs {
     /// Scene file (TOML, see docs/scene-file.md).
     pub scene: PathBuf,
     /// Method.
-    #[arg(long, short, value_enum, default_value_t = Method::Multiflux)]
+    #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
     pub method: Method,
     /// Print one JSON object (the contract of docs/cli.md) instead of a table.
     #[arg(long)]
@@ -147,8 +148,9 @@ pub struct SolveArgs {
     /// Also write the JSON result (or, with --shard, the partial tally) to this file, atomically.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Accuracy target (absolute, on reflectance and transmittance): chooses streams or samples
-    /// and reports `error_estimate` [multiflux, mc].
+    /// Accuracy target: every number asked for (R, T, their delta parts, each BRDF/BTDF value)
+    /// within TOL * max(1, |x|); chooses streams or samples, reports `error_estimate` and
+    /// `tolerance.limited_by`, fails when unreachable [multiflux, mc].
     #[arg(long)]
     pub tolerance: Option<f64>,
     /// Compute every effect (planner off), for comparison.
@@ -186,29 +188,10 @@ pub struct SolveArgs {
     pub dipole: DipoleArg,
 }
 
-/// The methods of km.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Two-flux Kubelka–Munk (closed form).
-    Km,
-    /// Multi-flux eigenvalue solver (discrete ordinates, Fourier–Gauss).
-    Multiflux,
-    /// Monte Carlo reference tracer.
-    Mc,
-    /// Diffusion dipole for a semi-infinite layer.
-    Dipole,
-}
-
-impl Method {
-    /// The name used in JSON and messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Km => "km",
-            Method::Multiflux => "multiflux",
-            Method::Mc => "mc",
-            Method::Dipole => "dipole",
-        }
-    }
+/// The `--method` values: the library's method registry.
+fn method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
+    clap::builder::PossibleValuesParser::new(Method::ALL.map(Method::name))
+        .try_map(|s| s.parse::<Method>())
 }
 
 /// How the two-flux coefficients K, S are obtained from the scene.
@@ -261,15 +244,11 @@ fn main() -> ExitCode {
     }
 }
 
-fn print_solution(
-    sol: &km_core::Solution,
-    scene: Option<&km_core::Scene>,
-    json: bool,
-) -> anyhow::Result<()> {
+fn print_solution(sol: &km::Solution, scene: Option<&km::Scene>, json: bool) -> anyhow::Result<()> {
     if json {
         println!("{}", serde_json::to_string_pretty(&sol.to_json())?);
     } else {
-        print!("{}", output::table(sol, scene));
+        print!("{}", km::text::table(sol, scene));
     }
     Ok(())
 }
@@ -289,18 +268,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     });
     match command {
         Command::Demo => {
-            let scene = km_core::Scene::from_toml_str(DEMO_SCENE)?;
+            let scene = km::Scene::from_toml_str(DEMO_SCENE)?;
             println!("km: built-in example (examples/seed-three-layers.toml)\n");
             for method in [Method::Km, Method::Multiflux, Method::Mc] {
                 let args = SolveArgs::defaults(method);
                 let sol = methods::solve(&scene, &args)?;
-                print!("{}", output::table(&sol, Some(&scene)));
+                print!("{}", km::text::table(&sol, Some(&scene)));
                 println!();
             }
             Ok(())
         }
         Command::Solve(args) => {
-            let scene = km_core::Scene::from_path(&args.scene)?;
+            let scene = km::Scene::from_path(&args.scene)?;
             if let Some(shard) = &args.shard {
                 let (i, n) = methods::parse_shard(shard)?;
                 if args.method != Method::Mc {
@@ -336,26 +315,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print_solution(&sol, None, json)
         }
         Command::Profile { scene, method, r_max, points, samples, seed, json } => {
-            let s = km_core::Scene::from_path(&scene)?;
-            methods::profile(&s, method, r_max, points, samples, seed, json)
+            let s = km::Scene::from_path(&scene)?;
+            let opts = km::ProfileOptions { method, r_max, points, samples, seed };
+            methods::profile(&s, &opts, json)
         }
         Command::Plan { scene, method, json, all_effects } => {
-            let s = km_core::Scene::from_path(&scene)?;
-            let request = km_core::plan::Request::from_scene(&s.channels[0]);
-            let plan =
-                km_core::plan::plan_scene(&s, request, all_effects).for_method(method.name());
+            let s = km::Scene::from_path(&scene)?;
+            let plan = km::plan_for(&s, method, all_effects);
             if json {
                 let mut v = plan.to_json();
                 v["method"] = serde_json::json!(method.name());
                 println!("{}", serde_json::to_string_pretty(&v)?);
             } else {
-                print!("{}", output::plan_words(&plan, method));
+                print!("{}", km::text::plan_words(&plan, method));
             }
             Ok(())
         }
         Command::Check { scene } => {
-            let s = km_core::Scene::from_path(&scene)?;
-            print!("{}", output::describe(&s));
+            let s = km::Scene::from_path(&scene)?;
+            print!("{}", km::text::describe(&s));
             Ok(())
         }
         Command::Reproduce { out, quick: _, full, seed } => {

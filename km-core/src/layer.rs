@@ -2,7 +2,7 @@
 //!
 //! A layer is `sigma_a`, `sigma_s` (1/length), a thickness (length, possibly
 //! infinite: a half-space), a phase function and a refractive index.
-//! Derived quantities (DESIGN conventions):
+//! Derived quantities (the conventions of docs/scene-file.md):
 //! `sigma_t = sigma_a + sigma_s`, `albedo = sigma_s / sigma_t`,
 //! `tau = sigma_t * thickness`.
 

@@ -1,6 +1,6 @@
 //! # km-core: the shared vocabulary of km, and the closed-form models
 //!
-//! * [`Scene`] / [`MonoScene`]: the scene file (DESIGN.md §5), validated, one
+//! * [`Scene`] / [`MonoScene`]: the scene file (docs/scene-file.md), validated, one
 //!   [`MonoScene`] per spectral channel; [`Light`], [`Substrate`].
 //! * [`Layer`]: one homogeneous layer (`sigma_a`, `sigma_s`, thickness, phase, `n`).
 //! * [`phase`]: phase functions ([`phase::Phase`], [`phase::PhaseFunction`]).
@@ -8,7 +8,8 @@
 //!   hemispherical averages, Gauss–Legendre quadrature.
 //! * [`two_flux`]: Kubelka–Munk (seed 000 §2).
 //! * [`presets`]: measured materials (Jensen et al. 2001).
-//! * [`Solution`]: what every method returns, and its JSON contract.
+//! * [`plan`]: the planner (docs/planner.md).
+//! * [`Solution`]: what every method returns, and its JSON contract (docs/cli.md).
 //! * [`CoreError`]: every refusal, naming the offending key or value.
 #![deny(missing_docs)]
 
@@ -25,4 +26,4 @@ pub mod two_flux;
 pub use error::CoreError;
 pub use layer::Layer;
 pub use scene::{Light, MonoScene, Scene, Substrate};
-pub use solution::{ChannelResult, Solution};
+pub use solution::{AccuracyReport, ChannelResult, Solution, Uncertainty};

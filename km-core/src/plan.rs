@@ -31,8 +31,98 @@
 //! reason. Conservative layers (`omega = 1`) are never cut.
 
 use std::collections::BTreeMap;
+use std::fmt;
+use std::str::FromStr;
 
 use crate::scene::{Light, MonoScene, Scene, Substrate};
+
+/// A simplification the planner may take (see the table above for the
+/// stable names returned by [`Simplification::name`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Simplification {
+    /// A boundary between equal indices is no interface.
+    Interface,
+    /// A layer that only absorbs is attenuation in closed form.
+    Scattering,
+    /// Only the azimuth-independent Fourier order is needed.
+    Azimuth,
+    /// A layer too thick to transmit anything measurable is a half-space (eq. PL1).
+    Transmission,
+    /// Monte Carlo without angular bins.
+    AngularTallies,
+    /// The substrate cannot be reached.
+    Substrate,
+    /// Spectral channels with identical coefficients are solved once.
+    DuplicateChannels,
+}
+
+impl Simplification {
+    /// Every simplification, in the order of the table above.
+    pub const ALL: [Simplification; 7] = [
+        Simplification::Interface,
+        Simplification::Scattering,
+        Simplification::Azimuth,
+        Simplification::Transmission,
+        Simplification::AngularTallies,
+        Simplification::Substrate,
+        Simplification::DuplicateChannels,
+    ];
+
+    /// The stable name (used in JSON and by other tools).
+    ///
+    /// ```
+    /// use km_core::plan::Simplification;
+    /// assert_eq!(Simplification::AngularTallies.name(), "angular-tallies");
+    /// assert_eq!("azimuth".parse::<Simplification>(), Ok(Simplification::Azimuth));
+    /// ```
+    pub fn name(self) -> &'static str {
+        match self {
+            Simplification::Interface => "interface",
+            Simplification::Scattering => "scattering",
+            Simplification::Azimuth => "azimuth",
+            Simplification::Transmission => "transmission",
+            Simplification::AngularTallies => "angular-tallies",
+            Simplification::Substrate => "substrate",
+            Simplification::DuplicateChannels => "duplicate-channels",
+        }
+    }
+}
+
+impl fmt::Display for Simplification {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Simplification {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Simplification::ALL
+            .into_iter()
+            .find(|x| x.name() == s)
+            .ok_or_else(|| format!("no simplification is called `{s}`"))
+    }
+}
+
+impl PartialEq<&str> for Simplification {
+    fn eq(&self, other: &&str) -> bool {
+        self.name() == *other
+    }
+}
+
+/// The simplifications that concern each method (the planner's per-method
+/// rules), by method name: `km`, `multiflux`, `mc`, `dipole`.
+pub fn relevant_to(method: &str) -> &'static [Simplification] {
+    use Simplification::*;
+    match method {
+        "km" => &[Interface, Substrate, DuplicateChannels],
+        "multiflux" => {
+            &[Interface, Scattering, Azimuth, Transmission, Substrate, DuplicateChannels]
+        }
+        "mc" => &[Interface, AngularTallies, Substrate, DuplicateChannels],
+        _ => &[DuplicateChannels],
+    }
+}
 
 /// Relative size below which the light returning from beneath a layer is
 /// neglected by the `transmission` rule (eq. PL1).
@@ -74,10 +164,10 @@ pub struct LayerPlan {
 pub struct Plan {
     /// Physical effects present, as short phrases (`"interface"`, `"total-internal-reflection"`, ...).
     pub effects: Vec<String>,
-    /// Stable names of the simplifications taken.
-    pub skipped: Vec<String>,
-    /// Why each simplification was taken (by name), or why an effect is kept.
-    pub reasons: BTreeMap<String, String>,
+    /// The simplifications taken.
+    pub skipped: Vec<Simplification>,
+    /// Why each simplification was taken.
+    pub reasons: BTreeMap<Simplification, String>,
     /// One entry per layer, top first.
     pub layers: Vec<LayerPlan>,
     /// How many layers take part (those below a half-space do not).
@@ -99,19 +189,19 @@ impl Plan {
     /// use km_core::{Scene, plan::{Plan, Request}};
     /// let s = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
     /// let p = Plan::new(&s.channels[0], Request::default(), false);
-    /// assert!(p.skipped.contains(&"interface".to_string()));
-    /// assert!(p.skipped.contains(&"azimuth".to_string()));
+    /// assert!(p.skips("interface"));
+    /// assert!(p.skips(km_core::plan::Simplification::Azimuth));
     /// ```
     pub fn new(scene: &MonoScene, request: Request, all_effects: bool) -> Plan {
         let mut effects = Vec::new();
-        let mut skipped: Vec<String> = Vec::new();
+        let mut skipped: Vec<Simplification> = Vec::new();
         let mut reasons = BTreeMap::new();
         let mut layers = Vec::with_capacity(scene.layers.len());
-        let mut skip = |name: &str, reason: String, skipped: &mut Vec<String>| {
-            if !skipped.iter().any(|s| s == name) {
-                skipped.push(name.to_string());
+        let mut skip = |name: Simplification, reason: String, skipped: &mut Vec<Simplification>| {
+            if !skipped.contains(&name) {
+                skipped.push(name);
             }
-            reasons.entry(name.to_string()).or_insert(reason);
+            reasons.entry(name).or_insert(reason);
         };
 
         // Interfaces: wherever the index changes, top to bottom.
@@ -151,7 +241,11 @@ impl Plan {
             effects.push("total-internal-reflection".to_string());
         }
         if !matched.is_empty() && !all_effects {
-            skip("interface", format!("indices match at: {}", matched.join(", ")), &mut skipped);
+            skip(
+                Simplification::Interface,
+                format!("indices match at: {}", matched.join(", ")),
+                &mut skipped,
+            );
         }
 
         // Scattering and anisotropy.
@@ -169,7 +263,7 @@ impl Plan {
             .collect();
         if !absorbers.is_empty() && !all_effects {
             skip(
-                "scattering",
+                Simplification::Scattering,
                 format!("{} only absorb: attenuation in closed form", absorbers.join(", ")),
                 &mut skipped,
             );
@@ -195,7 +289,7 @@ impl Plan {
                 layers[i].cutoff_bound = Some(bound);
                 active = i + 1;
                 skip(
-                    "transmission",
+                    Simplification::Transmission,
                     format!(
                         "layer {} (tau = {:.4e}, albedo = {:.6}) is treated as a half-space: \
                          light returning from below is < {:.1e} of the incident",
@@ -220,7 +314,11 @@ impl Plan {
             _ => {}
         }
         if !substrate_reached {
-            skip("substrate", format!("no light reaches below layer {active}"), &mut skipped);
+            skip(
+                Simplification::Substrate,
+                format!("no light reaches below layer {active}"),
+                &mut skipped,
+            );
         }
 
         // Azimuth: isotropic phase functions, diffuse light or totals only need m = 0.
@@ -238,12 +336,12 @@ impl Plan {
             } else {
                 "isotropic scattering: the phase function has no azimuthal Fourier orders m > 0"
             };
-            skip("azimuth", why.to_string(), &mut skipped);
+            skip(Simplification::Azimuth, why.to_string(), &mut skipped);
         }
         let angular_tallies = all_effects || request.directions;
         if !angular_tallies {
             skip(
-                "angular-tallies",
+                Simplification::AngularTallies,
                 "no [output] directions: Monte Carlo tallies totals only".to_string(),
                 &mut skipped,
             );
@@ -262,39 +360,37 @@ impl Plan {
     }
 
     /// Keep only the simplifications that concern `method` (`km`, `multiflux`,
-    /// `mc`, `dipole`): e.g. `angular-tallies` is a Monte Carlo matter and
-    /// `azimuth` a Fourier-mode matter.
-    pub fn for_method(mut self, method: &str) -> Plan {
-        let relevant: &[&str] = match method {
-            "km" => &["interface", "substrate", "duplicate-channels"],
-            "multiflux" => &[
-                "interface",
-                "scattering",
-                "azimuth",
-                "transmission",
-                "substrate",
-                "duplicate-channels",
-            ],
-            "mc" => &["interface", "angular-tallies", "substrate", "duplicate-channels"],
-            _ => &["duplicate-channels"],
-        };
-        self.skipped.retain(|s| relevant.contains(&s.as_str()));
+    /// `mc`, `dipole`; [`relevant_to`]): e.g. `angular-tallies` is a Monte
+    /// Carlo matter and `azimuth` a Fourier-mode matter.
+    pub fn for_method(self, method: &str) -> Plan {
+        self.restricted_to(relevant_to(method))
+    }
+
+    /// Keep only the simplifications in `relevant`.
+    pub fn restricted_to(mut self, relevant: &[Simplification]) -> Plan {
+        self.skipped.retain(|s| relevant.contains(s));
         let kept = self.skipped.clone();
         self.reasons.retain(|k, _| kept.contains(k));
         self
     }
 
-    /// Whether the simplification `name` was taken.
-    pub fn skips(&self, name: &str) -> bool {
-        self.skipped.iter().any(|s| s == name)
+    /// Whether the simplification `s` was taken (a [`Simplification`] or its name).
+    pub fn skips<S>(&self, s: S) -> bool
+    where
+        Simplification: PartialEq<S>,
+    {
+        self.skipped.iter().any(|x| *x == s)
     }
 
     /// The JSON of the `km solve --json` contract: `{"effects", "skipped", "reasons"}`.
     pub fn to_json(&self) -> serde_json::Value {
+        let skipped: Vec<&str> = self.skipped.iter().map(|s| s.name()).collect();
+        let reasons: BTreeMap<&str, &String> =
+            self.reasons.iter().map(|(k, v)| (k.name(), v)).collect();
         serde_json::json!({
             "effects": self.effects,
-            "skipped": self.skipped,
-            "reasons": self.reasons,
+            "skipped": skipped,
+            "reasons": reasons,
         })
     }
 }
@@ -380,9 +476,9 @@ pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
     let first = distinct_channels(scene);
     let distinct = first.iter().enumerate().filter(|(i, j)| i == *j).count();
     if distinct < scene.channels.len() && !all_effects {
-        p.skipped.push("duplicate-channels".to_string());
+        p.skipped.push(Simplification::DuplicateChannels);
         p.reasons.insert(
-            "duplicate-channels".to_string(),
+            Simplification::DuplicateChannels,
             format!(
                 "{} of {} channels are distinct: each is solved once",
                 distinct,

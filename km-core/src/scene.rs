@@ -1,4 +1,4 @@
-//! The scene file (TOML) of DESIGN.md §5 and its validated form.
+//! The scene file (TOML) of docs/scene-file.md and its validated form.
 //!
 //! A [`Scene`] holds one [`MonoScene`] per spectral channel: every
 //! coefficient of the file may be a scalar or a list, and all lists have the

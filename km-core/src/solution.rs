@@ -1,15 +1,127 @@
-//! What a solve returns, and its JSON form (the contract of DESIGN.md §5).
+//! What a solve returns, and its JSON form (the `km solve --json` contract of
+//! docs/cli.md, `"format": 2`).
 //!
 //! A [`Solution`] holds one [`ChannelResult`] per spectral channel. Its JSON
 //! has the contract's keys; for a one-channel scene each is a number (or a
 //! list of numbers for `brdf`/`btdf`), for several channels each becomes a
-//! list over channels and `"channels"` gives their labels.
+//! list over channels and `"channels"` gives their labels. The uncertainties
+//! ([`Uncertainty`]: `stderr`, `error_estimate`) take the same shape key by
+//! key: `d["stderr"]["reflectance"]` is a number for one channel and a list
+//! over channels for several.
 
-use serde::Serialize;
+use std::collections::BTreeMap;
+
 use serde_json::{Map, Value, json};
 
+use crate::plan::Plan;
+
+/// Version of the JSON layout written by [`Solution::to_json`] (key `"format"`).
+pub const JSON_FORMAT: u32 = 2;
+
+/// Uncertainties of one channel's numbers, key by key (standard errors of a
+/// Monte Carlo run, or the estimated errors of an accuracy target). A key
+/// left `None` has no uncertainty attached.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Uncertainty {
+    /// Of the total reflectance.
+    pub reflectance: Option<f64>,
+    /// Of the specular (delta) part of the reflectance.
+    pub reflectance_specular: Option<f64>,
+    /// Of the total transmittance.
+    pub transmittance: Option<f64>,
+    /// Of the unscattered (delta) part of the transmittance.
+    pub transmittance_direct: Option<f64>,
+    /// Of the absorptance.
+    pub absorptance: Option<f64>,
+    /// Of each layer's absorbed fraction, top first.
+    pub absorptance_layers: Option<Vec<f64>>,
+    /// Of each BRDF value, one per output direction.
+    pub brdf: Option<Vec<f64>>,
+    /// Of each BTDF value, one per output direction.
+    pub btdf: Option<Vec<f64>>,
+    /// The largest over the BRDF values.
+    pub brdf_max: Option<f64>,
+    /// The largest over the BTDF values.
+    pub btdf_max: Option<f64>,
+}
+
+/// One entry of an [`Uncertainty`]: a number or a list of numbers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum UncertaintyValue<'a> {
+    /// One number (a total).
+    Number(f64),
+    /// One number per output direction or per layer.
+    List(&'a [f64]),
+}
+
+impl Uncertainty {
+    /// The entries present, under their JSON keys, in a fixed order.
+    pub fn entries(&self) -> Vec<(&'static str, UncertaintyValue<'_>)> {
+        use UncertaintyValue::{List, Number};
+        let mut v = Vec::new();
+        for (k, x) in [
+            ("reflectance", self.reflectance),
+            ("reflectance_specular", self.reflectance_specular),
+            ("transmittance", self.transmittance),
+            ("transmittance_direct", self.transmittance_direct),
+            ("absorptance", self.absorptance),
+            ("brdf_max", self.brdf_max),
+            ("btdf_max", self.btdf_max),
+        ] {
+            if let Some(x) = x {
+                v.push((k, Number(x)));
+            }
+        }
+        for (k, x) in [
+            ("absorptance_layers", &self.absorptance_layers),
+            ("brdf", &self.brdf),
+            ("btdf", &self.btdf),
+        ] {
+            if let Some(x) = x {
+                v.push((k, List(x)));
+            }
+        }
+        v
+    }
+
+    /// The number under `key` (`"reflectance"`, `"brdf_max"`, ...), if present.
+    ///
+    /// ```
+    /// let u = km_core::Uncertainty { reflectance: Some(1e-3), ..Default::default() };
+    /// assert_eq!(u.get("reflectance"), Some(1e-3));
+    /// assert_eq!(u.get("transmittance"), None);
+    /// ```
+    pub fn get(&self, key: &str) -> Option<f64> {
+        self.entries().into_iter().find_map(|(k, v)| match v {
+            UncertaintyValue::Number(x) if k == key => Some(x),
+            _ => None,
+        })
+    }
+
+    /// The list under `key` (`"brdf"`, `"btdf"`, `"absorptance_layers"`), if present.
+    pub fn get_list(&self, key: &str) -> Option<&[f64]> {
+        match key {
+            "brdf" => self.brdf.as_deref(),
+            "btdf" => self.btdf.as_deref(),
+            "absorptance_layers" => self.absorptance_layers.as_deref(),
+            _ => None,
+        }
+    }
+
+    /// The largest number over every entry (lists included); 0 when empty.
+    pub fn max(&self) -> f64 {
+        self.entries()
+            .into_iter()
+            .flat_map(|(_, v)| match v {
+                UncertaintyValue::Number(x) => vec![x],
+                UncertaintyValue::List(l) => l.to_vec(),
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
 /// The answer of one method for one spectral channel.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct ChannelResult {
     /// Total reflectance, specular part included.
     pub reflectance: f64,
@@ -25,12 +137,46 @@ pub struct ChannelResult {
     pub brdf: Vec<f64>,
     /// Smooth BTDF (1/sr) at the scene's output directions (empty when not computed).
     pub btdf: Vec<f64>,
-    /// Standard errors by key (Monte Carlo).
-    pub stderr: Option<Map<String, Value>>,
-    /// Estimated error by key (an accuracy target was given).
-    pub error_estimate: Option<Map<String, Value>>,
+    /// Standard errors (Monte Carlo).
+    pub stderr: Option<Uncertainty>,
+    /// Estimated errors (an accuracy target was given).
+    pub error_estimate: Option<Uncertainty>,
     /// Absorbed fraction per layer, top first, when the method provides it.
     pub absorptance_layers: Option<Vec<f64>>,
+}
+
+/// How an accuracy target was met (key `"tolerance"` of the JSON).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AccuracyReport {
+    /// The target `tol`.
+    pub target: f64,
+    /// Whether every bounded number met it (always true in a returned solution
+    /// of `km::solve`; an unreachable target is an error).
+    pub reached: bool,
+    /// The number that needed the most work, e.g. `"reflectance"`,
+    /// `"brdf[2]"`, with the channel label when there are several.
+    pub limited_by: String,
+    /// The error estimate of that number.
+    pub estimate: f64,
+    /// The rule, in words, with the equation it follows.
+    pub rule: String,
+    /// The work chosen, by name (`streams`, `check_streams`, or `samples`, `pilot_samples`).
+    pub work: Vec<(String, u64)>,
+}
+
+impl AccuracyReport {
+    fn to_json(&self) -> Value {
+        let mut m = Map::new();
+        m.insert("target".into(), json!(self.target));
+        m.insert("reached".into(), json!(self.reached));
+        m.insert("limited_by".into(), json!(self.limited_by));
+        m.insert("estimate".into(), num(self.estimate));
+        m.insert("rule".into(), json!(self.rule));
+        for (k, v) in &self.work {
+            m.insert(k.clone(), json!(v));
+        }
+        Value::Object(m)
+    }
 }
 
 /// The answer of one method for a whole scene.
@@ -44,14 +190,24 @@ pub struct Solution {
     pub labels: Vec<String>,
     /// The solver's own wall time, seconds (no process start, no parsing).
     pub seconds: f64,
-    /// Extra method-specific entries (settings used, notes, plan); merged into the JSON.
+    /// The output directions `[theta, phi]` (degrees) of `brdf`/`btdf`, when
+    /// the caller attached them (`km::solve` does).
+    pub directions: Vec<[f64; 2]>,
+    /// Remarks on how the answer was obtained (approximations made, work cut), in words.
+    pub notes: Vec<String>,
+    /// The plan obeyed, when the caller attached it (`km::solve` does).
+    pub plan: Option<Plan>,
+    /// How an accuracy target was met, when one was given.
+    pub accuracy: Option<AccuracyReport>,
+    /// Method-specific settings and diagnostics (e.g. `streams`, `mc`), merged into the JSON.
     pub extra: Map<String, Value>,
 }
 
 impl Solution {
-    /// The contract JSON.
+    /// The contract JSON (docs/cli.md; the schema is docs/solve.schema.json).
     pub fn to_json(&self) -> Value {
         let mut out = Map::new();
+        out.insert("format".into(), json!(JSON_FORMAT));
         out.insert("method".into(), json!(self.method));
         let one = self.channels.len() == 1;
         let pick = |f: &dyn Fn(&ChannelResult) -> Value| -> Value {
@@ -67,18 +223,25 @@ impl Solution {
         out.insert("transmittance_direct".into(), pick(&|c| num(c.transmittance_direct)));
         out.insert("absorptance".into(), pick(&|c| num(c.absorptance)));
         if self.channels.iter().any(|c| !c.brdf.is_empty() || !c.btdf.is_empty()) {
-            out.insert("brdf".into(), pick(&|c| json!(c.brdf)));
-            out.insert("btdf".into(), pick(&|c| json!(c.btdf)));
+            out.insert("brdf".into(), pick(&|c| nums(&c.brdf)));
+            out.insert("btdf".into(), pick(&|c| nums(&c.btdf)));
+            if !self.directions.is_empty() {
+                out.insert("directions".into(), json!(self.directions));
+            }
         }
         if self.channels.iter().any(|c| c.absorptance_layers.is_some()) {
-            out.insert("absorptance_layers".into(), pick(&|c| json!(c.absorptance_layers)));
+            out.insert(
+                "absorptance_layers".into(),
+                pick(&|c| c.absorptance_layers.as_deref().map(nums).unwrap_or(Value::Null)),
+            );
         }
-        for (key, get) in [
-            ("stderr", (|c: &ChannelResult| c.stderr.clone()) as fn(&ChannelResult) -> _),
-            ("error_estimate", |c: &ChannelResult| c.error_estimate.clone()),
-        ] {
+        type Get = fn(&ChannelResult) -> Option<&Uncertainty>;
+        let uncertainties: [(&str, Get); 2] =
+            [("stderr", |c| c.stderr.as_ref()), ("error_estimate", |c| c.error_estimate.as_ref())];
+        for (key, get) in uncertainties {
             if self.channels.iter().any(|c| get(c).is_some()) {
-                out.insert(key.into(), pick(&|c| get(c).map(Value::Object).unwrap_or(Value::Null)));
+                let per: Vec<Option<&Uncertainty>> = self.channels.iter().map(get).collect();
+                out.insert(key.into(), uncertainty_json(&per));
             }
         }
         if !one {
@@ -88,11 +251,46 @@ impl Solution {
         for (k, v) in &self.extra {
             out.insert(k.clone(), v.clone());
         }
+        out.insert("notes".into(), json!(self.notes));
+        if let Some(p) = &self.plan {
+            out.insert("plan".into(), p.to_json());
+        }
+        if let Some(a) = &self.accuracy {
+            out.insert("tolerance".into(), a.to_json());
+        }
         Value::Object(out)
     }
+}
+
+/// `{key: value}` for one channel, `{key: [value per channel]}` for several
+/// (`null` where a channel lacks the key).
+fn uncertainty_json(per: &[Option<&Uncertainty>]) -> Value {
+    let mut keys: BTreeMap<&'static str, Vec<Value>> = BTreeMap::new();
+    for (c, u) in per.iter().enumerate() {
+        for (k, v) in u.map(Uncertainty::entries).unwrap_or_default() {
+            let slot = keys.entry(k).or_insert_with(|| vec![Value::Null; per.len()]);
+            slot[c] = match v {
+                UncertaintyValue::Number(x) => num(x),
+                UncertaintyValue::List(l) => nums(l),
+            };
+        }
+    }
+    let one = per.len() == 1;
+    Value::Object(
+        keys.into_iter()
+            .map(|(k, mut v)| {
+                let v = if one { v.remove(0) } else { Value::Array(v) };
+                (k.to_string(), v)
+            })
+            .collect(),
+    )
 }
 
 /// JSON number; non-finite values (never expected) become null rather than invalid JSON.
 fn num(x: f64) -> Value {
     serde_json::Number::from_f64(x).map(Value::Number).unwrap_or(Value::Null)
+}
+
+fn nums(x: &[f64]) -> Value {
+    Value::Array(x.iter().copied().map(num).collect())
 }

@@ -35,7 +35,7 @@ use std::f64::consts::{LN_2, PI};
 use std::str::FromStr;
 use std::time::Instant;
 
-use serde_json::{Map, Value, json};
+use serde_json::{Map, json};
 
 use crate::error::CoreError;
 use crate::fresnel;
@@ -1155,6 +1155,13 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
     }
     let mut extra = Map::new();
     extra.insert("km_mapping".into(), json!(opts.mapping.name()));
-    extra.insert("notes".into(), Value::Array(notes.into_iter().map(Value::String).collect()));
-    Ok(Solution { method: "km".into(), channels, labels: scene.labels.clone(), seconds, extra })
+    Ok(Solution {
+        method: "km".into(),
+        channels,
+        labels: scene.labels.clone(),
+        seconds,
+        notes,
+        extra,
+        ..Default::default()
+    })
 }

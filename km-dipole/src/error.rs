@@ -9,7 +9,7 @@ pub enum DipoleError {
     /// The dipole is a solution for a half-space; this layer ends.
     #[error(
         "the dipole treats only a semi-infinite layer (a half-space): layer {layer} has finite \
-         thickness {thickness}; use --method multiflux or mc for slabs"
+         thickness {thickness}; the multi-flux and Monte Carlo methods treat slabs"
     )]
     FiniteThickness {
         /// 1-based layer index.
@@ -19,8 +19,8 @@ pub enum DipoleError {
     },
     /// The dipole treats one homogeneous half-space, not a stack.
     #[error(
-        "the dipole treats a single homogeneous half-space: the scene has {count} layers; use \
-         --method multiflux or mc for stacks"
+        "the dipole treats a single homogeneous half-space: the scene has {count} layers; \
+         the multi-flux and Monte Carlo methods treat stacks"
     )]
     LayerCount {
         /// Number of layers in the scene.

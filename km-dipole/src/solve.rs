@@ -267,8 +267,15 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
     extra.insert("A".into(), list(&|m| m.a()));
     extra.insert("reduced_albedo".into(), list(&|m| m.alpha_prime()));
     extra.insert("rd_dipole".into(), list(&|m| m.rd_total()));
-    extra.insert("notes".into(), json!(notes(scene)));
-    Ok(Solution { method: "dipole".into(), channels, labels: scene.labels.clone(), seconds, extra })
+    Ok(Solution {
+        method: "dipole".into(),
+        channels,
+        labels: scene.labels.clone(),
+        seconds,
+        notes: notes(scene),
+        extra,
+        ..Default::default()
+    })
 }
 
 /// One channel (eq. D16, D18).

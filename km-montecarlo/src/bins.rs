@@ -1,6 +1,6 @@
 //! Angular bins: cones around the output directions and azimuthal rings.
 //!
-//! A BRDF (or BTDF) is `f = dR / (cos(theta) dw)` (DESIGN §3). A Monte Carlo
+//! A BRDF (or BTDF) is `f = dR / (cos(theta) dw)` (docs/montecarlo.md). A Monte Carlo
 //! tally can only estimate an average of `f` over a finite bin `B`.
 //!
 //! * Cone bins (the output directions): all exit directions within the

@@ -46,6 +46,6 @@ mod tally;
 mod transport;
 
 pub use error::McError;
-pub use options::{Estimator, McOptions, RadialBins};
+pub use options::{Estimator, McOptions, Progress, RadialBins};
 pub use run::{RadialProfile, radial_profile, run_shard, solve};
 pub use shard::{Partial, merge, shard_batches, write_atomic};

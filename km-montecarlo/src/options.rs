@@ -43,7 +43,7 @@ pub struct RadialBins {
 /// Options of a Monte Carlo run.
 ///
 /// `Default` gives 10^6 photons, seed 1, survival biasing, all cores,
-/// 5 degree angular bins, no radial profile, no progress bar.
+/// 5 degree angular bins, no radial profile, no progress callback.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct McOptions {
     /// Number of photons per channel (`>= 1`).
@@ -79,9 +79,12 @@ pub struct McOptions {
     pub ring_mu_edges: Option<Vec<f64>>,
     /// Optional radial bins for `Rd(r)`.
     pub radial: Option<RadialBins>,
-    /// Show a progress bar (indicatif) on stderr once the run has lasted a
-    /// second; never when stderr is not a terminal. Never changes the result.
-    pub progress: bool,
+    /// Called after each batch with the batches done and the batches of
+    /// the run (from the worker threads, in any order); never changes the
+    /// result. The library draws nothing itself: a command-line tool turns
+    /// this into a progress bar.
+    #[serde(skip)]
+    pub progress: Option<Progress>,
     /// Switch the planner off (`docs/planner.md`): the Fresnel test is made
     /// at every boundary, also between equal indices (reflectance 0, but the
     /// reflectance is computed and the random draw made), and the angular
@@ -109,7 +112,7 @@ impl Default for McOptions {
             bin_half_angle_deg: 5.0,
             ring_mu_edges: None,
             radial: None,
-            progress: false,
+            progress: None,
             all_effects: false,
         }
     }
@@ -198,6 +201,49 @@ impl McOptions {
     /// The options with the fields that never change the result (threads,
     /// progress) cleared: what two runs must share to be merged.
     pub fn result_key(&self) -> McOptions {
-        McOptions { threads: None, progress: false, ..self.clone() }
+        McOptions { threads: None, progress: None, ..self.clone() }
+    }
+}
+
+/// A progress callback of a run: `(batches done, batches of the run)`.
+///
+/// ```
+/// use std::sync::atomic::{AtomicU64, Ordering};
+/// use std::sync::Arc;
+/// let seen = Arc::new(AtomicU64::new(0));
+/// let s = seen.clone();
+/// let p = km_montecarlo::Progress::new(move |_done, _total| {
+///     s.fetch_add(1, Ordering::Relaxed);
+/// });
+/// let opts = km_montecarlo::McOptions { samples: 1000, progress: Some(p), ..Default::default() };
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
+/// km_montecarlo::solve(&scene, &opts).unwrap();
+/// assert!(seen.load(Ordering::Relaxed) >= 1);
+/// ```
+#[derive(Clone)]
+pub struct Progress(std::sync::Arc<dyn Fn(u64, u64) + Send + Sync>);
+
+impl Progress {
+    /// Wrap a callback.
+    pub fn new(f: impl Fn(u64, u64) + Send + Sync + 'static) -> Progress {
+        Progress(std::sync::Arc::new(f))
+    }
+
+    /// Report `done` of `total` batches.
+    pub fn report(&self, done: u64, total: u64) {
+        (self.0)(done, total);
+    }
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress(..)")
+    }
+}
+
+/// Two callbacks are equal when they are the same closure (never compared by result).
+impl PartialEq for Progress {
+    fn eq(&self, other: &Progress) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
     }
 }

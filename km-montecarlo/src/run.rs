@@ -1,12 +1,10 @@
-//! The driver: batches in parallel (rayon), work budget, progress bar, and
+//! The driver: batches in parallel (rayon), work budget, progress callback, and
 //! the public entry points [`solve`], [`run_shard`] and [`radial_profile`].
 
-use std::io::IsTerminal;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use km_core::{Light, Scene, Solution};
 use rayon::prelude::*;
 
@@ -139,9 +137,6 @@ fn trace_batches(
     let batches_done = AtomicU64::new(0);
     let abort = AtomicBool::new(false);
     let refusal: Mutex<Option<McError>> = Mutex::new(None);
-    let show = opts.progress && std::io::stderr().is_terminal();
-    let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::hidden());
-    let shown = AtomicBool::new(false);
     let threads = rayon::current_num_threads().max(1) as f64;
 
     let records: Vec<Option<BatchRecord>> = mine
@@ -191,22 +186,12 @@ fn trace_batches(
                     return None;
                 }
             }
-            // Progress bar, shown once the run has lasted a second.
-            if show {
-                if !shown.load(Ordering::Relaxed) && t0.elapsed().as_secs_f64() > 1.0 {
-                    shown.store(true, Ordering::Relaxed);
-                    bar.set_style(
-                        ProgressStyle::with_template("mc {bar:40} {pos}/{len} batches, eta {eta}")
-                            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-                    );
-                    bar.set_draw_target(ProgressDrawTarget::stderr());
-                }
-                bar.inc(1);
+            if let Some(p) = &opts.progress {
+                p.report(d, total);
             }
             Some(BatchRecord { index: b, photons, channels })
         })
         .collect();
-    bar.finish_and_clear();
     if let Some(e) = refusal.into_inner().unwrap_or_else(|e| e.into_inner()) {
         return Err(e);
     }

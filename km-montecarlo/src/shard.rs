@@ -326,15 +326,17 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
         let brdf = per(&|k| l.brdf(k), l.dirs, &meta.cone, &mean);
         let btdf = per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &mean);
         let layers = per(&|k| l.a_layer(k), l.layers, &ones, &mean);
-        let mut err = Map::new();
-        err.insert("reflectance".into(), num(se(Layout::R)));
-        err.insert("reflectance_specular".into(), num(se(Layout::R_SPEC)));
-        err.insert("transmittance".into(), num(se(Layout::T)));
-        err.insert("transmittance_direct".into(), num(se(Layout::T_DIRECT)));
-        err.insert("absorptance".into(), num(se(Layout::A)));
-        err.insert("absorptance_layers".into(), nums(per(&|k| l.a_layer(k), l.layers, &ones, &se)));
-        err.insert("brdf".into(), nums(per(&|k| l.brdf(k), l.dirs, &meta.cone, &se)));
-        err.insert("btdf".into(), nums(per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &se)));
+        let err = km_core::Uncertainty {
+            reflectance: Some(se(Layout::R)),
+            reflectance_specular: Some(se(Layout::R_SPEC)),
+            transmittance: Some(se(Layout::T)),
+            transmittance_direct: Some(se(Layout::T_DIRECT)),
+            absorptance: Some(se(Layout::A)),
+            absorptance_layers: Some(per(&|k| l.a_layer(k), l.layers, &ones, &se)),
+            brdf: Some(per(&|k| l.brdf(k), l.dirs, &meta.cone, &se)),
+            btdf: Some(per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &se)),
+            ..Default::default()
+        };
         channels.push(ChannelResult {
             reflectance: mean(Layout::R),
             reflectance_specular: mean(Layout::R_SPEC),
@@ -396,7 +398,14 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
     }
     let mut extra = Map::new();
     extra.insert("mc".into(), Value::Object(mc));
-    Solution { method: "mc".into(), channels, labels: p0.labels.clone(), seconds, extra }
+    Solution {
+        method: "mc".into(),
+        channels,
+        labels: p0.labels.clone(),
+        seconds,
+        extra,
+        ..Default::default()
+    }
 }
 
 /// Write `bytes` to `path` atomically: into a temporary file in the same

@@ -43,10 +43,14 @@ fn reported_standard_errors_match_the_scatter_between_seeds() {
             eprintln!("{est:?} {name}: X = {x:.1} (accept [{lo:.1}, {hi:.1}])");
             assert!(x > lo && x < hi, "{est:?} {name}: X = {x}");
         };
-        let se = |s: &km_core::Solution, k: &str| s.channels[0].stderr.as_ref().unwrap()[k].clone();
-        pick(&|s| (s.channels[0].reflectance, se(s, "reflectance").as_f64().unwrap()), "R");
-        pick(&|s| (s.channels[0].transmittance, se(s, "transmittance").as_f64().unwrap()), "T");
-        pick(&|s| (s.channels[0].absorptance, se(s, "absorptance").as_f64().unwrap()), "A");
-        pick(&|s| (s.channels[0].brdf[0], se(s, "brdf")[0].as_f64().unwrap()), "brdf");
+        let se =
+            |s: &km_core::Solution, k: &str| s.channels[0].stderr.as_ref().unwrap().get(k).unwrap();
+        let se_brdf = |s: &km_core::Solution| {
+            s.channels[0].stderr.as_ref().unwrap().brdf.as_ref().unwrap()[0]
+        };
+        pick(&|s| (s.channels[0].reflectance, se(s, "reflectance")), "R");
+        pick(&|s| (s.channels[0].transmittance, se(s, "transmittance")), "T");
+        pick(&|s| (s.channels[0].absorptance, se(s, "absorptance")), "A");
+        pick(&|s| (s.channels[0].brdf[0], se_brdf(s)), "brdf");
     }
 }

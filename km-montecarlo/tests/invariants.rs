@@ -239,11 +239,19 @@ fn partial_files_keep_awkward_options_exact() {
 }
 
 #[test]
-fn progress_flag_does_not_change_the_result() {
-    // Under the test harness stderr is captured (not a terminal): the bar stays hidden.
+fn progress_callback_does_not_change_the_result() {
+    // The callback sees every batch once and the numbers stay bit-identical.
     let s = Scene::from_toml_str(STACK).unwrap();
     let o = McOptions { samples: 5_000, ..Default::default() };
     let a = solve(&s, &o).unwrap();
-    let b = solve(&s, &McOptions { progress: true, ..o }).unwrap();
+    let calls = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let c = calls.clone();
+    let p = km_montecarlo::Progress::new(move |done, total| {
+        assert!(done >= 1 && done <= total);
+        c.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    });
+    let b = solve(&s, &McOptions { progress: Some(p), ..o }).unwrap();
     assert_eq!(json_without_seconds(&a), json_without_seconds(&b));
+    let batches = b.extra["mc"]["batches"].as_u64().unwrap();
+    assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), batches);
 }

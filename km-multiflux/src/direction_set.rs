@@ -7,7 +7,7 @@
 //! `K dI/dz = (-sigma_t + sigma_s P) I`, `Q = K^-1 (-sigma_t + sigma_s P)`   (eq. D1)
 //!
 //! exactly in depth by eigen-decomposition of `Q` (seed eq. 19–20). This
-//! module is that scheme, made correct and stable (DESIGN.md §4); the
+//! module is that scheme, made correct and stable (docs/multiflux-direction-set.md); the
 //! Fourier–Gauss mode of the crate is the fast default, this one reproduces
 //! the paper. The full derivation is in `docs/multiflux-direction-set.md`.
 //!

@@ -6,7 +6,7 @@
 //! that map onto each other under Snell's law, a Fourier series in azimuth,
 //! delta-M scaling, and adding of layers, interfaces and substrates.
 //!
-//! * [`solve`] / [`MultifluxOptions`]: the scene entry point (DESIGN.md §5).
+//! * [`solve`] / [`MultifluxOptions`]: the scene entry point (docs/scene-file.md, docs/cli.md).
 //! * [`adding`]: the Redheffer star product of two layers' reflection and
 //!   transmission operators (seed eq. 14) and its truncated Neumann series (eq. 21).
 //! * [`slab`]: one homogeneous layer and Fourier order (seed eq. 17–20): the

@@ -392,7 +392,7 @@ impl SlabSolution {
         let mut pe = &ae * &lt;
         let mut po = &ao * &lt;
         // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
-        // (energy conservation of the discrete scattering; DESIGN §4.1). Symmetric
+        // (energy conservation of the discrete scattering; docs/multiflux.md). Symmetric
         // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
         let renorm_m0 = m == 0;
         if renorm_m0 {

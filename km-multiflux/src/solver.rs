@@ -119,7 +119,7 @@ impl Default for MultifluxOptions {
 /// `directions_deg` (collimated light: per unit irradiance on the surface;
 /// azimuth 180 is the mirror side; BTDF only with a transparent substrate).
 /// `seconds` is the solver's own wall time; `extra` has `streams` and
-/// `fourier_orders`. Sets faer's global parallelism to sequential.
+/// `fourier_orders`; `notes` names the work cut. Changes no global state.
 ///
 /// # Errors
 /// Invalid options or scene ([`MultifluxError::Option`], [`MultifluxError::Scene`]),
@@ -134,8 +134,9 @@ impl Default for MultifluxOptions {
 /// ```
 pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, MultifluxError> {
     // The matrices are small (tens of rows): faer runs sequentially, one core
-    // per solve (parallelise over channels or scenes outside).
-    faer::set_global_parallelism(faer::Par::Seq);
+    // per solve (parallelise over channels or scenes outside). The workspace
+    // builds faer without its rayon feature, so its global default is already
+    // sequential: the solve changes no global state.
     let start = Instant::now();
     let mut channels = Vec::with_capacity(scene.channels.len());
     let mut orders = 0;
@@ -152,15 +153,13 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     }
     let seconds = start.elapsed().as_secs_f64();
     let mut extra = serde_json::Map::new();
+    let mut notes = Vec::new();
     if let Some(b) = cutoff {
         extra.insert("cutoff_bound".into(), json!(b));
-        extra.insert(
-            "note".into(),
-            json!(format!(
-                "transmission rule: a thick layer was solved as a half-space; the light \
-                 neglected below it is < {b:.1e} of the incident (docs/planner.md eq. PL1)"
-            )),
-        );
+        notes.push(format!(
+            "transmission rule: a thick layer was solved as a half-space; the light \
+             neglected below it is < {b:.1e} of the incident (docs/planner.md eq. PL1)"
+        ));
     }
     extra.insert("all_effects".into(), json!(opts.all_effects));
     extra.insert("streams".into(), json!(streams));
@@ -173,7 +172,9 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
         channels,
         labels: scene.labels.clone(),
         seconds,
+        notes,
         extra,
+        ..Default::default()
     })
 }
 

@@ -434,7 +434,7 @@ fn seed_truncation_errors_shrink_with_order() {
 
 #[test]
 fn hard_case_grid_stays_finite_and_conserves_energy() {
-    // DESIGN.md hard cases on a small set (40 directions; accuracy is not the
+    // The hard cases of docs/multiflux.md on a small set (40 directions; accuracy is not the
     // point here): tau from 1e-6 to 1e6 and a half-space, albedo up to 1,
     // g up to 0.99, indices with total internal reflection, grazing light.
     // Measured at 100 directions too: 960 of 960 cases pass.

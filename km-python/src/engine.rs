@@ -1,60 +1,24 @@
-//! The one solve call of the package: a method and its options, applied with
-//! the planner and channel de-duplication exactly as `km solve` does
-//! (`docs/planner.md`), so that `Solution::to_json` is the `km solve --json`
-//! object.
+//! The one solve call of the package: the keyword arguments of `km.solve`
+//! ([`Options`]) turned into the library's options (`km::Options`) and
+//! solved by `km::solve`, which applies the plan, the channel
+//! de-duplication and the accuracy target exactly as `km solve` does, so that
+//! `Solution::to_json` is the `km solve --json` object.
 
-use std::str::FromStr;
-
-use km_core::plan::{Plan, Request, expand_channels, plan_scene, reduce_channels};
-use km_core::{Scene, Solution};
+use km::{Method, Scene, Solution};
 
 use crate::error::Error;
 
-/// The four methods of km.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Method {
-    /// Two-flux Kubelka–Munk (closed form).
-    Km,
-    /// Multi-flux eigenvalue solver (discrete ordinates); the default.
-    #[default]
-    Multiflux,
-    /// Monte Carlo reference.
-    Mc,
-    /// Diffusion dipole (half-spaces).
-    Dipole,
-}
-
-impl Method {
-    /// The method's name, as in `km solve --method` and the JSON key `method`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Km => "km",
-            Method::Multiflux => "multiflux",
-            Method::Mc => "mc",
-            Method::Dipole => "dipole",
-        }
-    }
-}
-
-impl FromStr for Method {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self, Error> {
-        match s {
-            "km" | "two-flux" => Ok(Method::Km),
-            "multiflux" => Ok(Method::Multiflux),
-            "mc" | "montecarlo" => Ok(Method::Mc),
-            "dipole" => Ok(Method::Dipole),
-            other => Err(Error::option(
-                "method",
-                format!("unknown method \"{other}\" (expected km, multiflux, mc or dipole)"),
-            )),
-        }
-    }
+/// Parse a method name (`km`, `multiflux`, `mc`, `dipole`).
+///
+/// # Errors
+/// An unknown name, as an option error on `method`.
+pub fn method(name: &str) -> Result<Method, Error> {
+    name.parse::<Method>().map_err(|e| Error::option("method", e.to_string()))
 }
 
 /// A method and its options: the keyword arguments of `km.solve`, with the
 /// defaults of `km solve` (docs/cli.md) where `None`.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Options {
     /// The method.
     pub method: Method,
@@ -66,7 +30,7 @@ pub struct Options {
     pub samples: Option<u64>,
     /// Seed [mc] (`None`: 1).
     pub seed: Option<u64>,
-    /// Accuracy target (absolute, on reflectance and transmittance) [multiflux, mc].
+    /// Accuracy target `tol` (docs/planner.md, eq. E1–E2) [multiflux, mc].
     pub tolerance: Option<f64>,
     /// Worker threads [mc] (`None`: all cores). Never changes the result.
     pub threads: Option<usize>,
@@ -76,45 +40,55 @@ pub struct Options {
     pub all_effects: bool,
 }
 
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            method: Method::Multiflux,
+            streams: None,
+            order: None,
+            samples: None,
+            seed: None,
+            tolerance: None,
+            threads: None,
+            analog: false,
+            all_effects: false,
+        }
+    }
+}
+
 impl Options {
     /// The Monte Carlo options these stand for.
     ///
     /// # Errors
     /// Zero samples or threads.
-    pub fn mc(&self) -> Result<km_montecarlo::McOptions, Error> {
+    pub fn mc(&self) -> Result<km::McOptions, Error> {
         if self.samples == Some(0) {
             return Err(Error::option("samples", "must be at least 1"));
         }
         if self.threads == Some(0) {
             return Err(Error::option("threads", "must be at least 1"));
         }
-        let d = km_montecarlo::McOptions::default();
-        Ok(km_montecarlo::McOptions {
+        let d = km::McOptions::default();
+        Ok(km::McOptions {
             samples: self.samples.unwrap_or(d.samples),
             seed: self.seed.unwrap_or(d.seed),
             threads: self.threads,
             estimator: if self.analog {
-                km_montecarlo::Estimator::Analog
+                km::Estimator::Analog
             } else {
-                km_montecarlo::Estimator::SurvivalBiasing
+                km::Estimator::SurvivalBiasing
             },
             all_effects: self.all_effects,
             ..d
         })
     }
 
-    fn multiflux(&self) -> km_multiflux::MultifluxOptions {
-        km_multiflux::MultifluxOptions {
-            streams: self.streams,
-            neumann_order: self.order,
-            all_effects: self.all_effects,
-            ..Default::default()
-        }
-    }
-
-    /// Refuse options that the chosen method does not read (a silent no-op
-    /// would mislead).
-    fn check(&self) -> Result<(), Error> {
+    /// The library's options (`km::Options`), as `km solve` builds them from its flags.
+    ///
+    /// # Errors
+    /// An option that the method does not read (a silent no-op would
+    /// mislead), both `streams` and `tolerance`, zero samples or threads.
+    pub fn library(&self) -> Result<km::Options, Error> {
         let m = self.method;
         let unused = |name: &str, given: bool, ok: bool| -> Result<(), Error> {
             if given && !ok {
@@ -129,86 +103,41 @@ impl Options {
         unused("seed", self.seed.is_some(), m == Method::Mc)?;
         unused("threads", self.threads.is_some(), m == Method::Mc)?;
         unused("analog", self.analog, m == Method::Mc)?;
-        if let Some(t) = self.tolerance {
-            return Err(Error::option(
-                "tolerance",
-                format!("{t}: accuracy targets are not available in this build"),
-            ));
+        if self.tolerance.is_some() && self.streams.is_some() {
+            return Err(Error::option("tolerance", "give either streams or tolerance, not both"));
         }
-        Ok(())
+        let method = match m {
+            Method::Km => km::MethodOptions::Km(km::KmOptions::default()),
+            Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
+                streams: self.streams,
+                neumann_order: self.order,
+                all_effects: self.all_effects,
+                ..Default::default()
+            }),
+            Method::Mc => km::MethodOptions::Mc(self.mc()?),
+            Method::Dipole => km::MethodOptions::Dipole(km::DipoleOptions::default()),
+        };
+        Ok(km::Options { method, tolerance: self.tolerance, all_effects: self.all_effects })
     }
 }
 
-/// Solve `scene` by `opts.method`, as `km solve SCENE --method M --json` does:
-/// the plan of the scene for the method (`docs/planner.md`) is obeyed (unless
-/// `all_effects`), channels with identical coefficients are solved once, and
-/// the plan is added to the solution under `"plan"`.
+/// Solve `scene` by `opts.method` through `km::solve` (the plan, channel
+/// de-duplication, the dipole's half-space rule, the capability check, the
+/// accuracy target; docs/planner.md), as `km solve SCENE --method M --json`
+/// does.
 ///
 /// # Errors
-/// Options outside their domain, and the method's own refusals (a scene it
-/// cannot treat), with the solver's message.
+/// Options outside their domain, and the library's refusals (a scene the
+/// method cannot treat, an accuracy target it cannot reach).
 ///
 /// ```
-/// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let scene = km::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
 /// let sol = _km::engine::solve(&scene, &_km::engine::Options::default()).unwrap();
 /// let c = &sol.channels[0];
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-9);
 /// ```
 pub fn solve(scene: &Scene, opts: &Options) -> Result<Solution, Error> {
-    opts.check()?;
-    let method = opts.method;
-    let request = Request::from_scene(&scene.channels[0]);
-    let plan = plan_scene(scene, request, opts.all_effects).for_method(method.name());
-    // Channels with identical coefficients are solved once (`duplicate-channels`).
-    let dedup = plan.skips("duplicate-channels");
-    let reduced = if dedup { Some(reduce_channels(scene)) } else { None };
-    let work = reduced.as_ref().map(|(s, _)| s).unwrap_or(scene);
-    let mut sol = match method {
-        Method::Km => km_core::two_flux::solve(work, &Default::default())?,
-        Method::Multiflux => km_multiflux::solve(work, &opts.multiflux())?,
-        Method::Mc => km_montecarlo::solve(work, &opts.mc()?)?,
-        Method::Dipole => match as_half_space(work, opts.all_effects) {
-            Some((half, bound)) => {
-                let mut sol = km_dipole::solve(&half, &Default::default())?;
-                let note = format!(
-                    "{} < {:.1e} {}",
-                    "the top layer is so thick that the light returning from below it is",
-                    bound.max(f64::MIN_POSITIVE),
-                    "of the incident (planner rule `transmission`): solved as a half-space"
-                );
-                let notes = sol.extra.entry("notes").or_insert_with(|| serde_json::json!([]));
-                if let Some(a) = notes.as_array_mut() {
-                    a.push(serde_json::json!(note));
-                }
-                sol
-            }
-            None => km_dipole::solve(work, &Default::default())?,
-        },
-    };
-    if let Some((_, map)) = &reduced {
-        sol = expand_channels(sol, map, &scene.labels);
-    }
-    sol.extra.insert("plan".into(), plan.to_json());
-    Ok(sol)
-}
-
-/// The dipole treats half-spaces only; a finite top layer that the planner's
-/// `transmission` rule makes a half-space in every channel is one (with the
-/// largest bound of the neglected light).
-fn as_half_space(scene: &Scene, all_effects: bool) -> Option<(Scene, f64)> {
-    if all_effects {
-        return None;
-    }
-    let mut half = scene.clone();
-    let mut bound = 0.0f64;
-    for c in &mut half.channels {
-        let plan = Plan::new(c, Request::default(), false);
-        let cut = plan.layers.first().and_then(|l| l.cutoff_bound)?;
-        bound = bound.max(cut);
-        c.layers.truncate(1);
-        c.layers[0].thickness = f64::INFINITY;
-    }
-    Some((half, bound))
+    Ok(km::solve(scene, &opts.library()?)?)
 }
 
 #[cfg(test)]
@@ -217,8 +146,9 @@ mod tests {
 
     #[test]
     fn unknown_method_and_foreign_options_are_refused() {
-        let e = "multi".parse::<Method>().unwrap_err();
-        assert!(e.to_string().contains("unknown method \"multi\""), "{e}");
+        let e = method("multi").unwrap_err();
+        assert_eq!(e.key(), Some("method"));
+        assert!(e.to_string().contains("multi"), "{e}");
         let scene = Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
         let opts = Options { method: Method::Km, streams: Some(8), ..Default::default() };
         let e = solve(&scene, &opts).unwrap_err();
@@ -237,7 +167,7 @@ mod tests {
         assert_eq!(sol.channels.len(), 3);
         assert_eq!(sol.channels[0], sol.channels[2]);
         assert_ne!(sol.channels[0], sol.channels[1]);
-        let plan = sol.extra["plan"].to_string();
+        let plan = sol.to_json()["plan"].to_string();
         assert!(plan.contains("duplicate-channels"), "{plan}");
     }
 }

@@ -61,6 +61,24 @@ impl Error {
     }
 }
 
+impl From<km::KmError> for Error {
+    fn from(e: km::KmError) -> Self {
+        match e {
+            km::KmError::Scene(c) => Error::Scene(c),
+            km::KmError::Multiflux(e) => e.into(),
+            km::KmError::MonteCarlo(e) => e.into(),
+            km::KmError::Dipole(e) => e.into(),
+            km::KmError::Option { name: "accuracy target", .. } => {
+                Error::Option { name: "tolerance".into(), reason: e.to_string() }
+            }
+            km::KmError::NoAccuracySetting { .. } | km::KmError::TargetUnreachable { .. } => {
+                Error::Option { name: "tolerance".into(), reason: e.to_string() }
+            }
+            other => Error::Solver(other.to_string()),
+        }
+    }
+}
+
 impl From<km_multiflux::MultifluxError> for Error {
     fn from(e: km_multiflux::MultifluxError) -> Self {
         match e {

@@ -9,16 +9,18 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 
-use km_core::{Light, Scene, Solution, Substrate};
+use km_core::solution::UncertaintyValue;
+use km_core::{Light, Scene, Solution, Substrate, Uncertainty};
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde_json::Value;
 
-use crate::engine::{Method, Options};
+use crate::engine::Options;
 use crate::error::Error;
 use crate::sweep::{Columns, Target};
+use km::Method;
 
 pyo3::create_exception!(
     km,
@@ -429,49 +431,50 @@ impl PySolution {
         Ok(flat.into_pyarray(py).reshape([ch.len(), d])?.into_any())
     }
 
-    /// A per-key map (stderr, error_estimate) as a dict: per key a float (one
-    /// channel) or an array over channels; list values (brdf, btdf, per-layer
-    /// absorptance) become arrays, `channels x len` for several channels; a
-    /// missing or null value is NaN.
+    /// An uncertainty (stderr, error_estimate) as a dict: per key a float
+    /// (one channel) or an array over channels; list entries (brdf, btdf,
+    /// per-layer absorptance) become arrays, `channels x len` for several
+    /// channels; a value missing in a channel is NaN.
     fn per_key<'py>(
         &self,
         py: Python<'py>,
-        get: impl Fn(&km_core::ChannelResult) -> Option<&serde_json::Map<String, Value>>,
+        get: impl Fn(&km_core::ChannelResult) -> Option<&Uncertainty>,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
         if self.sol.channels.iter().all(|c| get(c).is_none()) {
             return Ok(None);
         }
-        let mut keys: Vec<&String> = Vec::new();
+        let mut keys: Vec<(&'static str, Option<usize>)> = Vec::new();
         for c in &self.sol.channels {
-            for k in get(c).into_iter().flat_map(|m| m.keys()) {
-                if !keys.contains(&k) {
-                    keys.push(k);
+            for (k, v) in get(c).map(Uncertainty::entries).unwrap_or_default() {
+                if !keys.iter().any(|(q, _)| *q == k) {
+                    let len = match v {
+                        UncertaintyValue::Number(_) => None,
+                        UncertaintyValue::List(l) => Some(l.len()),
+                    };
+                    keys.push((k, len));
                 }
             }
         }
         let d = PyDict::new(py);
-        for k in keys {
-            let vals: Vec<Option<&Value>> =
-                self.sol.channels.iter().map(|c| get(c).and_then(|m| m.get(k))).collect();
-            let len = vals.iter().flatten().find_map(|v| v.as_array().map(Vec::len));
+        for (k, len) in keys {
             let value = match len {
-                None => self.per_channel(py, |c| {
-                    get(c).and_then(|m| m.get(k)).and_then(Value::as_f64).unwrap_or(f64::NAN)
-                })?,
+                None => {
+                    self.per_channel(py, |c| get(c).and_then(|u| u.get(k)).unwrap_or(f64::NAN))?
+                }
                 Some(len) => {
-                    let flat: Vec<f64> = vals
+                    let ch = &self.sol.channels;
+                    let flat: Vec<f64> = ch
                         .iter()
-                        .flat_map(|v| {
-                            let a = v.and_then(Value::as_array);
-                            (0..len).map(move |i| {
-                                a.and_then(|a| a.get(i)).and_then(Value::as_f64).unwrap_or(f64::NAN)
-                            })
+                        .flat_map(|c| {
+                            let l = get(c).and_then(|u| u.get_list(k));
+                            (0..len)
+                                .map(move |i| l.and_then(|l| l.get(i)).copied().unwrap_or(f64::NAN))
                         })
                         .collect();
-                    if vals.len() == 1 {
+                    if ch.len() == 1 {
                         flat.into_pyarray(py).into_any()
                     } else {
-                        flat.into_pyarray(py).reshape([vals.len(), len])?.into_any()
+                        flat.into_pyarray(py).reshape([ch.len(), len])?.into_any()
                     }
                 }
             };
@@ -567,21 +570,33 @@ impl PySolution {
     /// Notes of the solver (what it simplified, bounds of what it neglected).
     #[getter]
     fn notes(&self) -> Vec<String> {
-        match self.sol.extra.get("notes") {
-            Some(Value::Array(a)) => {
-                a.iter().map(|v| v.as_str().map(String::from).unwrap_or(v.to_string())).collect()
-            }
-            Some(Value::String(s)) => vec![s.clone()],
-            _ => Vec::new(),
-        }
+        self.sol.notes.clone()
     }
     /// The plan obeyed: effects present, work skipped and why (a dict), or None.
     #[getter]
     fn plan<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        match self.sol.extra.get("plan") {
-            Some(v) => json_to_py(py, v),
+        match &self.sol.plan {
+            Some(p) => json_to_py(py, &p.to_json()),
             None => Ok(py.None().into_bound(py)),
         }
+    }
+    /// How an accuracy target was met (the JSON's `tolerance` object), or None.
+    #[getter]
+    fn accuracy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match (&self.sol.accuracy, self.sol.to_json().get("tolerance")) {
+            (Some(_), Some(v)) => json_to_py(py, v),
+            _ => Ok(py.None().into_bound(py)),
+        }
+    }
+    /// The output directions `[theta_deg, phi_deg]` of `brdf`/`btdf`.
+    #[getter]
+    fn directions_deg(&self) -> Vec<[f64; 2]> {
+        self.sol.directions.clone()
+    }
+    /// Method settings and diagnostics (`streams`, `fourier_orders`, ...), a dict.
+    #[getter]
+    fn extra<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &Value::Object(self.sol.extra.clone()))
     }
     /// The solver's own wall time, seconds.
     #[getter]
@@ -692,7 +707,7 @@ fn options(
     analog: bool,
     all_effects: bool,
 ) -> PyResult<Options> {
-    let method: Method = method.parse().map_err(|e| py_err(py, e))?;
+    let method: Method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
     Ok(Options { method, streams, order, samples, seed, tolerance, threads, analog, all_effects })
 }
 

@@ -216,7 +216,7 @@ pub fn solve_many(
     threads: Option<usize>,
 ) -> Result<Vec<Result<Solution, Error>>, Error> {
     let mut point = opts.clone();
-    if point.method == crate::engine::Method::Mc && point.threads.is_none() {
+    if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);
     }
     in_pool(threads, || scenes.par_iter().map(|s| solve(s, &point)).collect::<Vec<_>>())
@@ -241,7 +241,7 @@ pub fn solve_sweep(
         return Err(Error::option("params", "need at least one key and one value per key"));
     }
     let mut point = opts.clone();
-    if point.method == crate::engine::Method::Mc && point.threads.is_none() {
+    if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);
     }
     let run = || {
@@ -312,17 +312,17 @@ impl Columns {
             SCALAR_KEYS.iter().map(|&k| (k, vec![f64::NAN; nc])).collect();
         let mut brdf = vec![f64::NAN; nc * directions];
         let mut btdf = vec![f64::NAN; nc * directions];
-        // Keys of the per-key maps, from every successful point.
-        let keys = |get: fn(&km_core::ChannelResult) -> Option<&serde_json::Map<_, _>>| {
-            let mut keys: Vec<String> = Vec::new();
+        // Keys of the uncertainties (scalar entries only: list entries, e.g.
+        // the BRDF's, are per direction), from every successful point.
+        let keys = |get: fn(&km_core::ChannelResult) -> Option<&km_core::Uncertainty>| {
+            let mut keys: Vec<&'static str> = Vec::new();
             for s in results.iter().flatten() {
                 for c in &s.channels {
-                    // Scalar entries only (list entries, e.g. the BRDF's, are per direction).
-                    let scalar =
-                        get(c).into_iter().flat_map(|m| m.iter()).filter(|(_, v)| v.is_number());
-                    for (k, _) in scalar {
-                        if !keys.contains(k) {
-                            keys.push(k.clone());
+                    for (k, v) in get(c).map(km_core::Uncertainty::entries).unwrap_or_default() {
+                        if matches!(v, km_core::solution::UncertaintyValue::Number(_))
+                            && !keys.contains(&k)
+                        {
+                            keys.push(k);
                         }
                     }
                 }
@@ -332,9 +332,9 @@ impl Columns {
         let se_keys = keys(|c| c.stderr.as_ref());
         let ee_keys = keys(|c| c.error_estimate.as_ref());
         let mut stderr: Vec<(String, Vec<f64>)> =
-            se_keys.into_iter().map(|k| (k, vec![f64::NAN; nc])).collect();
+            se_keys.into_iter().map(|k| (k.to_string(), vec![f64::NAN; nc])).collect();
         let mut error_estimate: Vec<(String, Vec<f64>)> =
-            ee_keys.into_iter().map(|k| (k, vec![f64::NAN; nc])).collect();
+            ee_keys.into_iter().map(|k| (k.to_string(), vec![f64::NAN; nc])).collect();
         let mut errors = vec![None; n];
         for (i, r) in results.iter().enumerate() {
             let sol = match r {
@@ -366,9 +366,7 @@ impl Columns {
                     [(&mut stderr, &ch.stderr), (&mut error_estimate, &ch.error_estimate)]
                 {
                     for (k, col) in cols.iter_mut() {
-                        if let Some(v) =
-                            map.as_ref().and_then(|m| m.get(k)).and_then(|v| v.as_f64())
-                        {
+                        if let Some(v) = map.as_ref().and_then(|m| m.get(k)) {
                             col[at] = v;
                         }
                     }
@@ -475,7 +473,7 @@ mod tests {
     fn a_failed_point_is_nan_with_its_message() {
         let good = slab();
         let bad = Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
-        let opts = Options { method: crate::engine::Method::Dipole, ..Default::default() };
+        let opts = Options { method: km::Method::Dipole, ..Default::default() };
         let res = solve_many(&[good, bad], &opts, Some(1)).unwrap();
         let cols = Columns::gather(&res, 1, 0);
         assert!(cols.errors.iter().all(|e| e.is_some()), "{:?}", cols.errors);

@@ -4,10 +4,7 @@
 //! that call for each simplification, with the largest difference of the
 //! answers against the stated tolerance.
 
-use km_core::Scene;
-use km_core::plan::{Request, expand_channels, plan_scene, reduce_channels};
-use km_montecarlo::McOptions;
-use km_multiflux::MultifluxOptions;
+use km::{McOptions, Method, MultifluxOptions, Options, Scene};
 
 use crate::chart::format_number;
 use crate::data::Csv;
@@ -98,8 +95,8 @@ fn scenes() -> Vec<(&'static str, &'static str, String)> {
     ]
 }
 
-/// One solve as `km solve` does it: with the plan, duplicate channels are
-/// solved once; `all` switches every effect on.
+/// One solve as `km solve` does it ([`km::solve`]: with the plan,
+/// duplicate channels are solved once); `all` switches every effect on.
 fn solve(
     scene: &Scene,
     method: &str,
@@ -107,28 +104,18 @@ fn solve(
     samples: u64,
     seed: u64,
 ) -> anyhow::Result<km_core::Solution> {
-    let plan = plan_scene(scene, Request::from_scene(&scene.channels[0]), all).for_method(method);
-    let (reduced, map) = reduce_channels(scene);
-    let dedup = plan.skips("duplicate-channels");
-    let s = if dedup { &reduced } else { scene };
-    let mut sol = match method {
-        "mc" => {
-            let o = McOptions {
-                samples,
-                seed,
-                all_effects: all,
-                // One thread: a stable solver time on a shared machine.
-                threads: Some(1),
-                ..crate::methods::mc_options(samples, seed)
-            };
-            km_montecarlo::solve(s, &o)?
+    let opts: Options = match method.parse::<Method>()? {
+        Method::Mc => McOptions {
+            samples,
+            seed,
+            // One thread: a stable solver time on a shared machine.
+            threads: Some(1),
+            ..crate::methods::mc_options(samples, seed)
         }
-        _ => km_multiflux::solve(s, &MultifluxOptions { all_effects: all, ..Default::default() })?,
+        .into(),
+        _ => MultifluxOptions::default().into(),
     };
-    if dedup {
-        sol = expand_channels(sol, &map, &scene.labels);
-    }
-    Ok(sol)
+    Ok(km::solve(scene, &opts.with_all_effects(all))?)
 }
 
 /// Best of `k` solver times (`Solution::seconds`, the solver's own wall time).
@@ -172,7 +159,7 @@ fn max_diff(a: &km_core::Solution, b: &km_core::Solution) -> f64 {
 /// combined standard error, and that error (of R).
 fn mc_sigmas(a: &km_core::Solution, b: &km_core::Solution) -> (f64, f64) {
     let se = |s: &km_core::Solution, c: usize, k: &str| {
-        s.channels[c].stderr.as_ref().and_then(|m| m.get(k)).and_then(|v| v.as_f64()).unwrap_or(0.0)
+        s.channels[c].stderr.as_ref().and_then(|m| m.get(k)).unwrap_or(0.0)
     };
     let mut worst = 0.0f64;
     let mut se_r = 0.0f64;
@@ -233,8 +220,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
     for (name, method, text) in scenes() {
         let scene = Scene::from_toml_str(&text)?;
-        let plan =
-            plan_scene(&scene, Request::from_scene(&scene.channels[0]), false).for_method(method);
+        let plan = km::plan_for(&scene, method.parse::<Method>()?, false);
         let reps = if method == "mc" { k_mc } else { k };
         let (planned, tp) = best_of(reps, &scene, method, false, samples, ctx.seed)?;
         let (full, tf) = best_of(reps, &scene, method, true, samples, ctx.seed)?;
@@ -264,7 +250,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         let speedup = tf / tp.max(1e-12);
         lo = lo.min(speedup);
         hi = hi.max(speedup);
-        let skipped = plan.skipped.join(", ");
+        let skipped = plan.skipped.iter().map(|s| s.name()).collect::<Vec<_>>().join(", ");
         t.push(vec![
             name.to_string(),
             method.to_string(),

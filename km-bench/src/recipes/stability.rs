@@ -30,7 +30,7 @@ pub struct Cell {
     pub above_one: bool,
 }
 
-/// Check a solution's first channel (the energy-balance test of DESIGN.md §3).
+/// Check a solution's first channel (energy balance, docs/benchmarks.md).
 pub fn check(sol: &Solution) -> Option<Cell> {
     let c = sol.channels.first()?;
     let (r, t, a) = (c.reflectance, c.transmittance, c.absorptance);

@@ -57,7 +57,7 @@ pub fn scene_from_json(s: &Value, directions: Option<&Value>) -> Scene {
 
 /// Standard error of a key of a one-channel solution.
 pub fn se(sol: &km_core::Solution, key: &str) -> f64 {
-    sol.channels[0].stderr.as_ref().unwrap()[key].as_f64().unwrap()
+    sol.channels[0].stderr.as_ref().unwrap().get(key).unwrap()
 }
 
 /// `|mc - reference| <= K se + floor`, with a message naming the case.

@@ -1,13 +1,16 @@
-//! Human-readable output.
+//! Text for people: a solution as a table, a scene and a plan in words (what
+//! the `km` command prints without `--json`).
 
 use std::fmt::Write;
 
-use km_core::{Light, Scene, Solution, Substrate};
+use crate::{ChannelResult, Light, Method, Plan, Scene, Solution, Substrate};
 
 /// Reads one number of a channel's result.
-type Getter = fn(&km_core::ChannelResult) -> f64;
+type Getter = fn(&ChannelResult) -> f64;
 
-/// A table of the solution, one column per channel.
+/// A table of the solution, one column per channel, then the accuracy
+/// target met and every note. `scene` supplies the output directions when
+/// the solution does not carry them.
 pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "method: {}   solver time: {}", sol.method, seconds(sol.seconds));
@@ -30,8 +33,12 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
         }
         let _ = writeln!(s);
     }
-    let no_dirs = Vec::new();
-    let dirs = scene.map(|s| &s.channels[0].directions_deg).unwrap_or(&no_dirs);
+    let scene_dirs = scene.map(|s| &s.channels[0].directions_deg);
+    let dirs = if sol.directions.is_empty() {
+        scene_dirs.unwrap_or(&sol.directions)
+    } else {
+        &sol.directions
+    };
     for (what, pick) in [("BRDF", 0usize), ("BTDF", 1usize)] {
         if sol
             .channels
@@ -49,12 +56,15 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
             let _ = writeln!(s);
         }
     }
-    if let Some(notes) = sol.extra.get("notes").and_then(|n| n.as_array()) {
-        for n in notes {
-            if let Some(t) = n.as_str() {
-                let _ = writeln!(s, "note: {t}");
-            }
-        }
+    if let Some(a) = &sol.accuracy {
+        let _ = writeln!(
+            s,
+            "accuracy target {:e} met; limited by {} (estimate {:.2e})",
+            a.target, a.limited_by, a.estimate
+        );
+    }
+    for note in &sol.notes {
+        let _ = writeln!(s, "note: {note}");
     }
     s
 }
@@ -69,7 +79,7 @@ fn seconds(t: f64) -> String {
     }
 }
 
-/// What a scene describes, in words.
+/// What a scene describes, in words (`km check`).
 pub fn describe(scene: &Scene) -> String {
     let mut s = String::new();
     let c0 = &scene.channels[0];
@@ -112,8 +122,8 @@ pub fn describe(scene: &Scene) -> String {
     s
 }
 
-/// A plan in plain words.
-pub fn plan_words(plan: &km_core::plan::Plan, method: crate::Method) -> String {
+/// A plan in plain words (`km plan`).
+pub fn plan_words(plan: &Plan, method: Method) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "plan for method {}", method.name());
     if plan.all_effects {
@@ -137,17 +147,18 @@ pub fn plan_words(plan: &km_core::plan::Plan, method: crate::Method) -> String {
     }
     for name in &plan.skipped {
         let why = plan.reasons.get(name).map(String::as_str).unwrap_or("");
+        let name = name.name();
         let _ = writeln!(s, "skipped {name}: {why}");
     }
     let per_method = match method {
-        crate::Method::Km => "two-flux closed form per layer, adding for the stack",
-        crate::Method::Multiflux if plan.azimuth_independent => {
+        Method::Km => "two-flux closed form per layer, adding for the stack",
+        Method::Multiflux if plan.azimuth_independent => {
             "Fourier order m = 0 only; eigen-solve only for scattering layers"
         }
-        crate::Method::Multiflux => "Fourier orders m = 0..M for the requested directions",
-        crate::Method::Mc if plan.angular_tallies => "photon tracing with totals and angular bins",
-        crate::Method::Mc => "photon tracing with totals only",
-        crate::Method::Dipole => "closed form for a semi-infinite layer",
+        Method::Multiflux => "Fourier orders m = 0..M for the requested directions",
+        Method::Mc if plan.angular_tallies => "photon tracing with totals and angular bins",
+        Method::Mc => "photon tracing with totals only",
+        Method::Dipole => "closed form for a semi-infinite layer",
     };
     let _ = writeln!(s, "{}: {per_method}", method.name());
     s

@@ -1,0 +1,105 @@
+//! Every refusal of the library, in its own terms.
+
+use thiserror::Error;
+
+use crate::Method;
+
+/// Why a method cannot treat a scene (the answer of [`crate::Solver::supports`]).
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("method {method} cannot treat this scene: {reason}")]
+pub struct Unsupported {
+    /// The method asked.
+    pub method: Method,
+    /// Why not.
+    pub reason: Reason,
+}
+
+/// What in a scene is beyond a method.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Reason {
+    /// The method treats one homogeneous layer only.
+    #[error(
+        "it treats a single homogeneous half-space and the scene has {layers} layers (the \
+         multi-flux and Monte Carlo methods treat stacks)"
+    )]
+    Stack {
+        /// Number of layers of the scene.
+        layers: usize,
+    },
+    /// The method treats semi-infinite layers only.
+    #[error(
+        "it treats a semi-infinite layer and the layer ends at thickness {thickness} (the \
+         multi-flux and Monte Carlo methods treat slabs)"
+    )]
+    FiniteLayer {
+        /// The layer's thickness.
+        thickness: f64,
+    },
+    /// The method gives no radially resolved profile.
+    #[error("it gives no radial profile Rd(r) (the dipole and Monte Carlo do)")]
+    NoProfile,
+    /// The method needs scattering.
+    #[error("diffusion needs scattering and channel {channel} has sigma_s = 0")]
+    NoScattering {
+        /// 0-based channel.
+        channel: usize,
+    },
+}
+
+/// Every error of [`crate::solve`] and [`crate::profile()`].
+#[derive(Debug, Error)]
+pub enum KmError {
+    /// The scene is invalid.
+    #[error(transparent)]
+    Scene(#[from] km_core::CoreError),
+    /// The multi-flux solver refused or failed.
+    #[error(transparent)]
+    Multiflux(#[from] km_multiflux::MultifluxError),
+    /// The Monte Carlo tracer refused or failed.
+    #[error(transparent)]
+    MonteCarlo(#[from] km_montecarlo::McError),
+    /// The dipole refused.
+    #[error(transparent)]
+    Dipole(#[from] km_dipole::DipoleError),
+    /// The method cannot treat the scene.
+    #[error(transparent)]
+    Unsupported(#[from] Unsupported),
+    /// An option is out of its domain.
+    #[error("invalid {name} = {value}: {reason}")]
+    Option {
+        /// The option.
+        name: &'static str,
+        /// Its value, as text.
+        value: String,
+        /// The rule it breaks.
+        reason: &'static str,
+    },
+    /// The method has no setting an accuracy target could choose.
+    #[error(
+        "accuracy target {target}: method {method} is a closed form with no accuracy setting; \
+         its error against transport theory is not bounded by any setting"
+    )]
+    NoAccuracySetting {
+        /// The method.
+        method: Method,
+        /// The target asked.
+        target: f64,
+    },
+    /// The accuracy target cannot be met within the work the library allows.
+    #[error(
+        "accuracy target {target:e} not reached: {limited_by} has an estimated error of \
+         {estimate:.2e} (allowed {allowed:.2e}) at {work}, the most this library runs"
+    )]
+    TargetUnreachable {
+        /// The target `tol`.
+        target: f64,
+        /// The number that missed it (e.g. `reflectance`, `brdf[1]`).
+        limited_by: String,
+        /// Its error estimate at the largest work.
+        estimate: f64,
+        /// What it was allowed (`tol * max(1, |x|)`).
+        allowed: f64,
+        /// The largest work, in words (e.g. `256 streams`).
+        work: String,
+    },
+}

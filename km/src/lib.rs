@@ -1,0 +1,148 @@
+//! # km: light in stacks of flat scattering layers
+//!
+//! The library a user depends on: one scene, four methods, one interface.
+//!
+//! * [`Method`]: the method registry (`km`, `multiflux`, `mc`, `dipole`).
+//! * [`Solver`]: what every method implements (capability check, solve,
+//!   solve to an accuracy target), by its own option type ([`KmOptions`],
+//!   [`MultifluxOptions`], [`McOptions`], [`DipoleOptions`]).
+//! * [`solve`]: the entry point: applies the plan (docs/planner.md), solves
+//!   channels with identical coefficients once, cuts a layer too thick to
+//!   transmit anything into a half-space for the dipole, meets an accuracy
+//!   target ([`accuracy`]), and attaches the plan to the [`Solution`].
+//! * [`profile()`]: the radially resolved reflectance `Rd(r)`.
+//! * [`KmError`]: every refusal, in the library's own words.
+//! * [`text`]: a solution, a scene and a plan as text for people.
+//!
+//! The crates below: `km-core` (scene, layers, Fresnel, planner, two-flux,
+//! [`Solution`]), `km-multiflux`, `km-montecarlo`, `km-dipole`; see
+//! docs/architecture.md.
+//!
+//! ```
+//! use km::{Method, Options, Scene};
+//! let scene = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.9\nn = 1.5\n").unwrap();
+//! for method in [Method::Km, Method::Multiflux] {
+//!     let sol = km::solve(&scene, &Options::new(method)).unwrap();
+//!     let c = &sol.channels[0];
+//!     assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-9);
+//! }
+//! ```
+#![deny(missing_docs)]
+
+pub mod accuracy;
+mod error;
+mod method;
+mod profile;
+mod solver;
+pub mod text;
+
+pub use error::{KmError, Reason, Unsupported};
+pub use km_core::plan::{Plan, Request, Simplification};
+pub use km_core::solution::AccuracyReport;
+pub use km_core::two_flux::{KmMapping, KmOptions};
+pub use km_core::{
+    ChannelResult, Layer, Light, MonoScene, Scene, Solution, Substrate, Uncertainty,
+};
+pub use km_dipole::{DipoleModel, DipoleOptions, FdrModel};
+pub use km_montecarlo::{Estimator, McOptions, Progress};
+pub use km_multiflux::MultifluxOptions;
+pub use method::{Method, UnknownMethod};
+pub use profile::{Profile, ProfileOptions, profile};
+pub use solver::{MethodOptions, Options, Solver};
+
+/// The README's examples, compiled and run as doctests.
+#[doc = include_str!("../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
+
+use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels};
+
+/// Solve `scene` with the method and settings of `options`.
+///
+/// In order: the plan of the scene for the method (docs/planner.md; off
+/// with `options.all_effects`); channels with identical coefficients solved
+/// once (`duplicate-channels`); for the dipole, a top layer that the
+/// `transmission` rule (eq. PL1) makes a half-space in every channel solved
+/// as one, with a note giving the bound on the neglected light; the
+/// capability check ([`Solver::supports`]); the solve, or the solve to
+/// `options.tolerance` ([`Solver::solve_to`], eq. E1–E3 of
+/// docs/planner.md); then the plan and the output directions are attached.
+///
+/// # Errors
+/// [`KmError::Unsupported`] when the method cannot treat the scene, the
+/// accuracy target's errors, and the solver's.
+///
+/// ```
+/// let scene = km::Scene::from_toml_str("[[layer]]\ntau = 2\nalbedo = 0.9\ng = 0.5\n").unwrap();
+/// let sol = km::solve(&scene, &km::Options::new(km::Method::Multiflux).with_tolerance(1e-5)).unwrap();
+/// let acc = sol.accuracy.as_ref().unwrap();
+/// assert!(acc.reached && acc.estimate <= 1e-5);
+/// let dipole = km::solve(&scene, &km::Options::new(km::Method::Dipole));
+/// assert!(matches!(dipole, Err(km::KmError::Unsupported(_))));
+/// ```
+pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
+    let method = options.method();
+    let all_effects = options.all_effects || options.method.all_effects();
+    let plan = plan_for(scene, method, all_effects);
+    let solver = options.method.with_all_effects(all_effects);
+    // Channels with identical coefficients are solved once (`duplicate-channels`).
+    let (reduced, map) = reduce_channels(scene);
+    let dedup = plan.skips(Simplification::DuplicateChannels);
+    let work = if dedup { &reduced } else { scene };
+    let cut = if method == Method::Dipole { as_half_space(work, all_effects) } else { None };
+    let work = cut.as_ref().map_or(work, |(half, _)| half);
+    solver.supports(work)?;
+    let mut sol = match options.tolerance {
+        Some(tol) => solver.solve_to(work, tol)?,
+        None => solver.solve(work)?,
+    };
+    if let Some((_, bound)) = cut {
+        sol.notes.push(format!(
+            "the top layer is so thick that the light returning from below it is < {:.1e} of \
+             the incident (planner rule `transmission`): solved as a half-space",
+            bound.max(f64::MIN_POSITIVE)
+        ));
+    }
+    if dedup {
+        sol = expand_channels(sol, &map, &scene.labels);
+    }
+    if sol.channels.iter().any(|c| !c.brdf.is_empty() || !c.btdf.is_empty()) {
+        sol.directions =
+            scene.channels.first().map(|c| c.directions_deg.clone()).unwrap_or_default();
+    }
+    sol.plan = Some(plan);
+    Ok(sol)
+}
+
+/// The plan of `scene` for `method`: what the scene calls for and the
+/// simplifications the method takes (docs/planner.md).
+///
+/// ```
+/// let s = km::Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
+/// let p = km::plan_for(&s, km::Method::Mc, false);
+/// assert!(p.skips(km::Simplification::AngularTallies));
+/// assert!(!p.skips(km::Simplification::Azimuth), "a Fourier matter, not Monte Carlo's");
+/// ```
+pub fn plan_for(scene: &Scene, method: Method, all_effects: bool) -> PlanT {
+    let request = scene.channels.first().map(Request::from_scene).unwrap_or_default();
+    plan_scene(scene, request, all_effects).restricted_to(method.simplifications())
+}
+
+/// The dipole treats half-spaces only; a finite top layer that the planner's
+/// `transmission` rule makes a half-space in every channel is one (with the
+/// largest bound of the neglected light).
+fn as_half_space(scene: &Scene, all_effects: bool) -> Option<(Scene, f64)> {
+    if all_effects {
+        return None;
+    }
+    let mut half = scene.clone();
+    let mut bound = 0.0f64;
+    for c in &mut half.channels {
+        let plan = PlanT::new(c, Request::default(), false);
+        let cut = plan.layers.first().and_then(|l| l.cutoff_bound)?;
+        bound = bound.max(cut);
+        c.layers.truncate(1);
+        c.layers[0].thickness = f64::INFINITY;
+    }
+    Some((half, bound))
+}

@@ -1,0 +1,128 @@
+//! `Rd(r)`: the radially resolved diffuse reflectance of a pencil beam at
+//! normal incidence, by the dipole (closed form, docs/diffusion.md eq. D11)
+//! or by Monte Carlo (annuli, docs/montecarlo.md eq. R1).
+
+use km_core::Scene;
+use serde_json::{Value, json};
+
+use crate::{KmError, Method, Reason, Unsupported};
+
+/// Settings of [`profile()`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProfileOptions {
+    /// `Dipole` or `Mc`.
+    pub method: Method,
+    /// Largest radius, in the scene's length unit; `None`: 10 transport mean
+    /// free paths `1 / (sigma_a + sigma_s (1 - g))` of the first channel's layer.
+    pub r_max: Option<f64>,
+    /// Number of radii (dipole) or annuli (Monte Carlo), at least 1.
+    pub points: usize,
+    /// Monte Carlo photons.
+    pub samples: u64,
+    /// Monte Carlo seed.
+    pub seed: u64,
+}
+
+impl Default for ProfileOptions {
+    fn default() -> Self {
+        ProfileOptions {
+            method: Method::Dipole,
+            r_max: None,
+            points: 20,
+            samples: 1_000_000,
+            seed: 1,
+        }
+    }
+}
+
+/// `Rd(r)` per channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    /// The method used.
+    pub method: Method,
+    /// Radii (mid-points of the annuli), length unit of the scene.
+    pub r: Vec<f64>,
+    /// Per channel, `Rd(r_i)` in 1/length^2.
+    pub rd: Vec<Vec<f64>>,
+    /// Per channel, the standard errors (Monte Carlo).
+    pub stderr: Option<Vec<Vec<f64>>>,
+    /// Channel labels.
+    pub labels: Vec<String>,
+}
+
+impl Profile {
+    /// The JSON of `km profile --json` (docs/cli.md): one list per key for
+    /// one channel, a list of lists for several.
+    pub fn to_json(&self) -> Value {
+        let pick = |v: &Vec<Vec<f64>>| if v.len() == 1 { json!(v[0]) } else { json!(v) };
+        json!({
+            "method": self.method.name(),
+            "r": self.r,
+            "rd": pick(&self.rd),
+            "stderr": self.stderr.as_ref().map(pick),
+            "channels": self.labels,
+        })
+    }
+}
+
+/// `Rd(r)` of `scene` at `points` radii up to `r_max`.
+///
+/// Dipole: `Rd(r)` at `r_i = r_max (i + 1/2) / points` (docs/diffusion.md
+/// eq. D11). Monte Carlo: the mean over annuli of width `r_max / points`
+/// (docs/montecarlo.md eq. R1). Domain: a single half-space layer for the
+/// dipole; any scene for Monte Carlo.
+///
+/// # Errors
+/// A method other than the two, `points = 0`, a non-positive `r_max`, a
+/// layer that neither scatters nor absorbs without `r_max`, and the
+/// solvers' errors.
+///
+/// ```
+/// let s = km_core::Scene::from_toml_str("[[layer]]\npreset = \"marble\"\n").unwrap();
+/// let p = km::profile(&s, &km::ProfileOptions::default()).unwrap();
+/// assert_eq!(p.rd[0].len(), 20);
+/// assert!(p.rd[0].windows(2).all(|w| w[1] < w[0]), "Rd decreases with r");
+/// ```
+pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError> {
+    let bad = |name, value: String, reason| Err(KmError::Option { name, value, reason });
+    if opts.points == 0 {
+        return bad("points", "0".into(), "at least 1 radius is needed");
+    }
+    let Some(l) = scene.channels.first().and_then(|c| c.layers.first()) else {
+        return bad("scene", "no layer".into(), "a profile needs a layer");
+    };
+    let sigma_t_prime = l.sigma_a + l.sigma_s * (1.0 - l.g());
+    let r_max = match opts.r_max {
+        Some(r) if r.is_finite() && r > 0.0 => r,
+        Some(r) => return bad("r_max", r.to_string(), "must be finite and > 0"),
+        None if sigma_t_prime > 0.0 => 10.0 / sigma_t_prime,
+        None => {
+            return bad("r_max", "unset".into(), "the layer neither scatters nor absorbs: give it");
+        }
+    };
+    let points = opts.points;
+    let (r, rd, stderr) = match opts.method {
+        Method::Dipole => {
+            let d = km_dipole::DipoleOptions::default();
+            crate::Solver::supports(&d, scene)?;
+            let r: Vec<f64> =
+                (0..points).map(|i| r_max * (i as f64 + 0.5) / points as f64).collect();
+            let rd = km_dipole::profile(scene, &r, &d)?;
+            (r, rd, None)
+        }
+        Method::Mc => {
+            let o = km_montecarlo::McOptions {
+                samples: opts.samples,
+                seed: opts.seed,
+                ..Default::default()
+            };
+            let bins = km_montecarlo::RadialBins { dr: r_max / points as f64, count: points };
+            let p = km_montecarlo::radial_profile(scene, &o, bins)?;
+            (p.r, p.rd, Some(p.stderr))
+        }
+        m => {
+            return Err(Unsupported { method: m, reason: Reason::NoProfile }.into());
+        }
+    };
+    Ok(Profile { method: opts.method, r, rd, stderr, labels: scene.labels.clone() })
+}
