@@ -1,0 +1,210 @@
+"""Type stubs of the extension module km._km (the Rust side of the package km)."""
+
+from __future__ import annotations
+
+from os import PathLike
+from typing import Any, Literal, Mapping, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Method = Literal["km", "multiflux", "mc", "dipole"]
+FloatOrArray = float | npt.NDArray[np.float64]
+
+class KmError(ValueError):
+    """Bad input: a scene, an option, or a scene the method cannot treat.
+
+    ``str(err)`` is the message of the ``km`` command (``line 3:
+    `layer[1].albedo`: 1.5: albedo must lie in [0, 1]``).
+    """
+
+    key: str | None
+    """The scene key or option named (``layer[1].albedo``, ``streams``), or None."""
+    line: int | None
+    """1-based line of the scene text, or None (scenes from keyword arguments)."""
+
+class Scene:
+    """A validated scene: a stack of layers, its light, ambient medium,
+    substrate, output directions, and one or more spectral channels.
+
+    Immutable, comparable with ``==`` and picklable.
+    """
+
+    def __init__(
+        self,
+        layers: Sequence[Mapping[str, Any]],
+        *,
+        light: str | Mapping[str, Any] | None = None,
+        theta_deg: float | None = None,
+        ambient_n: float | Sequence[float] | None = None,
+        substrate: str | Mapping[str, Any] | None = None,
+        directions_deg: Sequence[Sequence[float]] | npt.ArrayLike | None = None,
+        spectrum: Mapping[str, Any] | None = None,
+    ) -> None:
+        """A scene from keyword arguments: the keys of the scene file.
+
+        ``layers``: top first, each a mapping of ``[[layer]]`` keys (see
+        :func:`km.layer`); ``light``: ``"collimated"`` (default) or
+        ``"diffuse"``, or a mapping of ``[light]``; ``theta_deg``: polar angle
+        of a collimated beam; ``ambient_n``: index above the stack;
+        ``substrate``: ``"transparent"``, ``"lambertian"`` or ``"black"``, or a
+        mapping of ``[substrate]`` (``{"kind": "lambertian", "albedo": 0.8}``);
+        ``directions_deg``: ``[[theta, phi], ...]`` exit directions of the
+        BRDF/BTDF samples; ``spectrum``: ``{"labels": [...], "wavelengths_nm": [...]}``.
+
+        Raises :class:`KmError` naming the key, as the scene file does.
+        """
+    @staticmethod
+    def from_toml(text: str) -> Scene:
+        """A scene from the text of a scene file (docs/scene-file.md)."""
+    @staticmethod
+    def from_file(path: str | PathLike[str]) -> Scene:
+        """A scene from a scene file on disk."""
+    def to_toml(self) -> str:
+        """The scene as the text of a scene file (``km check`` and ``km solve`` read it)."""
+    @property
+    def channels(self) -> int:
+        """Number of spectral channels."""
+    @property
+    def labels(self) -> list[str]:
+        """Channel labels."""
+    @property
+    def wavelengths_nm(self) -> list[float] | None:
+        """Wavelengths (nm) when the scene gives them."""
+    def layers(self, channel: int = 0) -> list[dict[str, float]]:
+        """The layers of one channel, top first: sigma_a, sigma_s, sigma_t,
+        thickness, tau, albedo, g, n."""
+    @property
+    def light(self) -> dict[str, Any]:
+        """``{"kind": "collimated", "theta_deg": ...}`` or ``{"kind": "diffuse"}``."""
+    @property
+    def substrate(self) -> dict[str, Any]:
+        """``{"kind": ..., "n" | "albedo": ...}`` of channel 0."""
+    @property
+    def directions_deg(self) -> list[tuple[float, float]]:
+        """Exit directions ``[theta_deg, phi_deg]`` of the BRDF/BTDF samples."""
+    def __eq__(self, other: object) -> bool: ...
+
+class Solution:
+    """What a solve returns.
+
+    For a one-channel scene the totals are floats and ``brdf``/``btdf``
+    1-D arrays over the output directions; for ``C`` channels each total is
+    an array of shape ``(C,)`` and ``brdf``/``btdf`` have shape ``(C, D)``.
+    ``to_dict()`` is the ``km solve --json`` object.
+    """
+
+    @property
+    def method(self) -> str: ...
+    @property
+    def channels(self) -> int: ...
+    @property
+    def labels(self) -> list[str]: ...
+    @property
+    def reflectance(self) -> FloatOrArray:
+        """Total reflectance (specular part included)."""
+    @property
+    def reflectance_specular(self) -> FloatOrArray:
+        """The mirror (delta) part of the reflectance."""
+    @property
+    def transmittance(self) -> FloatOrArray:
+        """Total transmittance (unscattered part included)."""
+    @property
+    def transmittance_direct(self) -> FloatOrArray:
+        """The unscattered (delta) part of the transmittance."""
+    @property
+    def absorptance(self) -> FloatOrArray:
+        """Absorbed fraction."""
+    @property
+    def brdf(self) -> npt.NDArray[np.float64]:
+        """Smooth BRDF (1/sr) at the scene's output directions."""
+    @property
+    def btdf(self) -> npt.NDArray[np.float64]:
+        """Smooth BTDF (1/sr) at the scene's output directions."""
+    @property
+    def absorptance_layers(self) -> npt.NDArray[np.float64] | None:
+        """Absorbed fraction per layer, top first, when the method gives it."""
+    @property
+    def stderr(self) -> dict[str, FloatOrArray] | None:
+        """Standard errors by key (Monte Carlo), or None."""
+    @property
+    def error_estimate(self) -> dict[str, FloatOrArray] | None:
+        """Estimated errors by key (an accuracy target was given), or None."""
+    @property
+    def notes(self) -> list[str]:
+        """What the solver simplified, with bounds of what it neglected."""
+    @property
+    def plan(self) -> dict[str, Any] | None:
+        """The plan obeyed: effects present, work skipped and why."""
+    @property
+    def seconds(self) -> float:
+        """The solver's own wall time, seconds."""
+    def to_dict(self) -> dict[str, Any]:
+        """The ``km solve --json`` object."""
+    def to_json(self, indent: bool = False) -> str:
+        """The ``km solve --json`` object as text."""
+
+class Partial:
+    """The partial tally of one Monte Carlo shard; picklable, exact."""
+
+    @staticmethod
+    def from_json(text: str) -> Partial:
+        """A part from its JSON text (the ``km solve --shard --out`` file)."""
+    def to_json(self) -> str:
+        """The part as the ``km solve --shard --out`` file (``km merge`` reads it)."""
+    @property
+    def index(self) -> int: ...
+    @property
+    def count(self) -> int: ...
+    @property
+    def samples(self) -> int: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def seconds(self) -> float: ...
+
+def solve(
+    scene: Scene,
+    method: Method = "multiflux",
+    *,
+    streams: int | None = None,
+    order: int | None = None,
+    samples: int | None = None,
+    seed: int | None = None,
+    tolerance: float | None = None,
+    threads: int | None = None,
+    analog: bool = False,
+    all_effects: bool = False,
+) -> Solution:
+    """Solve a scene, as ``km solve SCENE --method M --json`` does.
+
+    ``streams``, ``order`` [multiflux]: Gauss nodes per hemisphere, Neumann
+    order of the adding; ``samples``, ``seed``, ``threads``, ``analog`` [mc]:
+    photons per channel (default 10^6), seed (default 1), worker threads
+    (default all cores; never changes the result), analog absorption;
+    ``tolerance`` [multiflux, mc]: accuracy target; ``all_effects``: the
+    planner off. An option the method does not read is refused. The GIL is
+    released while the solver runs.
+    """
+
+def run_shard(
+    scene: Scene,
+    index: int,
+    count: int,
+    *,
+    samples: int | None = None,
+    seed: int | None = None,
+    threads: int | None = None,
+    analog: bool = False,
+    all_effects: bool = False,
+) -> Partial:
+    """Shard ``index`` of ``count`` of a Monte Carlo run of ``samples`` photons."""
+
+def merge(parts: Sequence[Partial]) -> Solution:
+    """Merge all shards of a run into exactly (bit for bit) the single-run result."""
+
+def _solve_scenes(scenes: Sequence[Scene], method: str = ..., **options: Any) -> dict[str, Any]: ...
+def _solve_sweep(scene: Scene, keys: Sequence[str], values: npt.NDArray[np.float64],
+                 method: str = ..., **options: Any) -> dict[str, Any]: ...

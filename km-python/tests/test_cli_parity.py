@@ -1,0 +1,77 @@
+"""`Solution.to_dict()` is the `km solve --json` object: every examples/ scene
+by every method, numbers to 1e-12 (`seconds`, the solver's wall time, aside);
+where the command refuses a scene, km.solve raises km.KmError with its words.
+Also accuracy targets (`--tolerance`), through the same library call."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+
+import pytest
+
+import km
+from conftest import EXAMPLES
+
+# Monte Carlo with few photons keeps the run short; the seed fixes the result.
+METHODS = [
+    ("km", [], {}),
+    ("multiflux", [], {}),
+    ("multiflux", ["--streams", "8"], {"streams": 8}),
+    ("mc", ["--samples", "20000", "--seed", "3"], {"samples": 20000, "seed": 3}),
+    ("dipole", [], {}),
+    ("multiflux", ["--tolerance", "1e-4"], {"tolerance": 1e-4}),
+]
+
+# Both sides print the same f64 (serde_json writes the shortest round-trip
+# form), so equality is expected to be exact; 1e-12 is the contract's bound.
+TOL = 1e-12
+
+
+def same(a, b, path="$"):
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and set(a) == set(b), f"{path}: keys {sorted(a)} vs {sorted(b)}"
+        for k in a:
+            same(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), f"{path}: lengths differ"
+        for i, (x, y) in enumerate(zip(a, b)):
+            same(x, y, f"{path}[{i}]")
+    elif isinstance(a, float) or isinstance(b, float):
+        if a is None or b is None:
+            assert a is b, f"{path}: {a} vs {b}"
+        elif math.isnan(a):
+            assert math.isnan(b), f"{path}: {a} vs {b}"
+        else:
+            assert abs(a - b) <= TOL * max(1.0, abs(a)), f"{path}: {a} vs {b}"
+    else:
+        assert a == b, f"{path}: {a!r} vs {b!r}"
+
+
+@pytest.mark.parametrize("scene_path", EXAMPLES, ids=[p.name for p in EXAMPLES])
+@pytest.mark.parametrize("method,flags,options", METHODS, ids=lambda x: str(x))
+def test_to_dict_equals_the_cli_json(km_cli, scene_path, method, flags, options):
+    cmd = [str(km_cli), "solve", str(scene_path), "--method", method, "--json", *flags]
+    cli = subprocess.run(cmd, capture_output=True, text=True)
+    scene = km.Scene.from_file(scene_path)
+    if cli.returncode != 0:
+        with pytest.raises(km.KmError) as info:
+            km.solve(scene, method=method, **options)
+        # The command names the flag at fault before the library's words
+        # ("error: --method dipole: method dipole cannot treat ...").
+        message = cli.stderr.strip()
+        assert message.startswith("error: ") and message.endswith(str(info.value)), message
+        return
+    expected = json.loads(cli.stdout)
+    got = km.solve(scene, method=method, **options).to_dict()
+    # The JSON text of the binding parses to the same object.
+    assert json.loads(km.solve(scene, method=method, **options).to_json()).keys() == got.keys()
+    for d in (expected, got):
+        assert isinstance(d.pop("seconds"), float)
+    same(expected, got)
+
+
+def test_the_examples_are_there():
+    # Guards the parametrisation above against an empty glob.
+    assert len(EXAMPLES) >= 5
