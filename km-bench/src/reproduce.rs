@@ -3,7 +3,7 @@
 
 use std::fmt;
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
@@ -301,16 +301,107 @@ pub fn reproduce_with_progress(
             );
         }
     }
-    std::fs::create_dir_all(&opts.out_dir)
-        .with_context(|| format!("creating {}", opts.out_dir.display()))?;
+    // A whole run is written into a staging directory beside the target and
+    // renamed into place only when complete, so a killed run, a full disk or
+    // a failed write never leaves a half report, and two runs never mix;
+    // `--only` adds one item's files to an existing run's directory.
+    let target = &opts.out_dir;
+    let dir = match &opts.only {
+        Some(_) => {
+            std::fs::create_dir_all(target)
+                .with_context(|| format!("creating {}", target.display()))?;
+            target.clone()
+        }
+        None => staging_dir(target)?,
+    };
     // Writable before any computing (a read-only directory was found only
     // after 34-43 s of work): write and remove a probe file.
-    let probe = opts.out_dir.join(".km-write-probe");
+    let probe = dir.join(".km-write-probe");
     km_core::atomic_file::write_atomic(&probe, b"")
         .and_then(|()| std::fs::remove_file(&probe))
-        .with_context(|| format!("{} is not writable", opts.out_dir.display()))?;
+        .with_context(|| format!("{} is not writable", dir.display()))?;
+    let run = run_recipes(opts, &dir, selected, on_progress, start);
+    match (&opts.only, run) {
+        (Some(_), run) => run,
+        (None, Ok(summary)) => {
+            std::fs::write(dir.join(MANIFEST), manifest(opts, &summary))
+                .and_then(|()| replace_dir(&dir, target))
+                .with_context(|| format!("moving the finished run into {}", target.display()))
+                .inspect_err(|_| {
+                    let _ = std::fs::remove_dir_all(&dir);
+                })?;
+            let mut summary = summary;
+            summary.report = target.join("report.md");
+            Ok(summary)
+        }
+        (None, Err(e)) => {
+            let _ = std::fs::remove_dir_all(&dir);
+            Err(e)
+        }
+    }
+}
+
+/// The file that marks a directory as a complete `km reproduce` run.
+pub const MANIFEST: &str = ".km-reproduce";
+
+/// The manifest: size, seed and items of the run.
+fn manifest(opts: &ReproduceOptions, summary: &Summary) -> String {
+    let items: Vec<String> =
+        summary.rows.iter().map(|r| format!("{} {}", r.item, r.status)).collect();
+    format!("km reproduce\nsize {}\nseed {}\n{}\n", summary.size, opts.seed, items.join("\n"))
+}
+
+/// A new, empty staging directory beside `target` (same file system, so the
+/// final rename is atomic); refuses a `target` that exists and is not a
+/// directory written by `km reproduce` (nothing of the user's is replaced).
+fn staging_dir(target: &Path) -> anyhow::Result<PathBuf> {
+    if let Ok(meta) = std::fs::symlink_metadata(target) {
+        let ours = meta.is_dir()
+            && (target.join(MANIFEST).is_file()
+                || target.join("report.md").is_file()
+                || std::fs::read_dir(target).is_ok_and(|mut d| d.next().is_none()));
+        if !ours {
+            anyhow::bail!(
+                "{} exists and is not the output of an earlier `km reproduce` (no {MANIFEST} \
+                 or report.md in it): choose another --out or remove it",
+                target.display()
+            );
+        }
+    }
+    let parent = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
+    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
+    if staging.exists() {
+        std::fs::remove_dir_all(&staging)
+            .with_context(|| format!("removing the stale {}", staging.display()))?;
+    }
+    std::fs::create_dir(&staging)
+        .with_context(|| format!("{} is not writable", parent.display()))?;
+    Ok(staging)
+}
+
+/// Put the finished run `staging` at `target`, replacing an earlier run.
+fn replace_dir(staging: &Path, target: &Path) -> std::io::Result<()> {
+    if target.exists() {
+        std::fs::remove_dir_all(target)?;
+    }
+    std::fs::rename(staging, target)
+}
+
+/// Every selected recipe into `dir`, then the report.
+fn run_recipes(
+    opts: &ReproduceOptions,
+    dir: &Path,
+    selected: Vec<Recipe>,
+    on_progress: &mut dyn FnMut(&Progress),
+    start: Instant,
+) -> anyhow::Result<Summary> {
     let size = opts.size();
-    let mut ctx = Ctx::new(&opts.out_dir, size, opts.seed);
+    let mut ctx = Ctx::new(dir, size, opts.seed);
     let mut report = Report {
         title: "km: the seed paper's §4 reproduced, and what accuracy costs in time".into(),
         intro: vec![intro(size, opts.seed)],
@@ -380,8 +471,8 @@ pub fn reproduce_with_progress(
     // The summary opens the report: each item's key result, then the details.
     report.sections.insert(0, sec);
     summary.report = match &opts.only {
-        None => report.write(&opts.out_dir)?,
-        Some(name) => report.write_named(&opts.out_dir, &format!("report-{name}.md"))?,
+        None => report.write(dir)?,
+        Some(name) => report.write_named(dir, &format!("report-{name}.md"))?,
     };
     Ok(summary)
 }
