@@ -157,3 +157,82 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<(
     }
     Ok(())
 }
+
+/// The `km solve` flags that apply to some methods only: argument id, the
+/// methods it applies to, and what it sets.
+const SOLVE_FLAGS: &[(&str, &[Method], &str)] = &[
+    ("samples", &[Method::Mc], "the photon count of Monte Carlo"),
+    ("seed", &[Method::Mc], "the random seed of Monte Carlo"),
+    ("threads", &[Method::Mc], "the worker threads of Monte Carlo"),
+    ("estimator", &[Method::Mc], "the absorption estimator of Monte Carlo"),
+    ("shard", &[Method::Mc], "a share of a Monte Carlo run"),
+    ("streams", &[Method::Multiflux], "the Gauss nodes per hemisphere of multi-flux"),
+    ("order", &[Method::Multiflux], "the Neumann order of multi-flux adding"),
+    ("km_mapping", &[Method::Km], "how two-flux K, S come from the scene"),
+    ("fdr", &[Method::Dipole], "how the dipole computes F_dr"),
+    ("dipole", &[Method::Dipole], "which dipole"),
+    (
+        "tolerance",
+        &[Method::Multiflux, Method::Mc],
+        "an accuracy target, met by choosing streams or photons; km and dipole are closed \
+         forms with no accuracy setting",
+    ),
+];
+
+/// `--flag-name` of an argument id.
+fn flag(id: &str) -> String {
+    format!("--{}", id.replace('_', "-"))
+}
+
+/// Whether the user gave argument `id` on the command line (not a default).
+fn given(m: &clap::ArgMatches, id: &str) -> bool {
+    matches!(m.try_get_raw(id), Ok(Some(_)))
+        && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+}
+
+/// Refuse a flag that does not apply to the chosen method or mode (clap cannot
+/// know the method: checked after parsing), saying why.
+pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
+    match matches.subcommand() {
+        Some(("solve", m)) => {
+            let method = m.get_one::<Method>("method").copied().unwrap_or(Method::Multiflux);
+            for (id, methods, what) in SOLVE_FLAGS {
+                if given(m, id) && !methods.contains(&method) {
+                    let names: Vec<_> = methods.iter().map(|x| x.name()).collect();
+                    bail!(
+                        "{} does not apply to --method {}: it sets {what} (--method {})",
+                        flag(id),
+                        method.name(),
+                        names.join(" or ")
+                    );
+                }
+            }
+            if given(m, "tolerance") && given(m, "samples") {
+                bail!("give either --samples or --tolerance: the target chooses the photon count");
+            }
+            if given(m, "tolerance") && given(m, "shard") {
+                bail!(
+                    "--tolerance does not combine with --shard (every shard would choose its own \
+                     photon count): run a pilot `km solve SCENE --method mc --tolerance T --json`, \
+                     read the sample count it chose (`tolerance.samples` of the JSON), then shard with \
+                     `--samples N --shard I/K --out FILE` and `km merge`"
+                );
+            }
+        }
+        Some(("profile", m)) => {
+            let method = m.get_one::<Method>("method").copied().unwrap_or(Method::Dipole);
+            for id in ["samples", "seed"] {
+                if given(m, id) && method != Method::Mc {
+                    bail!(
+                        "{} does not apply to --method {}: it sets the Monte Carlo run \
+                         (--method mc)",
+                        flag(id),
+                        method.name()
+                    );
+                }
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
