@@ -72,6 +72,10 @@ km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --
     Profile {
         /// Scene file (its single layer must be a half-space for the dipole).
         scene: PathBuf,
+        /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+        /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
         #[arg(long, short, value_parser = profile_method_parser(), default_value = "dipole")]
         method: Method,
@@ -97,6 +101,10 @@ km plan examples/paint-over-primer.toml --method mc --json")]
     Plan {
         /// Scene file (TOML, see docs/scene-file.md).
         scene: PathBuf,
+        /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+        /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Method whose decisions to show.
         #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
         method: Method,
@@ -112,6 +120,10 @@ km plan examples/paint-over-primer.toml --method mc --json")]
     Check {
         /// Scene file (TOML, see docs/scene-file.md).
         scene: PathBuf,
+        /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+        /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
     },
     /// Solve the built-in example scene (the seed paper's three-layer example) by km, multiflux
     /// and mc (the dipole treats one semi-infinite layer only: skipped, with its reason).
@@ -150,6 +162,10 @@ km plan examples/paint-over-primer.toml --method mc --json")]
 pub struct SolveArgs {
     /// Scene file (TOML, see docs/scene-file.md).
     pub scene: PathBuf,
+    /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+    /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Method.
     #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
     pub method: Method,
@@ -277,6 +293,12 @@ fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::Resu
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Read a scene file with the `--set` edits applied (km_core::set).
+fn load(path: &std::path::Path, set: &[String]) -> anyhow::Result<km::Scene> {
+    let edits = set.iter().map(|s| km::SetEdit::parse(s)).collect::<Result<Vec<_>, _>>()?;
+    Ok(km::Scene::from_path_with(path, &edits)?)
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     let command = cli.command.unwrap_or(Command::Reproduce {
         out: PathBuf::from("out"),
@@ -302,7 +324,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Solve(args) => {
-            let scene = km::Scene::from_path(&args.scene)?;
+            let scene = load(&args.scene, &args.set)?;
             if let Some(shard) = &args.shard {
                 let (i, n) = methods::parse_shard(shard)?;
                 if args.method != Method::Mc {
@@ -337,13 +359,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             print_solution(&sol, None, json)
         }
-        Command::Profile { scene, method, r_max, points, samples, seed, json } => {
-            let s = km::Scene::from_path(&scene)?;
+        Command::Profile { scene, set, method, r_max, points, samples, seed, json } => {
+            let s = load(&scene, &set)?;
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
             methods::profile(&s, &opts, json)
         }
-        Command::Plan { scene, method, json, all_effects } => {
-            let s = km::Scene::from_path(&scene)?;
+        Command::Plan { scene, set, method, json, all_effects } => {
+            let s = load(&scene, &set)?;
             let plan = km::plan_for(&s, method, all_effects);
             if json {
                 let mut v = plan.to_json();
@@ -354,8 +376,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Check { scene } => {
-            let s = km::Scene::from_path(&scene)?;
+        Command::Check { scene, set } => {
+            let s = load(&scene, &set)?;
             print!("{}", km::text::describe(&s));
             Ok(())
         }
@@ -380,6 +402,7 @@ impl SolveArgs {
     fn defaults(method: Method) -> SolveArgs {
         SolveArgs {
             scene: PathBuf::from("examples/seed-three-layers.toml"),
+            set: Vec::new(),
             method,
             json: false,
             out: None,

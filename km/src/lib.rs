@@ -38,6 +38,7 @@ pub mod text;
 
 pub use error::{KmError, Reason, Unsupported};
 pub use km_core::plan::{Plan, Request, Simplification};
+pub use km_core::set::SetEdit;
 pub use km_core::solution::AccuracyReport;
 pub use km_core::two_flux::{KmMapping, KmOptions};
 pub use km_core::{
