@@ -95,6 +95,26 @@ km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --
         #[arg(long)]
         json: bool,
     },
+    /// Solve a scene over a grid of edited values, one row per point (and channel).
+    #[command(
+        after_help = "Examples:\n  km sweep examples/fresnel-slab.toml --set layer[1].g=0:0.9:10\n  \
+km sweep examples/fresnel-slab.toml --set layer[1].albedo=0.5:0.9:3 \
+--set light.theta_deg=0:60:3 --method km --format csv"
+    )]
+    Sweep {
+        /// Scene file (TOML, see docs/scene-file.md).
+        scene: PathBuf,
+        /// KEY=START:STOP:N (N equally spaced values, a grid over several; the first
+        /// varies slowest) or KEY=VALUE (a fixed edit); repeatable.
+        #[arg(long = "set", value_name = "KEY=START:STOP:N", required = true)]
+        set: Vec<String>,
+        /// Method (at its default settings).
+        #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+        method: Method,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = SweepFormat::Table)]
+        format: SweepFormat,
+    },
     /// Print what a scene calls for: effects present, work skipped and why.
     #[command(after_help = "Examples:\n  km plan examples/seed-three-layers.toml\n  \
 km plan examples/paint-over-primer.toml --method mc --json")]
@@ -238,6 +258,17 @@ pub enum KmMappingArg {
     Gate1974,
 }
 
+/// Output format of `km sweep`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepFormat {
+    /// Aligned columns.
+    Table,
+    /// Comma-separated values with a header.
+    Csv,
+    /// One JSON object per line.
+    Jsonl,
+}
+
 /// Monte Carlo absorption estimator.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EstimatorArg {
@@ -363,6 +394,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let s = load(&scene, &set)?;
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
             methods::profile(&s, &opts, json)
+        }
+        Command::Sweep { scene, set, method, format } => {
+            let text = std::fs::read_to_string(&scene)
+                .with_context(|| format!("cannot read {}", scene.display()))?;
+            let (mut edits, mut axes) = (Vec::new(), Vec::new());
+            for s in &set {
+                if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {
+                    axes.push(km::SweepAxis::parse(s)?);
+                } else {
+                    edits.push(km::SetEdit::parse(s)?);
+                }
+            }
+            if axes.is_empty() {
+                bail!("km sweep needs at least one --set KEY=START:STOP:N");
+            }
+            let opts = methods::options(&SolveArgs::defaults(method))?;
+            let points = km::sweep(&text, &edits, &axes, &opts)?;
+            methods::print_sweep(&axes, &points, format);
+            Ok(())
         }
         Command::Plan { scene, set, method, json, all_effects } => {
             let s = load(&scene, &set)?;

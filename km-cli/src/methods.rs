@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use km::{KmError, Method, Scene, Solution};
 
-use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, SolveArgs};
+use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, SolveArgs, SweepFormat};
 
 /// Solve `scene` with the method and options of `args` (through [`km::solve`]).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
@@ -235,4 +235,70 @@ pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
         _ => {}
     }
     Ok(())
+}
+
+/// `km sweep`: one row per point (and channel), in grid order.
+pub fn print_sweep(axes: &[km::SweepAxis], points: &[km::SweepPoint], format: SweepFormat) {
+    let spectral = points.first().is_some_and(|p| p.solution.channels.len() > 1);
+    let quantities = [
+        "reflectance",
+        "reflectance_specular",
+        "transmittance",
+        "transmittance_direct",
+        "absorptance",
+    ];
+    let mut header: Vec<String> = axes.iter().map(|a| a.key.clone()).collect();
+    if spectral {
+        header.push("channel".into());
+    }
+    header.extend(quantities.iter().map(|q| q.to_string()));
+    match format {
+        SweepFormat::Csv => println!("{}", header.join(",")),
+        SweepFormat::Table => {
+            println!("{}", header.iter().map(|h| format!("{h:>22}")).collect::<String>())
+        }
+        SweepFormat::Jsonl => {}
+    }
+    for p in points {
+        for (c, ch) in p.solution.channels.iter().enumerate() {
+            let nums = [
+                ch.reflectance,
+                ch.reflectance_specular,
+                ch.transmittance,
+                ch.transmittance_direct,
+                ch.absorptance,
+            ];
+            let label = p.solution.labels.get(c).cloned().unwrap_or_default();
+            match format {
+                SweepFormat::Jsonl => {
+                    let mut o = serde_json::Map::new();
+                    for (a, v) in axes.iter().zip(&p.values) {
+                        o.insert(a.key.clone(), (*v).into());
+                    }
+                    if spectral {
+                        o.insert("channel".into(), label.into());
+                    }
+                    for (q, v) in quantities.iter().zip(nums) {
+                        o.insert((*q).into(), v.into());
+                    }
+                    println!("{}", serde_json::Value::Object(o));
+                }
+                SweepFormat::Csv | SweepFormat::Table => {
+                    let mut cells: Vec<String> = p.values.iter().map(|v| v.to_string()).collect();
+                    if spectral {
+                        cells.push(label);
+                    }
+                    cells.extend(nums.iter().map(|v| v.to_string()));
+                    if format == SweepFormat::Csv {
+                        println!("{}", cells.join(","));
+                    } else {
+                        println!(
+                            "{}",
+                            cells.iter().map(|c| format!("{c:>22}")).collect::<String>()
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

@@ -84,3 +84,91 @@ fn bad_set_is_refused_naming_the_key_and_set() {
         assert!(out.stdout.is_empty());
     }
 }
+
+/// `km sweep` against `km solve` of the equivalent edited files, in grid order,
+/// in each format.
+#[test]
+fn sweep_rows_equal_solves_of_the_edited_files() {
+    let base = scene_file("sweep-base", BASE);
+    for method in ["km", "multiflux"] {
+        let args = [
+            "sweep",
+            base.as_str(),
+            "--set",
+            "layer[1].g=0:0.9:4",
+            "--set",
+            "light.theta_deg=0:60:3",
+            "--set",
+            "substrate.albedo=0.5",
+            "--method",
+            method,
+        ];
+        let run = |format: &str| {
+            let mut a = args.to_vec();
+            a.extend(["--format", format]);
+            let out = km(&a);
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            String::from_utf8(out.stdout).unwrap()
+        };
+        let jsonl = run("jsonl");
+        let rows: Vec<serde_json::Value> =
+            jsonl.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+        assert_eq!(rows.len(), 12, "4 x 3 points");
+        let mut i = 0;
+        for g in [0.0, 0.3, 0.6, 0.9] {
+            for theta in [0.0, 30.0, 60.0] {
+                let row = &rows[i];
+                i += 1;
+                // Grid order: the first axis slowest.
+                let (rg, rt) =
+                    (row["layer[1].g"].as_f64().unwrap(), row["light.theta_deg"].as_f64().unwrap());
+                // Linear spacing, within rounding of start + step * i.
+                assert!((rg - g).abs() < 1e-12 && (rt - theta).abs() < 1e-12, "{row}");
+                let text = BASE
+                    .replace("g = 0.0", &format!("g = {rg:?}"))
+                    .replace("theta_deg = 45.0", &format!("theta_deg = {rt:?}"))
+                    .replace("albedo = 0.2", "albedo = 0.5");
+                let edited = scene_file(&format!("sweep-{method}-{i}"), &text);
+                let v = solve_json(&["solve", &edited, "--method", method, "--json"]);
+                for key in [
+                    "reflectance",
+                    "reflectance_specular",
+                    "transmittance",
+                    "transmittance_direct",
+                    "absorptance",
+                ] {
+                    assert_eq!(row[key], v[key], "{method} {row} {key}");
+                }
+            }
+        }
+        // CSV: a header and the same numbers; the table: a header and one line per point.
+        let csv = run("csv");
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next().unwrap(),
+            "layer[1].g,light.theta_deg,reflectance,reflectance_specular,transmittance,\
+             transmittance_direct,absorptance"
+        );
+        for (line, row) in lines.zip(&rows) {
+            let r: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
+            assert_eq!(r, row["reflectance"].as_f64().unwrap());
+        }
+        assert_eq!(run("table").lines().count(), 13);
+    }
+}
+
+#[test]
+fn bad_sweeps_are_refused() {
+    let base = scene_file("sweep-bad", BASE);
+    for (set, names) in [
+        ("layer[1].g=0:0.9", "needs at least one"),
+        ("layer[1].g=0:x:3", "START:STOP:N"),
+        ("layer[1].g=0:0.9:0", "START:STOP:N"),
+        ("layer[1].g=0:2:3", "`layer[1].g`"),
+    ] {
+        let out = km(&["sweep", &base, "--set", set]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{set}: {err}");
+        assert!(err.contains(names), "{set}: {err}");
+    }
+}

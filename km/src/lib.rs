@@ -34,6 +34,7 @@ mod error;
 mod method;
 mod profile;
 mod solver;
+mod sweep;
 pub mod text;
 
 pub use error::{KmError, Reason, Unsupported};
@@ -50,6 +51,7 @@ pub use km_multiflux::MultifluxOptions;
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
 pub use solver::{MethodOptions, Options, Solver};
+pub use sweep::{SweepAxis, SweepPoint, sweep};
 
 /// The README's examples, compiled and run as doctests.
 #[doc = include_str!("../../README.md")]
