@@ -189,9 +189,14 @@ pub struct SolveArgs {
     /// Method.
     #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
     pub method: Method,
-    /// Print one JSON object (the contract of docs/cli.md) instead of a table.
-    #[arg(long)]
+    /// Print one JSON object (the contract of docs/cli.md) instead of a table
+    /// (the same as --format json).
+    #[arg(long, conflicts_with = "format")]
     pub json: bool,
+    /// Output: table (text; one row per wavelength for spectral scenes), json, or csv
+    /// (a header, one row per channel).
+    #[arg(long, value_enum)]
+    pub format: Option<OutputFormat>,
     /// Also write the JSON result (or, with --shard, the partial tally) to this file, atomically.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -258,6 +263,17 @@ pub enum KmMappingArg {
     Gate1974,
 }
 
+/// Output format of `km solve`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// Text for people.
+    Table,
+    /// The JSON contract of docs/cli.md.
+    Json,
+    /// Comma-separated values with a header.
+    Csv,
+}
+
 /// Output format of `km sweep`.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SweepFormat {
@@ -309,11 +325,15 @@ fn main() -> ExitCode {
     }
 }
 
-fn print_solution(sol: &km::Solution, scene: Option<&km::Scene>, json: bool) -> anyhow::Result<()> {
-    if json {
-        println!("{}", serde_json::to_string_pretty(&sol.to_json())?);
-    } else {
-        print!("{}", km::text::table(sol, scene));
+fn print_solution(
+    sol: &km::Solution,
+    scene: Option<&km::Scene>,
+    format: OutputFormat,
+) -> anyhow::Result<()> {
+    match format {
+        OutputFormat::Json => println!("{}", serde_json::to_string_pretty(&sol.to_json())?),
+        OutputFormat::Csv => print!("{}", km::text::csv(sol, scene)),
+        OutputFormat::Table => print!("{}", km::text::table(sol, scene)),
     }
     Ok(())
 }
@@ -373,7 +393,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(out) = &args.out {
                 write_json(out, &sol.to_json())?;
             }
-            print_solution(&sol, Some(&scene), args.json)
+            print_solution(&sol, Some(&scene), args.output_format())
         }
         Command::Merge { parts, json, out } => {
             let mut read = Vec::with_capacity(parts.len());
@@ -388,7 +408,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(out) = &out {
                 write_json(out, &sol.to_json())?;
             }
-            print_solution(&sol, None, json)
+            print_solution(&sol, None, if json { OutputFormat::Json } else { OutputFormat::Table })
         }
         Command::Profile { scene, set, method, r_max, points, samples, seed, json } => {
             let s = load(&scene, &set)?;
@@ -455,6 +475,7 @@ impl SolveArgs {
             set: Vec::new(),
             method,
             json: false,
+            format: None,
             out: None,
             tolerance: None,
             all_effects: false,
@@ -471,8 +492,13 @@ impl SolveArgs {
         }
     }
 
-    /// Whether a progress bar may be shown (no JSON, stderr is a terminal).
+    /// The output format (`--json` is `--format json`).
+    pub fn output_format(&self) -> OutputFormat {
+        if self.json { OutputFormat::Json } else { self.format.unwrap_or(OutputFormat::Table) }
+    }
+
+    /// Whether a progress bar may be shown (text output, stderr is a terminal).
     pub fn progress(&self) -> bool {
-        !self.json && std::io::stderr().is_terminal()
+        self.output_format() == OutputFormat::Table && std::io::stderr().is_terminal()
     }
 }

@@ -207,6 +207,12 @@ pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
                     );
                 }
             }
+            if given(m, "shard") && (given(m, "json") || given(m, "format")) {
+                bail!(
+                    "--shard writes its partial tally to --out and prints no result: --json and \
+                     --format apply to `km merge` and to whole runs"
+                );
+            }
             if given(m, "tolerance") && given(m, "samples") {
                 bail!("give either --samples or --tolerance: the target chooses the photon count");
             }
