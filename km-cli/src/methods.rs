@@ -143,9 +143,11 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<(
         println!("{}", serde_json::to_string_pretty(&p.to_json())?);
         return Ok(());
     }
-    print!("{:>12}", "r");
+    // r in the scene's length unit; Rd(r) per unit area: 1/length^2.
+    print!("{:>12}", "r [L]");
     for l in &p.labels {
-        print!("{:>16}", format!("Rd {l}"));
+        let name = if p.labels.len() == 1 { "Rd".to_string() } else { format!("Rd {l}") };
+        print!("{:>16}", format!("{name} [1/L^2]"));
     }
     println!();
     for (i, ri) in p.r.iter().enumerate() {
@@ -155,6 +157,7 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<(
         }
         println!();
     }
+    println!("L: the scene's length unit (that of 1/sigma_t)");
     Ok(())
 }
 

@@ -131,3 +131,12 @@ fn text_reads_well() {
     }
     assert!(lines[1].len() < 100, "narrow header: {}", lines[1]);
 }
+
+#[test]
+fn profile_text_has_units() {
+    let t = stdout(&["profile", &examples("marble-half-space.toml"), "--points", "3"]);
+    let head = t.lines().next().unwrap();
+    assert!(head.contains("r [L]") && head.contains("[1/L^2]"), "{t}");
+    assert!(t.contains("L: the scene's length unit"), "{t}");
+    assert_eq!(t.lines().count(), 5, "header, 3 radii, the unit line: {t}");
+}
