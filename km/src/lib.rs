@@ -113,6 +113,10 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
         sol.directions =
             scene.channels.first().map(|c| c.directions_deg.clone()).unwrap_or_default();
     }
+    // A spectral scene's JSON `channels` are its wavelengths (numbers, nm).
+    if let Some(w) = scene.wavelengths_nm.as_ref().filter(|w| w.len() > 1) {
+        sol.extra.insert("channels".into(), serde_json::json!(w));
+    }
     sol.plan = Some(plan);
     Ok(sol)
 }
