@@ -14,7 +14,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::builder::TypedValueParser;
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use km::Method;
 
 /// The scene solved by `km demo`.
@@ -85,8 +85,12 @@ km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --
     Profile {
         /// Scene file (its single layer must be a half-space for the dipole).
         scene: PathBuf,
+        /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+        /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
-        #[arg(long, short, value_parser = method_parser(), default_value = "dipole")]
+        #[arg(long, short, value_parser = profile_method_parser(), default_value = "dipole")]
         method: Method,
         /// Largest radius, in the scene's length unit (default: 10 transport lengths).
         #[arg(long)]
@@ -94,15 +98,35 @@ km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --
         /// Number of radii (dipole) or annuli (mc).
         #[arg(long, default_value_t = 20)]
         points: usize,
-        /// Monte Carlo photons.
+        /// Monte Carlo photons [mc].
         #[arg(long, default_value_t = 1_000_000)]
         samples: u64,
-        /// Monte Carlo seed.
+        /// Monte Carlo seed [mc].
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+    },
+    /// Solve a scene over a grid of edited values, one row per point (and channel).
+    #[command(
+        after_help = "Examples:\n  km sweep examples/fresnel-slab.toml --set layer[1].g=0:0.9:10\n  \
+km sweep examples/fresnel-slab.toml --set layer[1].albedo=0.5:0.9:3 \
+--set light.theta_deg=0:60:3 --method km --format csv"
+    )]
+    Sweep {
+        /// Scene file (TOML, see docs/scene-file.md).
+        scene: PathBuf,
+        /// KEY=START:STOP:N (N equally spaced values, a grid over several; the first
+        /// varies slowest) or KEY=VALUE (a fixed edit); repeatable.
+        #[arg(long = "set", value_name = "KEY=START:STOP:N", required = true)]
+        set: Vec<String>,
+        /// Method (at its default settings).
+        #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+        method: Method,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = SweepFormat::Table)]
+        format: SweepFormat,
     },
     /// Print what a scene calls for: effects present, work skipped and why.
     #[command(after_help = "Examples:\n  km plan examples/seed-three-layers.toml\n  \
@@ -110,6 +134,10 @@ km plan examples/paint-over-primer.toml --method mc --json")]
     Plan {
         /// Scene file (TOML, see docs/scene-file.md).
         scene: PathBuf,
+        /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+        /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Method whose decisions to show.
         #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
         method: Method,
@@ -125,8 +153,13 @@ km plan examples/paint-over-primer.toml --method mc --json")]
     Check {
         /// Scene file (TOML, see docs/scene-file.md).
         scene: PathBuf,
+        /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+        /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
     },
-    /// Solve the built-in example scene (the seed paper's three-layer example) by every method.
+    /// Solve the built-in example scene (the seed paper's three-layer example) by km, multiflux
+    /// and mc (the dipole treats one semi-infinite layer only: skipped, with its reason).
     #[command(after_help = "Example:\n  km demo")]
     Demo,
     /// Regenerate the seed paper's figures and the accuracy/time study into DIR/report.md.
@@ -162,12 +195,21 @@ km plan examples/paint-over-primer.toml --method mc --json")]
 pub struct SolveArgs {
     /// Scene file (TOML, see docs/scene-file.md).
     pub scene: PathBuf,
+    /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+    /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Method.
     #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
     pub method: Method,
-    /// Print one JSON object (the contract of docs/cli.md) instead of a table.
-    #[arg(long)]
+    /// Print one JSON object (the contract of docs/cli.md) instead of a table
+    /// (the same as --format json).
+    #[arg(long, conflicts_with = "format")]
     pub json: bool,
+    /// Output: table (text; one row per wavelength for spectral scenes), json, or csv
+    /// (a header, one row per channel).
+    #[arg(long, value_enum)]
+    pub format: Option<OutputFormat>,
     /// Also write the JSON result (or, with --shard, the partial tally) to this file, atomically.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -179,7 +221,7 @@ pub struct SolveArgs {
     /// Compute every effect (planner off), for comparison.
     #[arg(long)]
     pub all_effects: bool,
-    /// Two-flux coefficients K, S from the scene [km].
+    /// Two-flux coefficients K, S from the scene [km] (default seed: K = sigma_a, S = sigma_s).
     #[arg(long, value_enum, default_value_t = KmMappingArg::Seed)]
     pub km_mapping: KmMappingArg,
     /// Gauss nodes per hemisphere [multiflux] (default 16).
@@ -221,6 +263,12 @@ fn method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
         .try_map(|s| s.parse::<Method>())
 }
 
+/// The `km profile --method` values: the methods that give `Rd(r)`.
+fn profile_method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
+    clap::builder::PossibleValuesParser::new([Method::Dipole.name(), Method::Mc.name()])
+        .try_map(|s| s.parse::<Method>())
+}
+
 /// How the two-flux coefficients K, S are obtained from the scene.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum KmMappingArg {
@@ -230,6 +278,28 @@ pub enum KmMappingArg {
     Star1988,
     /// Gate 1974: K = 2 sigma_a, S = 3/4 sigma_s (1 - g).
     Gate1974,
+}
+
+/// Output format of `km solve`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// Text for people.
+    Table,
+    /// The JSON contract of docs/cli.md.
+    Json,
+    /// Comma-separated values with a header.
+    Csv,
+}
+
+/// Output format of `km sweep`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepFormat {
+    /// Aligned columns.
+    Table,
+    /// Comma-separated values with a header.
+    Csv,
+    /// One JSON object per line.
+    Jsonl,
 }
 
 /// Monte Carlo absorption estimator.
@@ -262,8 +332,9 @@ pub enum DipoleArg {
 
 fn main() -> ExitCode {
     stdout::init();
-    let cli = Cli::parse();
-    match run(cli) {
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    match methods::check_flags(&matches).and_then(|()| run(cli)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -272,11 +343,17 @@ fn main() -> ExitCode {
     }
 }
 
-fn print_solution(sol: &km::Solution, scene: Option<&km::Scene>, json: bool) -> anyhow::Result<()> {
-    if json {
-        stdout::print(&format!("{}\n", serde_json::to_string_pretty(&sol.to_json())?))
-    } else {
-        stdout::print(&km::text::table(sol, scene))
+fn print_solution(
+    sol: &km::Solution,
+    scene: Option<&km::Scene>,
+    format: OutputFormat,
+) -> anyhow::Result<()> {
+    match format {
+        OutputFormat::Json => {
+            stdout::print(&format!("{}\n", serde_json::to_string_pretty(&sol.to_json())?))
+        }
+        OutputFormat::Csv => stdout::print(&km::text::csv(sol, scene)),
+        OutputFormat::Table => stdout::print(&km::text::table(sol, scene)),
     }
 }
 
@@ -290,6 +367,12 @@ fn write_json(
     let opts = km::atomic_file::WriteOptions { inputs: inputs.to_vec(), ..Default::default() };
     km::atomic_file::write_atomic_with(path, text.as_bytes(), &opts)
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Read a scene file with the `--set` edits applied (km_core::set).
+fn load(path: &std::path::Path, set: &[String]) -> anyhow::Result<km::Scene> {
+    let edits = set.iter().map(|s| km::SetEdit::parse(s)).collect::<Result<Vec<_>, _>>()?;
+    Ok(km::Scene::from_path_edited(path, &edits)?)
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -310,10 +393,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let sol = methods::solve(&scene, &args)?;
                 stdout::print(&format!("{}\n", km::text::table(&sol, Some(&scene))))?;
             }
+            if let Err(e) = km::solve(&scene, &km::Options::new(Method::Dipole)) {
+                println!("dipole: skipped: {e}");
+            }
             Ok(())
         }
         Command::Solve(args) => {
-            let scene = km::Scene::from_path(&args.scene)?;
+            let scene = load(&args.scene, &args.set)?;
             if let Some(shard) = &args.shard {
                 let (i, n) = methods::parse_shard(shard)?;
                 if args.method != Method::Mc {
@@ -331,7 +417,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(out) = &args.out {
                 write_json(out, &sol.to_json(), std::slice::from_ref(&args.scene))?;
             }
-            print_solution(&sol, Some(&scene), args.json)
+            print_solution(&sol, Some(&scene), args.output_format())
         }
         Command::Bsdf(args) => bsdf::main(&args),
         Command::Merge { parts, json, out } => {
@@ -339,15 +425,34 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(out) = &out {
                 write_json(out, &sol.to_json(), &parts)?;
             }
-            print_solution(&sol, None, json)
+            print_solution(&sol, None, if json { OutputFormat::Json } else { OutputFormat::Table })
         }
-        Command::Profile { scene, method, r_max, points, samples, seed, json } => {
-            let s = km::Scene::from_path(&scene)?;
+        Command::Profile { scene, set, method, r_max, points, samples, seed, json } => {
+            let s = load(&scene, &set)?;
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
             methods::profile(&s, &opts, json)
         }
-        Command::Plan { scene, method, json, all_effects } => {
-            let s = km::Scene::from_path(&scene)?;
+        Command::Sweep { scene, set, method, format } => {
+            let text = std::fs::read_to_string(&scene)
+                .with_context(|| format!("cannot read {}", scene.display()))?;
+            let (mut edits, mut axes) = (Vec::new(), Vec::new());
+            for s in &set {
+                if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {
+                    axes.push(km::SweepAxis::parse(s)?);
+                } else {
+                    edits.push(km::SetEdit::parse(s)?);
+                }
+            }
+            if axes.is_empty() {
+                bail!("km sweep needs at least one --set KEY=START:STOP:N");
+            }
+            let opts = methods::options(&SolveArgs::defaults(method))?;
+            let points = km::sweep(&text, &edits, &axes, &opts)?;
+            methods::print_sweep(&axes, &points, format);
+            Ok(())
+        }
+        Command::Plan { scene, set, method, json, all_effects } => {
+            let s = load(&scene, &set)?;
             let plan = km::plan_for(&s, method, all_effects);
             if json {
                 let mut v = plan.to_json();
@@ -358,8 +463,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::Fit(args) => fit::run(&args),
-        Command::Check { scene } => {
-            let s = km::Scene::from_path(&scene)?;
+        Command::Check { scene, set } => {
+            let s = load(&scene, &set)?;
             stdout::print(&km::text::describe(&s))
         }
         Command::Reproduce { out, quick: _, full, seed, quiet, only } => {
@@ -386,8 +491,10 @@ impl SolveArgs {
     fn defaults(method: Method) -> SolveArgs {
         SolveArgs {
             scene: PathBuf::from("examples/seed-three-layers.toml"),
+            set: Vec::new(),
             method,
             json: false,
+            format: None,
             out: None,
             tolerance: None,
             all_effects: false,
@@ -405,8 +512,13 @@ impl SolveArgs {
         }
     }
 
-    /// Whether a progress bar may be shown (no JSON, stderr is a terminal).
+    /// The output format (`--json` is `--format json`).
+    pub fn output_format(&self) -> OutputFormat {
+        if self.json { OutputFormat::Json } else { self.format.unwrap_or(OutputFormat::Table) }
+    }
+
+    /// Whether a progress bar may be shown (text output, stderr is a terminal).
     pub fn progress(&self) -> bool {
-        !self.json && std::io::stderr().is_terminal()
+        self.output_format() == OutputFormat::Table && std::io::stderr().is_terminal()
     }
 }

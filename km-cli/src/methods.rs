@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use km::{KmError, Method, Scene, Solution};
 
-use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, SolveArgs};
+use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, SolveArgs, SweepFormat};
 
 /// Solve `scene` with the method and options of `args` (through [`km::solve`]).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
@@ -156,9 +156,11 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<(
         return crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&p.to_json())?));
     }
     use std::fmt::Write;
-    let mut t = format!("{:>12}", "r");
+    // r in the scene's length unit; Rd(r) per unit area: 1/length^2.
+    let mut t = format!("{:>12}", "r [L]");
     for l in &p.labels {
-        let _ = write!(t, "{:>16}", format!("Rd {l}"));
+        let name = if p.labels.len() == 1 { "Rd".to_string() } else { format!("Rd {l}") };
+        let _ = write!(t, "{:>16}", format!("{name} [1/L^2]"));
     }
     t.push('\n');
     for (i, ri) in p.r.iter().enumerate() {
@@ -168,5 +170,157 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<(
         }
         t.push('\n');
     }
+    t.push_str("L: the scene's length unit (that of 1/sigma_t)\n");
     crate::stdout::print(&t)
+}
+
+/// The `km solve` flags that apply to some methods only: argument id, the
+/// methods it applies to, and what it sets.
+const SOLVE_FLAGS: &[(&str, &[Method], &str)] = &[
+    ("samples", &[Method::Mc], "the photon count of Monte Carlo"),
+    ("seed", &[Method::Mc], "the random seed of Monte Carlo"),
+    ("threads", &[Method::Mc], "the worker threads of Monte Carlo"),
+    ("estimator", &[Method::Mc], "the absorption estimator of Monte Carlo"),
+    ("shard", &[Method::Mc], "a share of a Monte Carlo run"),
+    ("streams", &[Method::Multiflux], "the Gauss nodes per hemisphere of multi-flux"),
+    ("order", &[Method::Multiflux], "the Neumann order of multi-flux adding"),
+    ("km_mapping", &[Method::Km], "how two-flux K, S come from the scene"),
+    ("fdr", &[Method::Dipole], "how the dipole computes F_dr"),
+    ("dipole", &[Method::Dipole], "which dipole"),
+    (
+        "tolerance",
+        &[Method::Multiflux, Method::Mc],
+        "an accuracy target, met by choosing streams or photons; km and dipole are closed \
+         forms with no accuracy setting",
+    ),
+];
+
+/// `--flag-name` of an argument id.
+fn flag(id: &str) -> String {
+    format!("--{}", id.replace('_', "-"))
+}
+
+/// Whether the user gave argument `id` on the command line (not a default).
+fn given(m: &clap::ArgMatches, id: &str) -> bool {
+    matches!(m.try_get_raw(id), Ok(Some(_)))
+        && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+}
+
+/// Refuse a flag that does not apply to the chosen method or mode (clap cannot
+/// know the method: checked after parsing), saying why.
+pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
+    match matches.subcommand() {
+        Some(("solve", m)) => {
+            let method = m.get_one::<Method>("method").copied().unwrap_or(Method::Multiflux);
+            for (id, methods, what) in SOLVE_FLAGS {
+                if given(m, id) && !methods.contains(&method) {
+                    let names: Vec<_> = methods.iter().map(|x| x.name()).collect();
+                    bail!(
+                        "{} does not apply to --method {}: it sets {what} (--method {})",
+                        flag(id),
+                        method.name(),
+                        names.join(" or ")
+                    );
+                }
+            }
+            if given(m, "shard") && (given(m, "json") || given(m, "format")) {
+                bail!(
+                    "--shard writes its partial tally to --out and prints no result: --json and \
+                     --format apply to `km merge` and to whole runs"
+                );
+            }
+            if given(m, "tolerance") && given(m, "samples") {
+                bail!("give either --samples or --tolerance: the target chooses the photon count");
+            }
+            if given(m, "tolerance") && given(m, "shard") {
+                bail!(
+                    "--tolerance does not combine with --shard (every shard would choose its own \
+                     photon count): run a pilot `km solve SCENE --method mc --tolerance T --json`, \
+                     read the sample count it chose (`tolerance.samples` of the JSON), then shard with \
+                     `--samples N --shard I/K --out FILE` and `km merge`"
+                );
+            }
+        }
+        Some(("profile", m)) => {
+            let method = m.get_one::<Method>("method").copied().unwrap_or(Method::Dipole);
+            for id in ["samples", "seed"] {
+                if given(m, id) && method != Method::Mc {
+                    bail!(
+                        "{} does not apply to --method {}: it sets the Monte Carlo run \
+                         (--method mc)",
+                        flag(id),
+                        method.name()
+                    );
+                }
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// `km sweep`: one row per point (and channel), in grid order.
+pub fn print_sweep(axes: &[km::SweepAxis], points: &[km::SweepPoint], format: SweepFormat) {
+    let spectral = points.first().is_some_and(|p| p.solution.channels.len() > 1);
+    let quantities = [
+        "reflectance",
+        "reflectance_specular",
+        "transmittance",
+        "transmittance_direct",
+        "absorptance",
+    ];
+    let mut header: Vec<String> = axes.iter().map(|a| a.key.clone()).collect();
+    if spectral {
+        header.push("channel".into());
+    }
+    header.extend(quantities.iter().map(|q| q.to_string()));
+    match format {
+        SweepFormat::Csv => println!("{}", header.join(",")),
+        SweepFormat::Table => {
+            println!("{}", header.iter().map(|h| format!("{h:>22}")).collect::<String>())
+        }
+        SweepFormat::Jsonl => {}
+    }
+    for p in points {
+        for (c, ch) in p.solution.channels.iter().enumerate() {
+            let nums = [
+                ch.reflectance,
+                ch.reflectance_specular,
+                ch.transmittance,
+                ch.transmittance_direct,
+                ch.absorptance,
+            ];
+            let label = p.solution.labels.get(c).cloned().unwrap_or_default();
+            match format {
+                SweepFormat::Jsonl => {
+                    let mut o = serde_json::Map::new();
+                    for (a, v) in axes.iter().zip(&p.values) {
+                        o.insert(a.key.clone(), (*v).into());
+                    }
+                    if spectral {
+                        o.insert("channel".into(), label.into());
+                    }
+                    for (q, v) in quantities.iter().zip(nums) {
+                        o.insert((*q).into(), v.into());
+                    }
+                    println!("{}", serde_json::Value::Object(o));
+                }
+                SweepFormat::Csv | SweepFormat::Table => {
+                    let mut cells: Vec<String> = p.values.iter().map(|v| v.to_string()).collect();
+                    if spectral {
+                        cells.push(label);
+                    }
+                    cells.extend(nums.iter().map(|v| v.to_string()));
+                    if format == SweepFormat::Csv {
+                        println!("{}", cells.join(","));
+                    } else {
+                        println!(
+                            "{}",
+                            cells.iter().map(|c| format!("{c:>22}")).collect::<String>()
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

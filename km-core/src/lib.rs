@@ -23,6 +23,7 @@ pub mod phase;
 pub mod plan;
 pub mod presets;
 pub mod scene;
+pub mod set;
 pub mod solution;
 pub mod two_flux;
 

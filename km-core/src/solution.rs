@@ -4,7 +4,8 @@
 //! A [`Solution`] holds one [`ChannelResult`] per spectral channel. Its JSON
 //! has the contract's keys; for a one-channel scene each is a number (or a
 //! list of numbers for `brdf`/`btdf`), for several channels each becomes a
-//! list over channels and `"channels"` gives their labels. The uncertainties
+//! list over channels and `"channels"` gives their labels (`km::solve` puts a
+//! spectral scene's wavelengths there, as numbers). The uncertainties
 //! ([`Uncertainty`]: `stderr`, `error_estimate`) take the same shape key by
 //! key: `d["stderr"]["reflectance"]` is a number for one channel and a list
 //! over channels for several.

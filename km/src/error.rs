@@ -28,12 +28,13 @@ pub enum Reason {
     },
     /// The method treats semi-infinite layers only.
     #[error(
-        "it treats a semi-infinite layer and the layer ends at thickness {thickness} (the \
-         multi-flux and Monte Carlo methods treat slabs)"
+        "it treats a semi-infinite layer and the layer has a finite optical thickness \
+         tau = sigma_t * thickness = {} (the multi-flux and Monte Carlo methods treat slabs)",
+        short(*.tau)
     )]
     FiniteLayer {
-        /// The layer's thickness.
-        thickness: f64,
+        /// The layer's optical thickness `tau = (sigma_a + sigma_s) * thickness`.
+        tau: f64,
     },
     /// The method gives no radially resolved profile.
     #[error("it gives no radial profile Rd(r) (the dipole and Monte Carlo do)")]
@@ -102,4 +103,11 @@ pub enum KmError {
         /// The largest work, in words (e.g. `256 streams`).
         work: String,
     },
+}
+
+/// `x` with at most 6 significant digits and no trailing zeros (`64`, not `64.000000000001`).
+fn short(x: f64) -> String {
+    let t = format!("{x:.6e}");
+    let v: f64 = t.parse().unwrap_or(x);
+    format!("{v}")
 }

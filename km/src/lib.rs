@@ -34,12 +34,14 @@ mod error;
 mod method;
 mod profile;
 mod solver;
+mod sweep;
 pub mod text;
 
 pub use error::{KmError, Reason, Unsupported};
 /// Output files written atomically, never over devices, links or inputs (`docs/limits.md`).
 pub use km_core::atomic_file;
 pub use km_core::plan::{Plan, Request, Simplification};
+pub use km_core::set::SetEdit;
 pub use km_core::solution::AccuracyReport;
 pub use km_core::two_flux::{KmMapping, KmOptions};
 pub use km_core::{
@@ -57,6 +59,7 @@ pub use km_multiflux::budget as multiflux_budget;
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
 pub use solver::{MethodOptions, Options, Solver};
+pub use sweep::{SweepAxis, SweepPoint, sweep};
 
 /// The README's examples, compiled and run as doctests.
 #[doc = include_str!("../../README.md")]
@@ -117,6 +120,10 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     if sol.channels.iter().any(|c| !c.brdf.is_empty() || !c.btdf.is_empty()) {
         sol.directions =
             scene.channels.first().map(|c| c.directions_deg.clone()).unwrap_or_default();
+    }
+    // A spectral scene's JSON `channels` are its wavelengths (numbers, nm).
+    if let Some(w) = scene.wavelengths_nm.as_ref().filter(|w| w.len() > 1) {
+        sol.extra.insert("channels".into(), serde_json::json!(w));
     }
     sol.plan = Some(plan);
     Ok(sol)

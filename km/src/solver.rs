@@ -96,7 +96,7 @@ impl Solver for DipoleOptions {
             }
             let l = &c.layers[0];
             if !l.is_half_space() {
-                return no(Reason::FiniteLayer { thickness: l.thickness });
+                return no(Reason::FiniteLayer { tau: l.tau() });
             }
             if l.sigma_s <= 0.0 {
                 return no(Reason::NoScattering { channel });

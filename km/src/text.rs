@@ -8,30 +8,78 @@ use crate::{ChannelResult, Light, Method, Plan, Scene, Solution, Substrate};
 /// Reads one number of a channel's result.
 type Getter = fn(&ChannelResult) -> f64;
 
-/// A table of the solution, one column per channel, then the accuracy
-/// target met and every note. `scene` supplies the output directions when
-/// the solution does not carry them.
+/// Reads the standard error of one number (Monte Carlo).
+type StdGetter = fn(&crate::Uncertainty) -> Option<f64>;
+
+/// The five totals: name, value, standard error.
+const TOTALS: [(&str, Getter, StdGetter); 5] = [
+    ("reflectance", |c| c.reflectance, |u| u.reflectance),
+    ("reflectance_specular", |c| c.reflectance_specular, |u| u.reflectance_specular),
+    ("transmittance", |c| c.transmittance, |u| u.transmittance),
+    ("transmittance_direct", |c| c.transmittance_direct, |u| u.transmittance_direct),
+    ("absorptance", |c| c.absorptance, |u| u.absorptance),
+];
+
+/// Words of the totals in the text table.
+const TOTAL_WORDS: [&str; 5] =
+    ["reflectance", "  specular part", "transmittance", "  direct part", "absorptance"];
+
+/// `x`, with `± stderr` when there is one.
+fn cell(x: f64, se: Option<f64>) -> String {
+    match se {
+        Some(e) => format!("{x:.6} ± {e:.1e}"),
+        None => format!("{x:.6}"),
+    }
+}
+
+/// Whether the BTDF is meaningless: every value 0 and nothing transmitted
+/// (an opaque substrate or a half-space).
+fn btdf_is_empty(sol: &Solution) -> bool {
+    sol.channels.iter().all(|c| c.btdf.iter().all(|&v| v == 0.0) && c.transmittance == 0.0)
+}
+
+/// A table of the solution, one column per channel (one row per wavelength
+/// for a spectral scene), then the accuracy target met, the settings that
+/// shape the answer (Monte Carlo photon count, the two-flux mapping) and
+/// every note. `scene` supplies the output directions when the solution
+/// does not carry them, and the wavelengths.
 pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "method: {}   solver time: {}", sol.method, seconds(sol.seconds));
-    let _ = write!(s, "{:<24}", "");
-    for l in &sol.labels {
-        let _ = write!(s, "{l:>14}");
-    }
-    let _ = writeln!(s);
-    let rows: [(&str, Getter); 5] = [
-        ("reflectance", |c| c.reflectance),
-        ("  specular part", |c| c.reflectance_specular),
-        ("transmittance", |c| c.transmittance),
-        ("  direct part", |c| c.transmittance_direct),
-        ("absorptance", |c| c.absorptance),
-    ];
-    for (name, get) in rows {
-        let _ = write!(s, "{name:<24}");
-        for c in &sol.channels {
-            let _ = write!(s, "{:>14.6}", get(c));
+    let mc = sol.channels.iter().any(|c| c.stderr.is_some());
+    let width = if mc { 24 } else { 14 };
+    let wavelengths = scene.and_then(|sc| sc.wavelengths_nm.as_ref());
+    if let Some(w) = wavelengths.filter(|w| w.len() == sol.channels.len()) {
+        // Spectral: one row per wavelength.
+        let _ = write!(s, "{:>14}", "wavelength_nm");
+        for name in ["R", "R_specular", "T", "T_direct", "A"] {
+            let _ = write!(s, "{name:>width$}");
         }
         let _ = writeln!(s);
+        for (c, wl) in sol.channels.iter().zip(w) {
+            let _ = write!(s, "{wl:>14}");
+            for (_, get, se) in TOTALS {
+                let _ = write!(s, "{:>width$}", cell(get(c), c.stderr.as_ref().and_then(se)));
+            }
+            let _ = writeln!(s);
+        }
+    } else {
+        let _ = write!(s, "{:<24}", "");
+        if sol.labels.len() == 1 {
+            let _ = write!(s, "{:>width$}", "value");
+        } else {
+            for l in &sol.labels {
+                let _ = write!(s, "{l:>width$}");
+            }
+        }
+        let _ = writeln!(s);
+        for ((_, get, se), name) in TOTALS.into_iter().zip(TOTAL_WORDS) {
+            let _ = write!(s, "{name:<24}");
+            for c in &sol.channels {
+                let _ = write!(s, "{:>width$}", cell(get(c), c.stderr.as_ref().and_then(se)));
+            }
+            let _ = writeln!(s);
+        }
     }
     let scene_dirs = scene.map(|s| &s.channels[0].directions_deg);
     let dirs = if sol.directions.is_empty() {
@@ -44,17 +92,32 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
             .channels
             .iter()
             .all(|c| if pick == 0 { c.brdf.is_empty() } else { c.btdf.is_empty() })
+            || (pick == 1 && btdf_is_empty(sol))
         {
             continue;
         }
         for (i, d) in dirs.iter().enumerate() {
-            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1})", d[0], d[1]));
+            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1}) 1/sr", d[0], d[1]));
             for c in &sol.channels {
                 let v = if pick == 0 { &c.brdf } else { &c.btdf };
-                let _ = write!(s, "{:>14.6}", v.get(i).copied().unwrap_or(f64::NAN));
+                let se = c
+                    .stderr
+                    .as_ref()
+                    .and_then(|u| if pick == 0 { u.brdf.as_ref() } else { u.btdf.as_ref() });
+                let e = se.and_then(|e| e.get(i).copied());
+                let _ = write!(s, "{:>width$}", cell(v.get(i).copied().unwrap_or(f64::NAN), e));
             }
             let _ = writeln!(s);
         }
+    }
+    if mc {
+        let photons = sol.extra.get("mc").and_then(|m| m.get("samples")).and_then(|n| n.as_u64());
+        if let Some(n) = photons {
+            let _ = writeln!(s, "Monte Carlo: {n} photons per channel; ± is one standard error");
+        }
+    }
+    if let Some(m) = sol.extra.get("km_mapping").and_then(|m| m.as_str()) {
+        let _ = writeln!(s, "{}", km_mapping_words(m, scene));
     }
     if let Some(a) = &sol.accuracy {
         let _ = writeln!(
@@ -65,6 +128,72 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     }
     for note in &sol.notes {
         let _ = writeln!(s, "note: {note}");
+    }
+    s
+}
+
+/// Which two-flux mapping was used, how K, S relate to the scene's
+/// sigma_a, sigma_s and g (docs/two-flux.md eq. K13–K14), and when the
+/// multi-flux method is the better answer.
+fn km_mapping_words(mapping: &str, scene: Option<&Scene>) -> String {
+    let formula = match mapping {
+        "seed" => "K = sigma_a, S = sigma_s (g ignored)",
+        "star1988" => "K = 2 sigma_a, S = 3/4 sigma_s (1 - g) - 1/4 sigma_a",
+        "gate1974" => "K = 2 sigma_a, S = 3/4 sigma_s (1 - g)",
+        _ => "",
+    };
+    let mut s = format!("K/S mapping {mapping}: {formula} (--km-mapping seed|star1988|gate1974)");
+    let questionable = scene.is_some_and(|sc| {
+        sc.channels.iter().any(|c| c.layers.iter().any(|l| l.g() != 0.0 || l.n != c.ambient_n))
+    });
+    if questionable {
+        s.push_str(
+            "\nthe scene has a Fresnel interface or g != 0: the two-flux answer depends on the \
+             mapping; --method multiflux solves the angular problem",
+        );
+    }
+    s
+}
+
+/// The solution as CSV: a header, then one row per channel (`channel`, or
+/// `wavelength_nm` for a spectral scene), the five totals, their standard
+/// errors when there are any (`stderr_reflectance`, ...), and `brdf_I`,
+/// `btdf_I` per output direction.
+pub fn csv(sol: &Solution, scene: Option<&Scene>) -> String {
+    let wavelengths =
+        scene.and_then(|sc| sc.wavelengths_nm.as_ref()).filter(|w| w.len() == sol.channels.len());
+    let mc = sol.channels.iter().any(|c| c.stderr.is_some());
+    let n_brdf = sol.channels.iter().map(|c| c.brdf.len()).max().unwrap_or(0);
+    let n_btdf = if btdf_is_empty(sol) {
+        0
+    } else {
+        sol.channels.iter().map(|c| c.btdf.len()).max().unwrap_or(0)
+    };
+    let mut head =
+        vec![if wavelengths.is_some() { "wavelength_nm" } else { "channel" }.to_string()];
+    head.extend(TOTALS.iter().map(|t| t.0.to_string()));
+    if mc {
+        head.extend(TOTALS.iter().map(|t| format!("stderr_{}", t.0)));
+    }
+    head.extend((0..n_brdf).map(|i| format!("brdf_{i}")));
+    head.extend((0..n_btdf).map(|i| format!("btdf_{i}")));
+    let mut s = head.join(",");
+    s.push('\n');
+    for (k, c) in sol.channels.iter().enumerate() {
+        let mut row = vec![match wavelengths {
+            Some(w) => w[k].to_string(),
+            None => sol.labels.get(k).cloned().unwrap_or_default(),
+        }];
+        row.extend(TOTALS.iter().map(|t| t.1(c).to_string()));
+        if mc {
+            row.extend(TOTALS.iter().map(|t| {
+                c.stderr.as_ref().and_then(t.2).map(|e| e.to_string()).unwrap_or_default()
+            }));
+        }
+        row.extend((0..n_brdf).map(|i| c.brdf.get(i).map(f64::to_string).unwrap_or_default()));
+        row.extend((0..n_btdf).map(|i| c.btdf.get(i).map(f64::to_string).unwrap_or_default()));
+        s.push_str(&row.join(","));
+        s.push('\n');
     }
     s
 }

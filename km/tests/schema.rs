@@ -180,6 +180,20 @@ fn multi_channel_monte_carlo_and_accuracy_targets_validate() {
 }
 
 #[test]
+fn spectral_channels_are_numeric_wavelengths_and_validate() {
+    let text = "[spectrum]\nwavelengths_nm = [450, 550, 650]\n[[layer]]\nsigma_a = [0.1, 0.2, 0.3]\n\
+                sigma_s = 1\nthickness = 2\n";
+    let scene = Scene::from_toml_str(text).unwrap();
+    for opts in [Options::new(Method::Km), Options::new(Method::Multiflux), mc(2_000)] {
+        let mut v = km::solve(&scene, &opts).unwrap().to_json();
+        assert_eq!(v["channels"], json!([450.0, 550.0, 650.0]));
+        assert!(errors(&v).is_empty(), "{:?}", errors(&v));
+        v["channels"] = json!([true]);
+        assert!(!errors(&v).is_empty(), "a boolean channel accepted");
+    }
+}
+
+#[test]
 fn the_checker_rejects_what_the_schema_forbids() {
     let slab = example("fresnel-slab.toml");
     let good = km::solve(&slab, &Options::new(Method::Km)).unwrap().to_json();

@@ -1,0 +1,134 @@
+//! `km sweep`: one scene solved over a grid of edited values (`--set
+//! KEY=START:STOP:N`), the points in parallel, the rows in a fixed order.
+
+use km_core::set::SetEdit;
+use km_core::{Scene, Solution};
+use rayon::prelude::*;
+
+use crate::{KmError, Options};
+
+/// The most points one sweep solves.
+pub const MAX_POINTS: usize = 100_000;
+
+/// One swept key: `N` equally spaced values from `start` to `stop` (both included).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepAxis {
+    /// The key path (`layer[1].g`).
+    pub key: String,
+    /// First value.
+    pub start: f64,
+    /// Last value.
+    pub stop: f64,
+    /// Number of values, at least 1.
+    pub n: usize,
+}
+
+impl SweepAxis {
+    /// Parse `KEY=START:STOP:N`.
+    ///
+    /// # Errors
+    /// A scene error on the key when the range is not `START:STOP:N` with
+    /// finite numbers and `1 <= N <= 100000`.
+    ///
+    /// ```
+    /// let a = km::SweepAxis::parse("layer[1].g=0:0.8:5").unwrap();
+    /// assert_eq!(a.values(), vec![0.0, 0.2, 0.4, 0.6000000000000001, 0.8]);
+    /// assert!(km::SweepAxis::parse("layer[1].g=0:0.8").is_err());
+    /// ```
+    pub fn parse(text: &str) -> Result<SweepAxis, KmError> {
+        let e = SetEdit::parse(text)?;
+        let bad = || {
+            KmError::Scene(km_core::CoreError::scene(
+                e.key.clone(),
+                None,
+                format!("from --set: `{}`: a sweep takes START:STOP:N, e.g. 0:0.9:10", e.value),
+            ))
+        };
+        let parts: Vec<&str> = e.value.split(':').collect();
+        let [a, b, n] = parts[..] else { return Err(bad()) };
+        let (start, stop): (f64, f64) =
+            (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+        let n: usize = n.trim().parse().map_err(|_| bad())?;
+        if !start.is_finite() || !stop.is_finite() || n == 0 || n > MAX_POINTS {
+            return Err(bad());
+        }
+        Ok(SweepAxis { key: e.key, start, stop, n })
+    }
+
+    /// The values `start + (stop - start) i / (N - 1)`, `i = 0..N` (`start` when `N = 1`).
+    pub fn values(&self) -> Vec<f64> {
+        if self.n == 1 {
+            return vec![self.start];
+        }
+        let step = (self.stop - self.start) / (self.n - 1) as f64;
+        (0..self.n)
+            .map(|i| if i + 1 == self.n { self.stop } else { self.start + step * i as f64 })
+            .collect()
+    }
+}
+
+/// One point of a sweep: the swept values (in the order of the axes) and its solution.
+#[derive(Debug, Clone)]
+pub struct SweepPoint {
+    /// The value of each axis.
+    pub values: Vec<f64>,
+    /// The solution at these values.
+    pub solution: Solution,
+}
+
+/// Solve the scene file `text`, with the fixed `edits`, at every point of the
+/// grid of `axes` (the first axis varies slowest), in parallel; the points
+/// are returned in grid order.
+///
+/// # Errors
+/// The first point's error in grid order (scene errors name the key and
+/// `--set`), or a scene error when the grid has more than [`MAX_POINTS`].
+///
+/// ```
+/// let text = "[[layer]]\ntau = 1\nalbedo = 0.9\n";
+/// let axes = [km::SweepAxis::parse("layer[1].g=0:0.5:3").unwrap()];
+/// let pts = km::sweep(text, &[], &axes, &km::Options::new(km::Method::Km)).unwrap();
+/// assert_eq!(pts.len(), 3);
+/// assert_eq!(pts[2].values, vec![0.5]);
+/// ```
+pub fn sweep(
+    text: &str,
+    edits: &[SetEdit],
+    axes: &[SweepAxis],
+    options: &Options,
+) -> Result<Vec<SweepPoint>, KmError> {
+    let total = axes.iter().try_fold(1usize, |acc, a| acc.checked_mul(a.n));
+    let total = match total {
+        Some(t) if t <= MAX_POINTS => t,
+        _ => {
+            return Err(KmError::Scene(km_core::CoreError::scene(
+                "--set",
+                None,
+                format!("the sweep has more than {MAX_POINTS} points"),
+            )));
+        }
+    };
+    let values: Vec<Vec<f64>> = axes.iter().map(SweepAxis::values).collect();
+    let results: Vec<Result<SweepPoint, KmError>> = (0..total)
+        .into_par_iter()
+        .map(|index| {
+            // Mixed-radix digits of `index`, the last axis fastest.
+            let mut rest = index;
+            let mut point = vec![0.0; axes.len()];
+            for (k, a) in axes.iter().enumerate().rev() {
+                point[k] = values[k][rest % a.n];
+                rest /= a.n;
+            }
+            let mut all = edits.to_vec();
+            all.extend(
+                axes.iter()
+                    .zip(&point)
+                    .map(|(a, v)| SetEdit { key: a.key.clone(), value: format!("{v:?}") }),
+            );
+            let scene = Scene::from_toml_str_edited(text, &all)?;
+            let solution = crate::solve(&scene, options)?;
+            Ok(SweepPoint { values: point, solution })
+        })
+        .collect();
+    results.into_iter().collect()
+}
