@@ -27,7 +27,15 @@
 //! `beta e2(1/mu_b, beta, tau)` (far side); the correction then costs a few
 //! Legendre sums per azimuth.
 //!
-//! Per polar pair: `M + 1` coefficients and `4 L` weights; per azimuth: a
+//! For transmitted exits within 10 degrees of the beam's polar angle the
+//! solver also adds the second-order peak term (IMS, eq. C3 of
+//! `docs/multiflux.md`), `-(omega f)^2 P(c_T) xi / (4 pi mu_b (1 - omega f))`:
+//! a third marker per layer carries its azimuth-free factor
+//! ([`crate::correction::PeakCorrection::secondary_path`]) through the same
+//! paths, and the evaluation multiplies its weight `W_I` by
+//! `(omega f)^2 P(c_T)` (eq. B1a of `docs/bsdf.md`).
+//!
+//! Per polar pair: `M + 1` coefficients and up to `6 L` weights; per azimuth: a
 //! cosine sum. The delta parts (mirror reflection, unscattered beam) are kept
 //! apart, as in `km solve`.
 //!
@@ -119,9 +127,13 @@ pub(crate) struct TmsLayer {
     mu_b: Vec<Option<f64>>,
     mu_r: Vec<Option<f64>>,
     mu_t: Vec<Option<f64>>,
-    /// Weights `[W_R, W_T]` per (incidence, exit), for BRDF and BTDF exits.
-    w_r: Vec<[f64; 2]>,
-    w_t: Vec<[f64; 2]>,
+    /// Weights `[W_R, W_T, W_I]` per (incidence, exit), for BRDF and BTDF
+    /// exits (`W_I`: the second-order peak term, eq. B2).
+    w_r: Vec<[f64; 3]>,
+    w_t: Vec<[f64; 3]>,
+    /// The solver's correction of this layer (its `peak_pspike` is the
+    /// angular factor of the `W_I` term).
+    corr: crate::correction::PeakCorrection,
 }
 
 impl TmsLayer {
@@ -376,7 +388,7 @@ impl Bsdf {
         // The single-scattering correction (eq. B1, second line).
         for l in &ch.tms {
             let w = if transmitted { l.w_t[i * no + o] } else { l.w_r[i * no + o] };
-            if w == [0.0, 0.0] {
+            if w == [0.0; 3] {
                 continue;
             }
             let mu_x = if transmitted { l.mu_t[o] } else { l.mu_r[o] };
@@ -385,9 +397,12 @@ impl Bsdf {
                 ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
             for (k, &p) in phi_deg.iter().enumerate() {
                 let cphi = (p - 180.0).to_radians().cos();
-                let (f_r, f_t) =
-                    l.fix2(-mu_x * mu_b + sx * sb * cphi, mu_x * mu_b + sx * sb * cphi, mu_b);
+                let c_t = mu_x * mu_b + sx * sb * cphi;
+                let (f_r, f_t) = l.fix2(-mu_x * mu_b + sx * sb * cphi, c_t, mu_b);
                 out[k] += w[0] * f_r + w[1] * f_t;
+                if w[2] != 0.0 {
+                    out[k] += w[2] * l.corr.peak_pspike(c_t);
+                }
             }
         }
     }
@@ -418,11 +433,12 @@ impl Bsdf {
 enum Kind {
     Beam,
     Probe,
-    /// Marker of layer `l`, `r = true` for the path integral of the side the
-    /// beam entered (`W_R`), false for the far side (`W_T`).
+    /// Marker of layer `l`: `slot` 0 for the path integral of the side the
+    /// beam entered (`W_R`), 1 for the far side (`W_T`), 2 for the far side's
+    /// second-order peak term (`W_I`, eq. B2).
     Marker {
         l: usize,
-        r: bool,
+        slot: usize,
     },
 }
 
@@ -514,13 +530,42 @@ fn channel(
         }
     }
     let base_len = ex.len();
-    // Markers: per probe, per corrected layer, R and T kinds.
-    let mut marker_of: Vec<(usize, usize, bool)> = Vec::new(); // (probe extra, layer, r)
+    // The solver's correction per layer (TMS and IMS, eq. C2-C4 of
+    // `docs/multiflux.md`), and whether its IMS term can matter: it scales
+    // as (omega f)^2 times Legendre sums of at most ~1e3 (2N terms and the
+    // tails beyond them), so below omega f = 1e-8 it is under ~1e-13 of a
+    // unit radiance and the layer needs no IMS marker.
+    let corr: Vec<Option<crate::correction::PeakCorrection>> = (0..layers.len())
+        .map(|l| tms_layers.contains(&l).then(|| layers[l].correction(2 * streams)))
+        .collect();
+    let ims_on = |l: usize| {
+        opts.secondary_correction
+            && corr[l].as_ref().is_some_and(|c| layers[l].omega_true * c.f() > 1e-8)
+    };
+    // The IMS term lives only within the cone around the beam's polar angle
+    // (in the layer): its marker is needed where some beam is that close
+    // (a margin of 1e-6 rad; inside, the solver's own test decides).
+    let in_cone = |p: usize, l: usize| {
+        let n = layers[l].n;
+        let cone = crate::correction::IMS_CONE_DEG.to_radians() + 1e-6;
+        mu_of_invariant(ex[p].0, n).is_some_and(|mx| {
+            (0..ni).any(|i| {
+                mu_of_invariant(ex[i].0, n).is_some_and(|mb| (mb.acos() - mx.acos()).abs() <= cone)
+            })
+        })
+    };
+    // Markers: per probe, per corrected layer, R and T kinds (and I).
+    let mut marker_of: Vec<(usize, usize, usize)> = Vec::new(); // (probe extra, layer, slot)
+    let slots: Vec<usize> = (r0..base_len)
+        .flat_map(|p| tms_layers.iter().map(move |&l| (p, l)))
+        .map(|(p, l)| if ims_on(l) && in_cone(p, l) { 3 } else { 2 })
+        .collect();
+    let mut slots = slots.into_iter();
     for p in r0..base_len {
         for &l in &tms_layers {
-            for r in [true, false] {
-                marker_of.push((p, l, r));
-                ex.push((ex[p].0, Kind::Marker { l, r }));
+            for slot in 0..slots.next().unwrap_or(2) {
+                marker_of.push((p, l, slot));
+                ex.push((ex[p].0, Kind::Marker { l, slot }));
             }
         }
     }
@@ -567,7 +612,8 @@ fn channel(
         let count = if m == 0 { ex.len() } else { base_len };
         let kinds = &kinds_all[..count];
         let extras_in = |n: f64| extras_for(n, count);
-        let ops = stack(scene, &grid, &layers, n_sub, &extras_in, kinds, m, opts.neumann_order)?;
+        let ops =
+            stack(scene, &grid, &layers, &corr, n_sub, &extras_in, kinds, m, opts.neumann_order)?;
         let (mut cr, mut ct) = (vec![0.0; ni * no], vec![0.0; ni * no]);
         let mut term = 0.0f64;
         for i in 0..ni {
@@ -609,7 +655,7 @@ fn channel(
                     .collect();
                 let mut tl = TmsLayer {
                     omega_true: s.omega_true,
-                    f: s.correction(2 * streams).f(),
+                    f: corr[l].as_ref().map_or(0.0, |c| c.f()),
                     omega: s.omega,
                     chiw,
                     rec,
@@ -621,15 +667,15 @@ fn channel(
                     } else {
                         vec![None; no]
                     },
-                    w_r: vec![[0.0; 2]; ni * no],
-                    w_t: vec![[0.0; 2]; ni * no],
+                    w_r: vec![[0.0; 3]; ni * no],
+                    w_t: vec![[0.0; 3]; ni * no],
+                    corr: s.correction(2 * streams),
                 };
-                for (k, &(p, ml, r)) in marker_of.iter().enumerate() {
+                for (k, &(p, ml, slot)) in marker_of.iter().enumerate() {
                     if ml != l {
                         continue;
                     }
                     let e = base_len + k;
-                    let slot = usize::from(!r);
                     for i in 0..ni {
                         if p < t0 {
                             let o = p - r0;
@@ -682,6 +728,7 @@ fn stack(
     scene: &MonoScene,
     grid: &AngularGrid,
     layers: &[Scaled],
+    corr: &[Option<crate::correction::PeakCorrection>],
     n_sub: Option<f64>,
     extras_in: &dyn Fn(f64) -> Vec<Extra>,
     kinds: &[Kind],
@@ -708,7 +755,7 @@ fn stack(
         // This layer's correction paths into its markers (unit F).
         let nn = nodes.mu.len();
         for (x, k) in kinds.iter().enumerate() {
-            let Kind::Marker { l: ml, r } = *k else { continue };
+            let Kind::Marker { l: ml, slot } = *k else { continue };
             if ml != li {
                 continue;
             }
@@ -717,12 +764,20 @@ fn stack(
             for (b, kb) in kinds.iter().enumerate() {
                 let (Kind::Beam, Some(mu_b)) = (kb, ex[b].mu) else { continue };
                 let kb = 1.0 / mu_b;
-                if r {
+                if slot == 0 {
                     let v = beta * phi(kb + beta, l.tau);
                     ops.r_top[(nn + x, nn + b)] = v;
                     ops.r_bottom[(nn + x, nn + b)] = v;
                 } else {
-                    let v = beta * e2(kb, beta, l.tau);
+                    let v = if slot == 1 {
+                        beta * e2(kb, beta, l.tau)
+                    } else {
+                        // Eq. B2: the IMS path factor at the unscaled thickness,
+                        // as the solver's `PeakCorrection::radiance`.
+                        corr[li].as_ref().map_or(0.0, |c| {
+                            c.secondary_path(mu_b, mu_x, l.tau / (1.0 - l.omega_true * c.f()))
+                        })
+                    };
                     ops.t_down[(nn + x, nn + b)] = v;
                     ops.t_up[(nn + x, nn + b)] = v;
                 }

@@ -157,8 +157,21 @@ impl PeakCorrection {
     /// thickness `tau`, zero outside the cone of [`IMS_CONE_DEG`] around the
     /// beam's polar angle.
     pub fn secondary_radiance(&self, mu_b: f64, mu_x: f64, cos_theta: f64, tau: f64) -> f64 {
+        let path = self.secondary_path(mu_b, mu_x, tau);
+        if path == 0.0 {
+            return 0.0;
+        }
+        self.peak_pspike(cos_theta) * path
+    }
+
+    /// The factor of eq. C3 that does not depend on the azimuth:
+    /// `-xi(mu_x, mu_b/(1 - omega f), tau) / (4 pi mu_b (1 - omega f))`, so
+    /// that [`Self::secondary_radiance`] is `peak_pspike(cos Theta)` times it;
+    /// zero outside the cone of [`IMS_CONE_DEG`], for `omega f = 0`, and for
+    /// `tau` (unscaled) not finite and positive.
+    pub fn secondary_path(&self, mu_b: f64, mu_x: f64, tau: f64) -> f64 {
         let wf = self.omega * self.f;
-        if wf <= 0.0 || !tau.is_finite() || tau <= 0.0 {
+        if !self.secondary || wf <= 0.0 || !tau.is_finite() || tau <= 0.0 {
             return 0.0;
         }
         let cone = (mu_b.clamp(-1.0, 1.0).acos() - mu_x.clamp(-1.0, 1.0).acos()).abs();
@@ -166,7 +179,7 @@ impl PeakCorrection {
             return 0.0;
         }
         let xi = xi(mu_x, mu_b / (1.0 - wf), tau);
-        -self.peak_pspike(cos_theta) / (1.0 - wf) * xi / (4.0 * std::f64::consts::PI * mu_b)
+        -xi / ((1.0 - wf) * 4.0 * std::f64::consts::PI * mu_b)
     }
 }
 

@@ -20,7 +20,7 @@ fn compare(g: f64) -> f64 {
     let scene =
         Scene::from_toml_str(&format!("[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = {g}\n")).unwrap();
     let b = Bsdf::new(&scene, &[theta_i], &theta_o, &BsdfOptions::default()).unwrap();
-    let mut worst = 0.0f64;
+    let (mut worst, mut at) = (0.0f64, String::new());
     for (o, to) in theta_o.iter().enumerate() {
         for (p, ph) in phi.iter().enumerate() {
             for (key, km) in [("brdf", b.brdf(0, 0, o, *ph)), ("btdf", b.btdf(0, 0, o, *ph))] {
@@ -30,13 +30,16 @@ fn compare(g: f64) -> f64 {
                 if score > 1.0 {
                     println!("g {g} {key} theta_o {to} phi {ph}: km {km:.6e} DISORT {r:.6e}");
                 }
-                worst = worst.max(score);
+                if score > worst {
+                    worst = score;
+                    at = format!("{key} theta_o {to} phi {ph}: km {km:.6e} DISORT {r:.6e}");
+                }
             }
         }
     }
     let c = &b.channels[0];
     println!(
-        "g {g}: worst score {worst:.3} (1 = 1 % or 1e-4); R {:.6} vs {:.6}, T {:.6} vs {:.6}",
+        "g {g}: worst score {worst:.3} (1 = 1 % or 1e-4) at {at}; R {:.6} vs {:.6}, T {:.6} vs {:.6}",
         c.reflectance[0],
         case["reflectance"].as_f64().unwrap(),
         c.transmittance[0],
@@ -55,11 +58,12 @@ fn within_one_percent_of_disort_g08() {
     assert!(compare(0.8) <= 1.0);
 }
 
-/// g = 0.95 at default accuracy needs an intensity correction beyond the
-/// single-scattering one (being added to the solver separately): measured
-/// and printed here, not asserted.
+/// g = 0.95 at default accuracy (48 streams beyond |g| = 0.9 when
+/// directions are asked for; TMS and, inside the 10-degree cone around the
+/// transmitted beam, the IMS term). The reference's exit angles 40 and 60
+/// deg lie on the edge of the cone around the 50-degree beam (10 deg away,
+/// inside by rounding: the IMS term is applied there, as in DISORT).
 #[test]
-fn disort_g095_reported() {
-    let w = compare(0.95);
-    assert!(w.is_finite());
+fn within_one_percent_of_disort_g095() {
+    assert!(compare(0.95) <= 1.0);
 }
