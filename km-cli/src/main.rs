@@ -72,9 +72,12 @@ km bsdf examples/seed-three-layers.toml --out seed.npz --plot out/bsdf"
         /// Partial tally files written by `km solve --method mc --shard i/N --out FILE`.
         #[arg(required = true)]
         parts: Vec<PathBuf>,
-        /// Print JSON instead of a table.
-        #[arg(long)]
+        /// Print JSON instead of a table (the same as `--format json`).
+        #[arg(long, conflicts_with = "format")]
         json: bool,
+        /// Output format: table, json (the contract of docs/cli.md) or csv.
+        #[arg(long, value_enum)]
+        format: Option<OutputFormat>,
         /// Also write the JSON result to this file (atomically).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -104,9 +107,12 @@ km profile examples/marble-half-space.toml --method mc --r-max 10 --points 40 --
         /// Monte Carlo seed [mc].
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Print JSON instead of a table.
-        #[arg(long)]
+        /// Print JSON instead of a table (the same as `--format json`).
+        #[arg(long, conflicts_with = "format")]
         json: bool,
+        /// Output format: table, json or csv (one row per radius).
+        #[arg(long, value_enum)]
+        format: Option<OutputFormat>,
     },
     /// Solve a scene over a grid of edited values, one row per point (and channel).
     #[command(
@@ -280,7 +286,12 @@ pub enum KmMappingArg {
     Gate1974,
 }
 
-/// Output format of `km solve`.
+/// `--json` or `--format` (table by default).
+fn output_format(json: bool, format: Option<OutputFormat>) -> OutputFormat {
+    format.unwrap_or(if json { OutputFormat::Json } else { OutputFormat::Table })
+}
+
+/// Output format of `km solve`, `km merge` and `km profile`.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutputFormat {
     /// Text for people.
@@ -420,21 +431,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print_solution(&sol, Some(&scene), args.output_format())
         }
         Command::Bsdf(args) => bsdf::main(&args),
-        Command::Merge { parts, json, out } => {
+        Command::Merge { parts, json, format, out } => {
             let sol = km_montecarlo::merge_files(&parts)?;
             if let Some(out) = &out {
                 write_json(out, &sol.to_json(), &parts)?;
             }
-            print_solution(&sol, None, if json { OutputFormat::Json } else { OutputFormat::Table })
+            print_solution(&sol, None, output_format(json, format))
         }
-        Command::Profile { scene, set, method, r_max, points, samples, seed, json } => {
+        Command::Profile { scene, set, method, r_max, points, samples, seed, json, format } => {
             let s = load(&scene, &set)?;
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
-            methods::profile(&s, &opts, json)
+            methods::profile(&s, &opts, output_format(json, format))
         }
         Command::Sweep { scene, set, method, format } => {
-            let text = std::fs::read_to_string(&scene)
-                .with_context(|| format!("cannot read {}", scene.display()))?;
+            // Read as every scene file is read (regular file or `-`, size limit).
+            let text = km::read_scene_text(&scene, km::SceneLimits::from_env().max_bytes)
+                .with_context(|| format!("{}", scene.display()))?;
             let (mut edits, mut axes) = (Vec::new(), Vec::new());
             for s in &set {
                 if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use km::{KmError, Method, Scene, Solution};
 
-use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, SolveArgs, SweepFormat};
+use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, OutputFormat, SolveArgs, SweepFormat};
 
 /// Solve `scene` with the method and options of `args` (through [`km::solve`]).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
@@ -145,17 +145,49 @@ pub fn mc_shard(scene: &Scene, args: &SolveArgs, i: u64, n: u64) -> Result<km_mo
 }
 
 /// `km profile`: Rd(r) by the dipole or Monte Carlo, printed.
-pub fn profile(scene: &Scene, opts: &km::ProfileOptions, json: bool) -> Result<()> {
+pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -> Result<()> {
     let p = km::profile(scene, opts).map_err(|e| match e {
         KmError::Option { name, value, reason } => {
             anyhow::anyhow!("--{} {value}: {reason}", name.replace('_', "-"))
         }
         e => anyhow::Error::new(e).context(format!("--method {}", opts.method.name())),
     })?;
-    if json {
-        return crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&p.to_json())?));
-    }
     use std::fmt::Write;
+    match format {
+        OutputFormat::Json => {
+            return crate::stdout::print(&format!(
+                "{}\n",
+                serde_json::to_string_pretty(&p.to_json())?
+            ));
+        }
+        OutputFormat::Csv => {
+            // One row per radius: r, then Rd (and its standard error) per channel.
+            let one = p.labels.len() == 1;
+            let name = |base: &str, l: &str| {
+                if one { base.to_string() } else { format!("{base}_{l}") }
+            };
+            let mut cols = vec!["r".to_string()];
+            for l in &p.labels {
+                cols.push(name("rd", l));
+                if p.stderr.is_some() {
+                    cols.push(name("stderr_rd", l));
+                }
+            }
+            let mut t = cols.join(",") + "\n";
+            for (i, ri) in p.r.iter().enumerate() {
+                let _ = write!(t, "{ri:e}");
+                for (c, rd) in p.rd.iter().enumerate() {
+                    let _ = write!(t, ",{:e}", rd[i]);
+                    if let Some(se) = &p.stderr {
+                        let _ = write!(t, ",{:e}", se[c][i]);
+                    }
+                }
+                t.push('\n');
+            }
+            return crate::stdout::print(&t);
+        }
+        OutputFormat::Table => {}
+    }
     // r in the scene's length unit; Rd(r) per unit area: 1/length^2.
     let mut t = format!("{:>12}", "r [L]");
     for l in &p.labels {

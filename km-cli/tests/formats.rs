@@ -140,3 +140,75 @@ fn profile_text_has_units() {
     assert!(t.contains("L: the scene's length unit"), "{t}");
     assert_eq!(t.lines().count(), 5, "header, 3 radii, the unit line: {t}");
 }
+
+#[test]
+fn profile_csv_rows_are_the_json_numbers() {
+    let s = examples("marble-half-space.toml");
+    for method in ["dipole", "mc"] {
+        let mut args = vec!["profile", &s, "--method", method, "--points", "5"];
+        if method == "mc" {
+            args.extend(["--samples", "20000"]);
+        }
+        let json: serde_json::Value =
+            serde_json::from_str(&stdout(&[&args[..], &["--format", "json"]].concat())).unwrap();
+        let csv = stdout(&[&args[..], &["--format", "csv"]].concat());
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header[0], "r", "{csv}");
+        assert_eq!(header.iter().any(|h| h.starts_with("stderr")), method == "mc", "{csv}");
+        let rows: Vec<Vec<f64>> =
+            lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+        let r = json["r"].as_array().unwrap();
+        assert_eq!(rows.len(), r.len());
+        for (i, row) in rows.iter().enumerate() {
+            assert_eq!(row[0], r[i].as_f64().unwrap());
+            // One channel per rd column (marble has three).
+            let rd = &json["rd"];
+            let first = if rd[0].is_array() { rd[0][i].as_f64() } else { rd[i].as_f64() };
+            assert_eq!(row[1], first.unwrap(), "{method} row {i}");
+        }
+    }
+    // --json and --format conflict, as for km solve.
+    assert!(!km(&["profile", &s, "--json", "--format", "csv"]).status.success());
+}
+
+#[test]
+fn merge_takes_every_format() {
+    let dir = std::env::temp_dir().join(format!("km-formats-merge-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let s = examples("fresnel-slab.toml");
+    let parts: Vec<String> = (0..2)
+        .map(|i| {
+            let p = dir.join(format!("part{i}.json")).to_string_lossy().into_owned();
+            let _ = std::fs::remove_file(&p);
+            let shard = format!("{i}/2");
+            stdout(&[
+                "solve",
+                &s,
+                "--method",
+                "mc",
+                "--samples",
+                "20000",
+                "--shard",
+                &shard,
+                "--out",
+                &p,
+            ]);
+            p
+        })
+        .collect();
+    let mut base = vec!["merge"];
+    base.extend(parts.iter().map(String::as_str));
+    let json: serde_json::Value =
+        serde_json::from_str(&stdout(&[&base[..], &["--format", "json"]].concat())).unwrap();
+    let csv = stdout(&[&base[..], &["--format", "csv"]].concat());
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "reflectance").expect("reflectance column");
+    let r: f64 = row[col].parse().unwrap();
+    assert!((r - json["reflectance"].as_f64().unwrap()).abs() <= 1e-12 * r.abs().max(1.0));
+    let table = stdout(&[&base[..], &["--format", "table"]].concat());
+    assert!(table.contains('±'), "{table}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

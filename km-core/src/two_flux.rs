@@ -1133,14 +1133,21 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
             .collect::<Result<Vec<_>, _>>()?
     };
     let seconds = start.elapsed().as_secs_f64();
-    let mut notes = vec![
-        "two-flux fluxes are diffuse: a collimated beam's angle enters only through the Fresnel \
-         reflectance of the top interface (Saunderson)"
-            .to_string(),
-        "transmittance_direct is the zero-order (never scattered) term of the two-flux series, \
-         not the Beer-Lambert beam at oblique incidence"
-            .to_string(),
-    ];
+    // The collimated-beam notes only where a beam falls on the stack.
+    let collimated = scene.channels.iter().any(|m| m.light.mu0().is_some());
+    let mut notes = Vec::new();
+    if collimated {
+        notes.push(
+            "two-flux fluxes are diffuse: a collimated beam's angle enters only through the \
+             Fresnel reflectance of the top interface (Saunderson)"
+                .to_string(),
+        );
+        notes.push(
+            "transmittance_direct is the zero-order (never scattered) term of the two-flux \
+             series, not the Beer-Lambert beam at oblique incidence"
+                .to_string(),
+        );
+    }
     if scene.channels.iter().any(|m| !m.directions_deg.is_empty()) {
         notes.push(
             "KM has no angles: brdf and btdf are the Lambertian-equivalent values \

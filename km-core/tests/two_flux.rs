@@ -655,3 +655,14 @@ fn fluxes_inside_a_stack_match_ode_integration() {
     }
     println!("largest deviation of stack fluxes vs RK4 ODE integration: {worst:.3e}");
 }
+
+#[test]
+fn diffuse_light_gets_no_notes_about_a_collimated_beam() {
+    let base = "[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 0.5\nn = 1.3\n";
+    let diffuse = Scene::from_toml_str(&format!("[light]\nkind = \"diffuse\"\n{base}")).unwrap();
+    let beam = Scene::from_toml_str(base).unwrap();
+    let notes = |s: &Scene| solve(s, &KmOptions::default()).unwrap().notes;
+    let mentions = |n: &[String]| n.iter().any(|x| x.contains("collimated") || x.contains("beam"));
+    assert!(!mentions(&notes(&diffuse)), "{:?}", notes(&diffuse));
+    assert!(mentions(&notes(&beam)), "{:?}", notes(&beam));
+}
