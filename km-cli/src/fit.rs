@@ -180,11 +180,10 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             };
             let r = km_inverse::fit(&args.setup()?, &meas, &opts)?;
             if args.json {
-                println!("{}", serde_json::to_string_pretty(&r.to_json())?);
+                crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&r.to_json())?))
             } else {
-                print!("{}", table(&[(None, r)]));
+                crate::stdout::print(&table(&[(None, r)]))
             }
-            Ok(())
         }
         Some(path) => {
             if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
@@ -233,19 +232,20 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                         }),
                     })
                     .collect();
-                println!("{}", serde_json::to_string_pretty(&list)?);
+                crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&list)?))?;
             } else {
                 let ok: Vec<(Option<f64>, FitResult)> = results
                     .iter()
                     .filter_map(|(w, r)| r.as_ref().ok().map(|r| (*w, r.clone())))
                     .collect();
-                print!("{}", table(&ok));
+                let mut out = table(&ok);
                 for (w, r) in &results {
                     if let Err(e) = r {
                         let w = w.map_or("-".to_string(), |w| format!("{w:.1}"));
-                        println!("{w:>9} invalid: {e}");
+                        out += &format!("{w:>9} invalid: {e}\n");
                     }
                 }
+                crate::stdout::print(&out)?;
             }
             if failed == results.len() {
                 bail!("no row of {} could be fitted", path.display());

@@ -250,12 +250,14 @@ pub fn compute(inputs: &KmFitInputs) -> Result<Value> {
 /// # Errors
 /// Those of [`compute`].
 pub fn run(inputs: &KmFitInputs, json: bool) -> Result<()> {
+    use std::fmt::Write;
     let v = compute(inputs)?;
     if json {
-        println!("{}", serde_json::to_string_pretty(&v)?);
-        return Ok(());
+        return crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&v)?));
     }
-    println!("Kubelka–Munk inverse ({})", v["mode"].as_str().unwrap_or(""));
+    // The table is built whole, then written through the checked stdout.
+    let mut out = String::new();
+    writeln!(out, "Kubelka–Munk inverse ({})", v["mode"].as_str().unwrap_or(""))?;
     let rows: [(&str, &str); 8] = [
         ("K", "absorption K (1/length)"),
         ("S", "scattering S (1/length)"),
@@ -268,36 +270,38 @@ pub fn run(inputs: &KmFitInputs, json: bool) -> Result<()> {
     ];
     for (key, label) in rows {
         match v.get(key).and_then(Value::as_f64) {
-            Some(x) => println!("  {label:<30} {x:.6}"),
+            Some(x) => writeln!(out, "  {label:<30} {x:.6}")?,
             None if key == "K" || key == "S" => {
-                println!("  {label:<30} (needs --r-zero and --thickness)")
+                writeln!(out, "  {label:<30} (needs --r-zero and --thickness)")?
             }
             None => {}
         }
     }
     if let Some(u) = v.get("uncertainty").filter(|u| !u.is_null()) {
-        println!(
+        writeln!(
+            out,
             "  u(K), u(S) for readings +-{}: {:.3e}, {:.3e} (correlation {:.3})",
             u["u_reading"],
             u["K"].as_f64().unwrap_or(f64::NAN),
             u["S"].as_f64().unwrap_or(f64::NAN),
             u["correlation"].as_f64().unwrap_or(f64::NAN)
-        );
+        )?;
     }
     if let Some(s) = v.get("saunderson").filter(|s| !s.is_null()) {
         let (k1, k2) = (s["k1"].as_f64(), s["k2"].as_f64());
-        println!(
+        writeln!(
+            out,
             "  Saunderson k1 = {:.6}, k2 = {:.6}",
             k1.unwrap_or(f64::NAN),
             k2.unwrap_or(f64::NAN)
-        );
+        )?;
         if let Some(m) = v["internal"].as_object() {
             for (k, x) in m {
-                println!("  internal {k:<21} {:.6}", x.as_f64().unwrap_or(f64::NAN));
+                writeln!(out, "  internal {k:<21} {:.6}", x.as_f64().unwrap_or(f64::NAN))?;
             }
         }
     }
-    Ok(())
+    crate::stdout::print(&out)
 }
 
 /// Points of the hiding curves (thicknesses from 0 to this many, at most).

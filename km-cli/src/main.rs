@@ -405,7 +405,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 stdout::print(&format!("{}\n", km::text::table(&sol, Some(&scene))))?;
             }
             if let Err(e) = km::solve(&scene, &km::Options::new(Method::Dipole)) {
-                println!("dipole: skipped: {e}");
+                stdout::print(&format!("dipole: skipped: {e}\n"))?;
             }
             Ok(())
         }
@@ -460,8 +460,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let opts = methods::options(&SolveArgs::defaults(method))?;
             let points = km::sweep(&text, &edits, &axes, &opts)?;
-            methods::print_sweep(&axes, &points, format);
-            Ok(())
+            methods::print_sweep(&axes, &points, format)
         }
         Command::Plan { scene, set, method, json, all_effects } => {
             let s = load(&scene, &set)?;

@@ -292,7 +292,13 @@ pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
 }
 
 /// `km sweep`: one row per point (and channel), in grid order.
-pub fn print_sweep(axes: &[km::SweepAxis], points: &[km::SweepPoint], format: SweepFormat) {
+pub fn print_sweep(
+    axes: &[km::SweepAxis],
+    points: &[km::SweepPoint],
+    format: SweepFormat,
+) -> Result<()> {
+    // Built whole, then written through the checked stdout.
+    let mut out = String::new();
     let spectral = points.first().is_some_and(|p| p.solution.channels.len() > 1);
     let quantities = [
         "reflectance",
@@ -307,9 +313,9 @@ pub fn print_sweep(axes: &[km::SweepAxis], points: &[km::SweepPoint], format: Sw
     }
     header.extend(quantities.iter().map(|q| q.to_string()));
     match format {
-        SweepFormat::Csv => println!("{}", header.join(",")),
+        SweepFormat::Csv => outln(&mut out, header.join(",")),
         SweepFormat::Table => {
-            println!("{}", header.iter().map(|h| format!("{h:>22}")).collect::<String>())
+            outln(&mut out, header.iter().map(|h| format!("{h:>22}")).collect::<String>())
         }
         SweepFormat::Jsonl => {}
     }
@@ -335,7 +341,7 @@ pub fn print_sweep(axes: &[km::SweepAxis], points: &[km::SweepPoint], format: Sw
                     for (q, v) in quantities.iter().zip(nums) {
                         o.insert((*q).into(), v.into());
                     }
-                    println!("{}", serde_json::Value::Object(o));
+                    outln(&mut out, serde_json::Value::Object(o).to_string());
                 }
                 SweepFormat::Csv | SweepFormat::Table => {
                     let mut cells: Vec<String> = p.values.iter().map(|v| v.to_string()).collect();
@@ -344,15 +350,22 @@ pub fn print_sweep(axes: &[km::SweepAxis], points: &[km::SweepPoint], format: Sw
                     }
                     cells.extend(nums.iter().map(|v| v.to_string()));
                     if format == SweepFormat::Csv {
-                        println!("{}", cells.join(","));
+                        outln(&mut out, cells.join(","));
                     } else {
-                        println!(
-                            "{}",
-                            cells.iter().map(|c| format!("{c:>22}")).collect::<String>()
+                        outln(
+                            &mut out,
+                            cells.iter().map(|c| format!("{c:>22}")).collect::<String>(),
                         );
                     }
                 }
             }
         }
     }
+    crate::stdout::print(&out)
+}
+
+/// Append one line to `out`.
+fn outln(out: &mut String, line: String) {
+    out.push_str(&line);
+    out.push('\n');
 }

@@ -541,12 +541,25 @@ fn broken_pipe_ends_quietly() {
 #[test]
 fn full_or_closed_stdout_is_an_error() {
     let f = example("fresnel-slab.toml");
-    let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
-    if let Ok(full) = full {
-        let r = command(&["solve", &f, "--json"]).stdout(full).output().unwrap();
+    // Every command that prints numbers, each in a format it takes.
+    let cases: [&[&str]; 7] = [
+        &["solve", &f, "--json"],
+        &["solve", &f, "--format", "csv"],
+        &["demo"],
+        &["sweep", &f, "--set", "layer[1].g=0:0.5:3", "--format", "csv"],
+        &["fit", "--m-r", "0.3", "--m-t", "0.4", "--thickness", "1", "--n-sample", "1.4"],
+        &["fit", "--km", "--r-inf", "0.6", "--r-zero", "0.3", "--thickness", "1"],
+        &["profile", &example("marble-half-space.toml"), "--format", "csv"],
+    ];
+    for args in cases {
+        let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+            eprintln!("skipped: /dev/full cannot be opened here");
+            break;
+        };
+        let r = command(args).stdout(full).output().unwrap();
         let err = String::from_utf8_lossy(&r.stderr);
-        assert_eq!(r.status.code(), Some(2), "{err}");
-        assert!(err.contains("No space left") && !err.contains("panicked"), "{err}");
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("No space left") && !err.contains("panicked"), "{args:?}: {err}");
     }
     // Closed: the child's descriptor 1 is closed before exec.
     let mut c = command(&["check", &f]);

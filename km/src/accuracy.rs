@@ -149,9 +149,21 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
             reason: "an accuracy target chooses the streams: leave them unset",
         });
     }
+    // One work budget for the whole search (eq. W1, docs/limits.md): each
+    // solve may spend only what the earlier ones left.
+    let budget = base.max_work.unwrap_or(km_multiflux::budget::DEFAULT_MAX_WORK);
+    let spent = std::cell::Cell::new(0.0f64);
     let at = |n: usize, order: Option<usize>| {
-        let opts = MultifluxOptions { streams: Some(n), neumann_order: order, ..base.clone() };
-        km_multiflux::solve(scene, &opts)
+        let left = (budget - spent.get()).max(f64::MIN_POSITIVE);
+        let opts = MultifluxOptions {
+            streams: Some(n),
+            neumann_order: order,
+            max_work: Some(left),
+            ..base.clone()
+        };
+        let sol = km_multiflux::solve(scene, &opts)?;
+        spent.set(spent.get() + km_multiflux::budget::estimate(scene, &opts).units);
+        Ok::<_, km_multiflux::MultifluxError>(sol)
     };
     let mut seconds = 0.0;
     let mut n = 4;
