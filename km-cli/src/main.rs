@@ -255,6 +255,11 @@ pub struct SolveArgs {
     /// memory, multi-flux work) by this factor; see docs/limits.md [mc, multiflux].
     #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
     pub budget: f64,
+    /// Solve K times in this process: `seconds` stays the first (cold) call's,
+    /// `seconds_best` and `seconds_median` are over all K calls (1..=10000).
+    #[arg(long, value_name = "K", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub repeat: u32,
     /// How F_dr is computed [dipole].
     #[arg(long, value_enum, default_value_t = FdrArg::Exact)]
     pub fdr: FdrArg,
@@ -413,6 +418,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let scene = load(&args.scene, &args.set)?;
             if let Some(shard) = &args.shard {
                 let (i, n) = methods::parse_shard(shard)?;
+                if args.repeat > 1 {
+                    bail!("--repeat does not combine with --shard (a shard is written once)");
+                }
                 if args.method != Method::Mc {
                     bail!("--shard applies to --method mc only");
                 }
@@ -424,7 +432,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 eprintln!("wrote shard {i}/{n} to {}", out.display());
                 return Ok(());
             }
-            let sol = methods::solve(&scene, &args)?;
+            let mut sol = methods::solve(&scene, &args)?;
+            if args.repeat > 1 {
+                // Warm calls after the first: the same answer, timed again.
+                let mut times = vec![sol.seconds];
+                for _ in 1..args.repeat {
+                    times.push(methods::solve(&scene, &args)?.seconds);
+                }
+                times.sort_by(f64::total_cmp);
+                let median = if times.len() % 2 == 1 {
+                    times[times.len() / 2]
+                } else {
+                    0.5 * (times[times.len() / 2 - 1] + times[times.len() / 2])
+                };
+                sol.extra.insert("repeat".into(), args.repeat.into());
+                sol.extra.insert("seconds_best".into(), times[0].into());
+                sol.extra.insert("seconds_median".into(), median.into());
+            }
             if let Some(out) = &args.out {
                 write_json(out, &sol.to_json(), std::slice::from_ref(&args.scene))?;
             }
@@ -520,6 +544,7 @@ impl SolveArgs {
             fdr: FdrArg::Exact,
             dipole: DipoleArg::Jensen2001,
             budget: 1.0,
+            repeat: 1,
         }
     }
 

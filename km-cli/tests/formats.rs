@@ -212,3 +212,33 @@ fn merge_takes_every_format() {
     assert!(table.contains('±'), "{table}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn repeat_times_the_same_answer_k_times() {
+    let s = examples("fresnel-slab.toml");
+    for method in ["km", "multiflux", "dipole"] {
+        let single = km(&["solve", &s, "--method", method, "--json"]);
+        let out = km(&["solve", &s, "--method", method, "--json", "--repeat", "5"]);
+        if method == "dipole" {
+            // The dipole refuses this slab; --repeat does not change that.
+            assert_eq!(single.status.code(), Some(2));
+            assert_eq!(out.status.code(), Some(2));
+            continue;
+        }
+        let once: serde_json::Value = serde_json::from_slice(&single.stdout).unwrap();
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["repeat"], 5);
+        let (first, best, median) = (
+            v["seconds"].as_f64().unwrap(),
+            v["seconds_best"].as_f64().unwrap(),
+            v["seconds_median"].as_f64().unwrap(),
+        );
+        assert!(best <= first && best <= median && median.is_finite(), "{v}");
+        assert_eq!(v["reflectance"], once["reflectance"], "{method}");
+    }
+    // Refused: 0 repeats, and --repeat with a shard.
+    assert_eq!(km(&["solve", &s, "--repeat", "0"]).status.code(), Some(2));
+    let shard =
+        km(&["solve", &s, "--method", "mc", "--shard", "0/2", "--out", "x", "--repeat", "2"]);
+    assert_eq!(shard.status.code(), Some(2));
+}
