@@ -107,8 +107,8 @@ fn refuse(path: &Path, why: impl std::fmt::Display) -> Error {
     Error::new(ErrorKind::InvalidInput, format!("refusing to write {}: {why}", path.display()))
 }
 
-/// What a file system object is, in words.
-fn kind(ft: &std::fs::FileType) -> &'static str {
+/// What a file system object is, in words (for refusals of writes and reads).
+pub(crate) fn kind(ft: &std::fs::FileType) -> &'static str {
     use std::os::unix::fs::FileTypeExt;
     if ft.is_dir() {
         "a directory"

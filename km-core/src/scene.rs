@@ -395,29 +395,10 @@ fn too_big(what: &str, bytes: u64, max: u64) -> CoreError {
     )
 }
 
-/// What a file system object is, in words, for refusals.
-fn file_kind(ft: &std::fs::FileType) -> &'static str {
-    use std::os::unix::fs::FileTypeExt;
-    if ft.is_dir() {
-        "a directory"
-    } else if ft.is_fifo() {
-        "a FIFO (named pipe)"
-    } else if ft.is_char_device() {
-        "a character device"
-    } else if ft.is_block_device() {
-        "a block device"
-    } else if ft.is_socket() {
-        "a socket"
-    } else {
-        "not a regular file"
-    }
-}
-
-/// Read at most `max` bytes of a scene: `-` is standard input; anything else
-/// must be a regular file (checked before opening, so a FIFO without a writer
-/// or `/dev/zero` is refused at once), opened without blocking.
-/// The text of a scene file read as [`Scene::from_path`] reads it: a regular
-/// file (or `-` for standard input) of at most `max` bytes.
+/// The text of a scene file read as [`Scene::from_path`] reads it: at most
+/// `max` bytes; `-` is standard input; anything else must be a regular file
+/// (checked before opening, so a FIFO without a writer or `/dev/zero` is
+/// refused at once), opened without blocking.
 ///
 /// # Errors
 /// Those of [`Scene::from_path`] about the file.
@@ -440,7 +421,7 @@ pub fn read_scene_text(path: &Path, max: u64) -> Result<String, CoreError> {
                 None,
                 format!(
                     "{shown} is {}: a scene must be a regular file (or - for standard input)",
-                    file_kind(&meta.file_type())
+                    crate::atomic_file::kind(&meta.file_type())
                 ),
             ));
         }
@@ -462,7 +443,7 @@ pub fn read_scene_text(path: &Path, max: u64) -> Result<String, CoreError> {
                 None,
                 format!(
                     "{shown} is {}: a scene must be a regular file",
-                    file_kind(&meta.file_type())
+                    crate::atomic_file::kind(&meta.file_type())
                 ),
             ));
         }

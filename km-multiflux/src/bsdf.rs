@@ -57,8 +57,8 @@ use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, e2, phi, slab_operators};
 use crate::solver::{
-    FOURIER_TOL, MultifluxOptions, Scaled, combine, default_streams, delta_parts, flux, media_grid,
-    planned_cutoff, resolve_streams, scale_layers,
+    Closing, FOURIER_TOL, MultifluxOptions, Scaled, close_stack, combine, default_streams,
+    delta_parts, flux, media_grid, planned_cutoff, resolve_streams, scale_layers,
 };
 
 /// An error of the BSDF table or its files.
@@ -786,38 +786,12 @@ fn stack(
         acc = Some(combine(acc, ops, neumann)?);
         n_above = l.n;
     }
-    let Some(mut acc) = acc else {
-        return Err(MultifluxError::Scene(km_core::CoreError::scene(
-            "layer",
-            None,
-            "the stack has no layer",
-        )));
+    let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
+    let lambertian = |n: f64, albedo: f64| {
+        let mut g = lambertian_reflection(&grid.medium(n), &extras_in(n), albedo, m);
+        scrub(&mut g, kinds);
+        g
     };
-    if layers.last().is_some_and(|l| l.tau.is_infinite()) {
-        return Ok(acc);
-    }
-    match scene.substrate {
-        Substrate::Transparent { .. } => {
-            let ns = n_sub.unwrap_or(n_above);
-            if ns != n_above {
-                acc = combine(Some(acc), interface(n_above, ns), neumann)?;
-            }
-        }
-        Substrate::Lambertian { albedo } => {
-            let nodes = grid.medium(n_above);
-            let ex = extras_in(n_above);
-            let mut g = lambertian_reflection(&nodes, &ex, albedo, m);
-            scrub(&mut g, kinds);
-            let dim = g.nrows();
-            let floor = LayerOperators {
-                r_top: g,
-                t_down: Mat::zeros(0, dim),
-                r_bottom: Mat::zeros(0, 0),
-                t_up: Mat::zeros(dim, 0),
-            };
-            acc = combine(Some(acc), floor, neumann)?;
-        }
-        Substrate::Black => {}
-    }
-    Ok(acc)
+    let close = Closing { half_space, n_above, n_sub, all_effects: false, neumann };
+    close_stack(scene, acc, &close, &interface, &lambertian)
 }

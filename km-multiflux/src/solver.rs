@@ -763,6 +763,38 @@ fn stack_operators(
         acc = Some(combine(acc, ops, neumann)?);
         n_above = l.n;
     }
+    let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
+    let lambertian =
+        |n: f64, albedo: f64| lambertian_reflection(&grid.medium(n), &extras_in(n), albedo, m);
+    let close = Closing { half_space, n_above, n_sub, all_effects, neumann };
+    close_stack(scene, acc, &close, &interface, &lambertian)
+}
+
+/// How a stack of layer operators ends (see [`close_stack`]).
+pub(crate) struct Closing {
+    /// The last layer is a half-space: nothing lies below it.
+    pub(crate) half_space: bool,
+    /// Refractive index of the last layer.
+    pub(crate) n_above: f64,
+    /// Index of a clear substrate (`None`: that of the last layer).
+    pub(crate) n_sub: Option<f64>,
+    /// Build the substrate's interface even between equal indices.
+    pub(crate) all_effects: bool,
+    /// Truncated adding (seed eq. 21), or exact.
+    pub(crate) neumann: Option<usize>,
+}
+
+/// Close the operators `acc` of a stack's layers: refuse an empty stack, stop
+/// at a half-space, then add the substrate (seed §3.4): the Fresnel interface
+/// into a clear half-space of another index, or the Lambertian floor
+/// `lambertian(n, albedo)` (its reflection operator), or nothing for a black one.
+pub(crate) fn close_stack(
+    scene: &MonoScene,
+    acc: Option<LayerOperators>,
+    close: &Closing,
+    interface: &dyn Fn(f64, f64) -> LayerOperators,
+    lambertian: &dyn Fn(f64, f64) -> Mat<f64>,
+) -> Result<LayerOperators, MultifluxError> {
     let Some(mut acc) = acc else {
         return Err(MultifluxError::Scene(km_core::CoreError::scene(
             "layer",
@@ -770,20 +802,19 @@ fn stack_operators(
             "the stack has no layer",
         )));
     };
-    if layers.last().is_some_and(|l| l.tau.is_infinite()) {
+    if close.half_space {
         return Ok(acc);
     }
+    let (n_above, neumann) = (close.n_above, close.neumann);
     match scene.substrate {
         Substrate::Transparent { .. } => {
-            let ns = n_sub.unwrap_or(n_above);
-            if ns != n_above || all_effects {
+            let ns = close.n_sub.unwrap_or(n_above);
+            if ns != n_above || close.all_effects {
                 acc = combine(Some(acc), interface(n_above, ns), neumann)?;
             }
         }
         Substrate::Lambertian { albedo } => {
-            let nodes = grid.medium(n_above);
-            let ex = extras_in(n_above);
-            let g = lambertian_reflection(&nodes, &ex, albedo, m);
+            let g = lambertian(n_above, albedo);
             let dim = g.nrows();
             let floor = LayerOperators {
                 r_top: g,
