@@ -53,9 +53,10 @@ use km_core::{Light, MonoScene, Scene, Substrate};
 
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
+use crate::correction::{e2, phi};
 use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
-use crate::slab::{Extra, SlabOrder, e2, phi, slab_operators};
+use crate::slab::{Extra, SlabOrder, slab_operators};
 use crate::solver::{
     Closing, FOURIER_TOL, MultifluxOptions, Scaled, close_stack, combine, default_streams,
     delta_parts, flux, media_grid, planned_cutoff, resolve_streams, scale_layers,

@@ -46,8 +46,6 @@
 
 use km_core::phase::{Phase, PhaseFunction};
 
-use crate::slab::{e2, phi};
-
 /// Half-width of the cone around the beam's polar angle where the IMS term is
 /// applied (degrees; DISORT's `DTHETA` in `c_intensity_correction`).
 pub const IMS_CONE_DEG: f64 = 10.0;
@@ -262,6 +260,28 @@ pub fn xi(mu1: f64, mu2: f64, tau: f64) -> f64 {
         ((-tau / mu1).exp() - (1.0 + a) * (-tau / mu2).exp()) / (y * y)
     };
     integral / (mu1 * mu2)
+}
+
+// Path integrals of exponential attenuation along an exit path, shared by the
+// slab's exit-direction probes and by the correction.
+
+/// `(1 - exp(-c t)) / c` for `c >= 0`, `t >= 0` (may be infinite); `t` at `c = 0`.
+pub(crate) fn phi(c: f64, t: f64) -> f64 {
+    if t.is_infinite() {
+        return if c > 0.0 { 1.0 / c } else { f64::INFINITY };
+    }
+    let x = c * t;
+    if x < 1e-10 { t * (1.0 - 0.5 * x) } else { -(-x).exp_m1() / c }
+}
+
+/// `(exp(-a t) - exp(-b t)) / (b - a)` for `a, b >= 0`, finite or infinite `t`
+/// (its limit `t exp(-a t)` at `a = b`), without cancellation.
+pub(crate) fn e2(a: f64, b: f64, t: f64) -> f64 {
+    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+    if t.is_infinite() {
+        return if lo > 0.0 { 0.0 } else { phi(hi, t) };
+    }
+    (-lo * t).exp() * phi(hi - lo, t)
 }
 
 #[cfg(test)]

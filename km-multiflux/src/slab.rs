@@ -53,6 +53,7 @@ use faer::{Mat, Side};
 
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
+use crate::correction::{e2, phi};
 use crate::legendre::LegendreRecurrence;
 
 /// An extra direction carried besides the quadrature nodes, in one medium.
@@ -85,25 +86,6 @@ pub struct SlabOrder<'a> {
     pub chi: &'a [f64],
     /// Fourier order.
     pub m: usize,
-}
-
-/// `(1 - exp(-c t)) / c` for `c >= 0`, `t >= 0` (may be infinite); `t` at `c = 0`.
-pub(crate) fn phi(c: f64, t: f64) -> f64 {
-    if t.is_infinite() {
-        return if c > 0.0 { 1.0 / c } else { f64::INFINITY };
-    }
-    let x = c * t;
-    if x < 1e-10 { t * (1.0 - 0.5 * x) } else { -(-x).exp_m1() / c }
-}
-
-/// `(exp(-a t) - exp(-b t)) / (b - a)` for `a, b >= 0`, finite or infinite `t`
-/// (its limit `t exp(-a t)` at `a = b`), without cancellation.
-pub(crate) fn e2(a: f64, b: f64, t: f64) -> f64 {
-    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-    if t.is_infinite() {
-        return if lo > 0.0 { 0.0 } else { phi(hi, t) };
-    }
-    (-lo * t).exp() * phi(hi - lo, t)
 }
 
 /// `X^T = C^-T B^T` (so `X = B C^-1`) for small square `C`, `B`: Gaussian
