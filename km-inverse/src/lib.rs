@@ -10,6 +10,7 @@
 //!   optionally unscattered transmittance `M_U`, with the covariance of the
 //!   answer ([`slab::fit`], [`slab::FitResult`]).
 //! * [`forward`]: the measured stack as a km scene and its totals.
+//! * [`stack`]: the same stack with its boundaries cached, the fit's fast forward model.
 //! * [`sphere`]: single- and double-integrating-sphere measurement equations.
 //! * [`rxt`]: iad's `.rxt` measurement files and a plain CSV of spectra.
 //! * [`kubelka`]: the paint engineer's Kubelka–Munk inverse. `K` and `S` of a
@@ -39,6 +40,7 @@ pub mod linalg;
 pub mod rxt;
 pub mod slab;
 pub mod sphere;
+pub mod stack;
 
 pub use error::InverseError;
 pub use slab::{FitOptions, FitResult, Measurement, Setup, Status, fit};

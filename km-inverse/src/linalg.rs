@@ -54,3 +54,67 @@ pub fn inverse(a: &[f64], n: usize) -> Option<Vec<f64>> {
     }
     Some(inv)
 }
+
+/// Solve `A X = B` for a square `A` (`n x n`) and `k` right-hand sides `B`
+/// (`n x k`), both row-major, by one LU factorisation with partial pivoting
+/// (Golub & Van Loan 2013, alg. 3.4.1); `None` when `A` is singular to
+/// working precision. For the adding steps of [`crate::stack`] (`n` ~ 10–130).
+///
+/// ```
+/// let x = km_inverse::linalg::solve_many(&[2.0, 1.0, 1.0, 3.0], &[3.0, 1.0, 5.0, 2.0], 2, 2)
+///     .unwrap();
+/// assert!((x[0] - 0.8).abs() < 1e-15 && (x[2] - 1.4).abs() < 1e-15);
+/// assert!((x[1] - 0.2).abs() < 1e-15 && (x[3] - 0.6).abs() < 1e-15);
+/// ```
+pub fn solve_many(a: &[f64], b: &[f64], n: usize, k: usize) -> Option<Vec<f64>> {
+    let mut m = a.to_vec();
+    let mut x = b.to_vec();
+    for c in 0..n {
+        // Pivot: the largest entry of column c at or below row c.
+        let p = (c..n).max_by(|&i, &j| m[i * n + c].abs().total_cmp(&m[j * n + c].abs()))?;
+        let pivot = m[p * n + c].abs();
+        if pivot.is_nan() || pivot <= 1e-300 || pivot.is_infinite() {
+            return None;
+        }
+        if p != c {
+            for j in 0..n {
+                m.swap(c * n + j, p * n + j);
+            }
+            for j in 0..k {
+                x.swap(c * k + j, p * k + j);
+            }
+        }
+        // Eliminate below the pivot (rows of A and of B together).
+        let (head, tail) = m.split_at_mut((c + 1) * n);
+        let prow = &head[c * n..];
+        let (xhead, xtail) = x.split_at_mut((c + 1) * k);
+        let xrow = &xhead[c * k..];
+        for (row, xr) in tail.chunks_exact_mut(n).zip(xtail.chunks_exact_mut(k)) {
+            let f = row[c] / prow[c];
+            if f != 0.0 {
+                for j in c..n {
+                    row[j] -= f * prow[j];
+                }
+                for j in 0..k {
+                    xr[j] -= f * xrow[j];
+                }
+            }
+        }
+    }
+    // Back substitution, all right-hand sides at once.
+    for c in (0..n).rev() {
+        for r in c + 1..n {
+            let f = m[c * n + r];
+            if f != 0.0 {
+                for j in 0..k {
+                    x[c * k + j] -= f * x[r * k + j];
+                }
+            }
+        }
+        let d = m[c * n + c];
+        for j in 0..k {
+            x[c * k + j] /= d;
+        }
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}

@@ -23,9 +23,10 @@ use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::InverseError;
-use crate::forward::{Optical, Sample, tau_from_unscattered, totals};
+use crate::forward::{Optical, Sample, tau_from_unscattered};
 use crate::linalg;
 use crate::sphere::{SphereSetup, double_m_r_m_t, single_m_r_m_t};
+use crate::stack::StackModel;
 
 /// Measurement uncertainty assumed when none is given: iad's default
 /// convergence tolerance (`-e 0.0001`), an absolute reflectance.
@@ -278,7 +279,26 @@ impl FitResult {
 /// assert!((m[1] - (-1f64).exp()).abs() < 1e-12 && m[0].abs() < 1e-15);
 /// ```
 pub fn model(set: &Setup, p: &Optical, streams: usize) -> Result<[f64; 3], InverseError> {
-    let t = totals(&set.sample, p, streams, set.spheres.is_some())?;
+    model_with(set, &StackModel::new(&set.sample, streams)?, p)
+}
+
+/// [`model`] with the stack's boundaries and quadrature built once
+/// ([`StackModel`], for many evaluations of one set-up, as in a fit).
+///
+/// # Errors
+/// A forward-model failure.
+///
+/// ```
+/// use km_inverse::forward::{Optical, Sample};
+/// use km_inverse::slab::{Setup, model, model_with};
+/// use km_inverse::stack::StackModel;
+/// let set = Setup::new(Sample::new(1.0, 1.4, Some(1.5)).unwrap());
+/// let stack = StackModel::new(&set.sample, 8).unwrap();
+/// let p = Optical { albedo: 0.9, tau: 1.0, g: 0.5 };
+/// assert_eq!(model_with(&set, &stack, &p).unwrap(), model(&set, &p, 8).unwrap());
+/// ```
+pub fn model_with(set: &Setup, stack: &StackModel, p: &Optical) -> Result<[f64; 3], InverseError> {
+    let t = stack.totals(p, set.spheres.is_some())?;
     let (c, c_t) = (set.specular_in_m_r, set.unscattered_in_m_t);
     let (m_r, m_t) = match &set.spheres {
         None => (t.r_total - (1.0 - c) * t.r_specular, t.t_total - (1.0 - c_t) * t.t_unscattered),
@@ -363,14 +383,39 @@ struct Problem<'a> {
     scale: Vec<f64>,
     /// Log-ratio residuals (square systems) instead of `(M - m) / scale`.
     log: bool,
-    streams: usize,
+    /// The forward model at the current stream count.
+    stack: StackModel,
     evaluations: usize,
+    /// The last point evaluated and its model (a repeated point costs nothing).
+    last: Option<(Vec<f64>, usize, [f64; 3])>,
 }
 
 impl Problem<'_> {
-    fn residuals(&mut self, x: &[f64]) -> Result<(Vec<f64>, [f64; 3]), InverseError> {
+    /// Use `streams` from now on (a new [`StackModel`] when it changes).
+    fn set_streams(&mut self, streams: usize) -> Result<(), InverseError> {
+        if self.stack.streams() != streams {
+            self.stack = StackModel::new(&self.set.sample, streams)?;
+        }
+        Ok(())
+    }
+
+    /// The measurement model at the search point `x` (memoised for the last point).
+    fn model_at(&mut self, x: &[f64]) -> Result<[f64; 3], InverseError> {
+        let n = self.stack.streams();
+        if let Some((lx, ln, lm)) = &self.last
+            && lx.as_slice() == x
+            && *ln == n
+        {
+            return Ok(*lm);
+        }
         self.evaluations += 1;
-        let m = model(self.set, &self.space.optical_at(x), self.streams)?;
+        let m = model_with(self.set, &self.stack, &self.space.optical_at(x))?;
+        self.last = Some((x.to_vec(), n, m));
+        Ok(m)
+    }
+
+    fn residuals(&mut self, x: &[f64]) -> Result<(Vec<f64>, [f64; 3]), InverseError> {
+        let m = self.model_at(x)?;
         let r = (0..self.meas.len())
             .map(|i| {
                 if self.log {
@@ -407,31 +452,28 @@ impl Problem<'_> {
 
     /// Levenberg–Marquardt from `x` (Marquardt 1963; Press et al.,
     /// *Numerical Recipes* §15.5): returns the best point and its residuals.
+    ///
+    /// The Jacobian is computed by forward differences once, then carried
+    /// along by Broyden's rank-one update after each accepted step (Broyden
+    /// 1965; Dennis & Schnabel 1996 §8.1): `J += (dr - J dx) dx^T / (dx^T dx)`,
+    /// one forward solve per step instead of one plus one per parameter. It is
+    /// recomputed by differences when a damped step fails with the updated
+    /// Jacobian; the search ends only when a fresh Jacobian gives no descent.
     fn levenberg_marquardt(&mut self, mut x: Vec<f64>) -> Result<(Vec<f64>, f64), InverseError> {
         let n = x.len();
         let (mut r, _) = self.residuals(&x)?;
         let mut chi2 = sq(&r);
         let mut lambda = 1e-3;
+        let mut jac = self.jacobian(&x, &r)?;
+        let mut fresh = true;
         for _ in 0..200 {
             // Converged to round-off: the relative residuals are at the
             // forward model's precision (~1e-15).
             if chi2 < 1e-26 {
                 break;
             }
-            let jac = self.jacobian(&x, &r)?;
-            let m = r.len();
-            // Normal equations A = J^T J, grad = J^T r.
-            let mut a = vec![0.0; n * n];
-            let mut grad = vec![0.0; n];
-            for i in 0..m {
-                for p in 0..n {
-                    grad[p] += jac[i * n + p] * r[i];
-                    for q in 0..n {
-                        a[p * n + q] += jac[i * n + p] * jac[i * n + q];
-                    }
-                }
-            }
-            let mut improved = false;
+            let (a, grad) = normal_equations(&jac, &r, n);
+            let mut accepted = None;
             while lambda < 1e12 {
                 // Damped step (A + lambda diag A) dx = -grad.
                 let mut ad = a.clone();
@@ -446,27 +488,67 @@ impl Problem<'_> {
                 let mut xn: Vec<f64> = x.iter().zip(&dx).map(|(a, b)| a + b).collect();
                 self.space.clamp(&mut xn);
                 let (rn, _) = self.residuals(&xn)?;
-                let chi2n = sq(&rn);
-                if chi2n < chi2 {
-                    let step = x.iter().zip(&xn).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-                    x = xn;
-                    r = rn;
-                    chi2 = chi2n;
+                if sq(&rn) < chi2 {
+                    accepted = Some((xn, rn));
                     lambda = (lambda / 10.0).max(1e-12);
-                    improved = true;
-                    // A step below 1e-13 changes nothing further.
-                    if step < 1e-13 {
-                        return Ok((x, chi2));
-                    }
                     break;
                 }
                 lambda *= 10.0;
             }
-            if !improved {
+            let Some((xn, rn)) = accepted else {
+                if fresh {
+                    break;
+                }
+                // The updated Jacobian led nowhere: differences again.
+                jac = self.jacobian(&x, &r)?;
+                (fresh, lambda) = (true, 1e-3);
+                continue;
+            };
+            let dx: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
+            let step = dx.iter().fold(0.0f64, |s, d| s.max(d.abs()));
+            broyden_update(&mut jac, &dx, &r, &rn);
+            fresh = false;
+            (x, r) = (xn, rn);
+            chi2 = sq(&r);
+            // A step below 1e-13 changes nothing further.
+            if step < 1e-13 {
                 break;
             }
         }
         Ok((x, chi2))
+    }
+}
+
+/// Normal equations of a row-major Jacobian `J` (`m x n`): `(J^T J, J^T r)`.
+fn normal_equations(jac: &[f64], r: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut a = vec![0.0; n * n];
+    let mut grad = vec![0.0; n];
+    for (i, ri) in r.iter().enumerate() {
+        for p in 0..n {
+            grad[p] += jac[i * n + p] * ri;
+            for q in 0..n {
+                a[p * n + q] += jac[i * n + p] * jac[i * n + q];
+            }
+        }
+    }
+    (a, grad)
+}
+
+/// Broyden's rank-one update of a row-major Jacobian after the step `dx`
+/// that moved the residuals from `r` to `rn` (Broyden 1965, the "good"
+/// update): `J += (rn - r - J dx) dx^T / (dx^T dx)`.
+fn broyden_update(jac: &mut [f64], dx: &[f64], r: &[f64], rn: &[f64]) {
+    let n = dx.len();
+    let dd: f64 = dx.iter().map(|d| d * d).sum();
+    if dd == 0.0 {
+        return;
+    }
+    for i in 0..r.len() {
+        let jdx: f64 = (0..n).map(|j| jac[i * n + j] * dx[j]).sum();
+        let f = (rn[i] - r[i] - jdx) / dd;
+        for j in 0..n {
+            jac[i * n + j] += f * dx[j];
+        }
     }
 }
 
@@ -593,13 +675,14 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
         meas: values.clone(),
         scale,
         log,
-        streams: ladder[0],
+        stack: StackModel::new(&set.sample, ladder[0])?,
         evaluations: 0,
+        last: None,
     };
     let mut x = space.point_of(&p0);
     let mut chi2 = f64::INFINITY;
     for (k, &n) in ladder.iter().enumerate() {
-        prob.streams = n;
+        prob.set_streams(n)?;
         let (xn, c) = prob.levenberg_marquardt(x.clone())?;
         x = xn;
         chi2 = c;
@@ -647,9 +730,9 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
         }
         // Stream rule (I7): the forward model at 2N moves by < sigma_min / 10.
         let p = space.optical_at(&x);
-        let m_n = model(set, &p, n)?;
+        let m_n = prob.model_at(&x)?;
         let m_2n = model(set, &p, 2 * n)?;
-        prob.evaluations += 2;
+        prob.evaluations += 1;
         let moved = (0..values.len()).map(|i| (m_n[i] - m_2n[i]).abs()).fold(0.0, f64::max);
         if moved < 0.1 * sigma_min {
             break;
@@ -665,8 +748,7 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
     }
     let _ = chi2;
     let p = space.optical_at(&x);
-    let fitted_m = model(set, &p, prob.streams)?;
-    prob.evaluations += 1;
+    let fitted_m = prob.model_at(&x)?;
     let residual =
         (0..values.len()).map(|i| (fitted_m[i] - values[i]).abs() / sigma[i]).fold(0.0, f64::max);
 
@@ -678,10 +760,13 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
     let j_search = prob.jacobian(&x, &r0)?;
     let (m, nd) = (values.len(), space.dim());
     let singular = scaled_condition(&normal_matrix(&j_search, m, nd), nd) > 1e12;
-    // Jacobian of the measurements in units of sigma, natural variables.
-    prob.log = false;
-    let (r0, _) = prob.residuals(&x)?;
-    let jt = prob.jacobian(&x, &r0)?;
+    // Jacobian of the measurements in units of sigma, natural variables:
+    // the search's own, unscaled from log ratios (d ln M = dM / M) when needed.
+    let jt: Vec<f64> = (0..m * nd)
+        .map(
+            |ix| if log { j_search[ix] * fitted_m[ix / nd] / sigma[ix / nd] } else { j_search[ix] },
+        )
+        .collect();
     let chain = space.chain(&p);
     let mut jac = vec![0.0; m * nd];
     for i in 0..m {
@@ -720,7 +805,7 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
         residual,
         status,
         uncertainty,
-        streams: prob.streams,
+        streams: prob.stack.streams(),
         evaluations: prob.evaluations,
         notes,
     })
