@@ -1,5 +1,5 @@
 //! km's slab inverse against Prahl's iad on iad's own `.rxt` test files
-//! (0 and 1 sphere), data in `tests/data/iad_rxt.json` (source inside).
+//! (0, 1 and 2 spheres), data in `tests/data/iad_rxt.json` (source inside).
 
 use km_inverse::rxt::parse_rxt;
 use km_inverse::slab::{FitOptions, Measurement, Status, fit};
@@ -117,6 +117,10 @@ fn same_answers_as_converged_iad() {
     let bad = report(&c);
     assert!(c.len() >= 100, "only {} rows compared", c.len());
     assert_eq!(bad, 0);
+    // The double-sphere rows (iad's tests/rxt/2_sphere: 27 rows of 3 files)
+    // are among them: Pickering's equations as iad applies them.
+    let double = c.iter().filter(|x| x.file.starts_with("2_sphere")).count();
+    assert_eq!(double, 27, "double-sphere rows compared");
 }
 
 /// iad at its defaults (8 points, 1e-4) for the record: it differs from
