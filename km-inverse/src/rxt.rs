@@ -56,30 +56,40 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
         return Err(InverseError::parse(Some(1), "an .rxt file must begin with IAD1"));
     }
     let lines = clean_lines(&text[4..]);
-    // Tokens of the header, line by line, until 17 numbers are read.
+    // Tokens of the header, line by line, until 17 numbers are read. iad
+    // reads the file as a stream of tokens, so a "terse" file may carry the
+    // legend and the data on the header's last line (iad's `terse_A.rxt`):
+    // what follows the 17th number on its line is kept for them.
     let mut header = Vec::with_capacity(17);
     let mut li = 0;
+    let mut rest: Vec<(usize, String)> = Vec::new();
     while header.len() < 17 {
         let Some((no, l)) = lines.get(li) else {
             return Err(InverseError::parse(None, "the header ends before its 17 numbers"));
         };
         for tok in l.split_whitespace() {
             if header.len() == 17 {
-                return Err(InverseError::parse(Some(*no), "extra value after the header"));
+                rest.push((*no, tok.to_string()));
+            } else {
+                header.push(number(tok, *no)?);
             }
-            header.push(number(tok, *no)?);
         }
         li += 1;
     }
-    // The legend: the next line with content.
-    let (legend_line, legend) = loop {
-        let Some((no, l)) = lines.get(li) else {
-            return Err(InverseError::parse(None, "no legend line after the header"));
-        };
-        li += 1;
-        let s: String = l.chars().filter(|c| !c.is_whitespace() && *c != '-').collect();
-        if !s.is_empty() {
-            break (*no, s);
+    // The legend: the next token on the header's line, else the next line with content.
+    let (legend_line, legend) = if !rest.is_empty() {
+        let (no, tok) = rest.remove(0);
+        (no, tok.chars().filter(|c| *c != '-').collect::<String>())
+    } else {
+        loop {
+            let Some((no, l)) = lines.get(li) else {
+                return Err(InverseError::parse(None, "no legend line after the header"));
+            };
+            li += 1;
+            let s: String = l.chars().filter(|c| !c.is_whitespace() && *c != '-').collect();
+            if !s.is_empty() {
+                break (*no, s);
+            }
         }
     };
     let numeric = legend.len() == 1 && ('1'..='7').contains(&legend.chars().next().unwrap_or(' '));
@@ -127,6 +137,9 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
 
     // Data values, number by number, with their lines.
     let mut tokens = Vec::new();
+    for (no, tok) in &rest {
+        tokens.push((*no, number(tok, *no)?));
+    }
     for (no, l) in &lines[li..] {
         for tok in l.split_whitespace() {
             tokens.push((*no, number(tok, *no)?));
@@ -336,4 +349,26 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
         return Err(InverseError::parse(None, "no measurement rows"));
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// iad's `tests/rxt/1_sphere/terse_A.rxt` puts the header, the legend
+    /// and two rows on one line; it reads as the same file written out.
+    #[test]
+    fn terse_file_reads_as_the_written_out_one() {
+        let terse = "IAD1 1.34 1.5 1 1 5 .96 1 203.2 25.4 12.7 1 .96 203.2 25.4 12.7 1 .96 2 \
+                     0.168 0.249 0.162 0.264";
+        let long = "IAD1\n1.34 1.5 1 1 5 .96 1\n203.2 25.4 12.7 1 .96\n203.2 25.4 12.7 1 .96\n\
+                    2\n0.168 0.249\n0.162 0.264\n";
+        let (a, b) = (parse_rxt(terse).unwrap(), parse_rxt(long).unwrap());
+        assert_eq!(a.len(), 2);
+        assert_eq!(a, b);
+        assert_eq!(a[1].measurement.m_t, 0.264);
+        // A row cut short is still refused, naming the line.
+        let cut = "IAD1 1.34 1.5 1 1 5 .96 1 203.2 25.4 12.7 1 .96 203.2 25.4 12.7 1 .96 2 0.168";
+        assert!(parse_rxt(cut).unwrap_err().to_string().contains("line 1"));
+    }
 }
