@@ -752,28 +752,18 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
     let residual =
         (0..values.len()).map(|i| (fitted_m[i] - values[i]).abs() / sigma[i]).fold(0.0, f64::max);
 
-    // Jacobian in natural variables (a, b[, g]) with respect to the
-    // measurements in units of sigma: J_nat = J_trans / chain.
-    // The search's own Jacobian decides "not unique": singular there means
-    // the measurements cannot tell the parameters apart at any precision.
-    let (r0, _) = prob.residuals(&x)?;
-    let j_search = prob.jacobian(&x, &r0)?;
     let (m, nd) = (values.len(), space.dim());
-    let singular = scaled_condition(&normal_matrix(&j_search, m, nd), nd) > 1e12;
-    // Jacobian of the measurements in units of sigma, natural variables:
-    // the search's own, unscaled from log ratios (d ln M = dM / M) when needed.
-    let jt: Vec<f64> = (0..m * nd)
-        .map(
-            |ix| if log { j_search[ix] * fitted_m[ix / nd] / sigma[ix / nd] } else { j_search[ix] },
-        )
-        .collect();
-    let chain = space.chain(&p);
-    let mut jac = vec![0.0; m * nd];
-    for i in 0..m {
-        for j in 0..nd {
-            jac[i * nd + j] = jt[i * nd + j] / chain[j].max(1e-300);
+    let (singular, jac) = match albedo_edge(&p) {
+        None => search_jacobian(&mut prob, &x, &fitted_m, &sigma)?,
+        Some(dir) => {
+            notes.push(format!(
+                "albedo at its bound a = {} ({}): the uncertainties are one-sided limits",
+                if dir < 0.0 { 1 } else { 0 },
+                if dir < 0.0 { "no absorption, mu_a = 0" } else { "no scattering, mu_s = 0" }
+            ));
+            edge_jacobian(&mut prob, &p, &fitted_m, &sigma, dir)?
         }
-    }
+    };
     let uncertainty = covariance(&jac, m, nd, &p, set.sample.thickness, space.fit_g, sigma_given);
 
     let tol_residual = if square { 1.0 } else { 3.0 };
@@ -809,6 +799,87 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
         evaluations: prob.evaluations,
         notes,
     })
+}
+
+/// The albedo sits at a bound of the search (`a < 1e-9` or `1 - a < 1e-9`):
+/// the direction of an inward step in `a` (`+1` at 0, `-1` at 1).
+fn albedo_edge(p: &Optical) -> Option<f64> {
+    if p.albedo < 1e-9 {
+        Some(1.0)
+    } else if 1.0 - p.albedo < 1e-9 {
+        Some(-1.0)
+    } else {
+        None
+    }
+}
+
+/// The Jacobian of the answer from the search's own (in the unbounded
+/// variables): whether it is singular (the measurements cannot tell the
+/// parameters apart at any precision: scaled condition number above 1e12),
+/// and the Jacobian of the measurements in units of sigma in the natural
+/// variables `(a, b[, g])`, `J_nat = J_search / chain`, unscaled from log
+/// ratios (`d ln M = dM / M`) when the search used them.
+fn search_jacobian(
+    prob: &mut Problem<'_>,
+    x: &[f64],
+    fitted: &[f64; 3],
+    sigma: &[f64],
+) -> Result<(bool, Vec<f64>), InverseError> {
+    let (r0, _) = prob.residuals(x)?;
+    let j_search = prob.jacobian(x, &r0)?;
+    let (m, nd) = (r0.len(), x.len());
+    let singular = scaled_condition(&normal_matrix(&j_search, m, nd), nd) > 1e12;
+    let chain = prob.space.chain(&prob.space.optical_at(x));
+    let jac = (0..m * nd)
+        .map(|ix| {
+            let (i, j) = (ix / nd, ix % nd);
+            let jt = if prob.log { j_search[ix] * fitted[i] / sigma[i] } else { j_search[ix] };
+            jt / chain[j].max(1e-300)
+        })
+        .collect();
+    Ok((singular, jac))
+}
+
+/// The Jacobian at an albedo bound, by one-sided differences in the natural
+/// variables (the search variable `u = ln(a / (1 - a))` flattens the model
+/// there: `da/du = a (1 - a) = 0`, which would call every such answer
+/// singular): step `1e-6` inward in `a`, relative `1e-7` in `b`, `1e-7` in `g`.
+fn edge_jacobian(
+    prob: &mut Problem<'_>,
+    p: &Optical,
+    fitted: &[f64; 3],
+    sigma: &[f64],
+    dir: f64,
+) -> Result<(bool, Vec<f64>), InverseError> {
+    let (m, nd) = (sigma.len(), prob.space.dim());
+    let mut jac = vec![0.0; m * nd];
+    for j in 0..nd {
+        let mut q = *p;
+        let h = match j {
+            0 => dir * 1e-6,
+            1 => 1e-7 * p.tau,
+            // Inward in g, away from the nearer of -1 and 1.
+            _ => {
+                if p.g >= 0.0 {
+                    -1e-7
+                } else {
+                    1e-7
+                }
+            }
+        };
+        match j {
+            0 => q.albedo += h,
+            1 => q.tau += h,
+            _ => q.g += h,
+        }
+        prob.evaluations += 1;
+        let mh = model_with(prob.set, &prob.stack, &q)?;
+        for i in 0..m {
+            jac[i * nd + j] = (mh[i] - fitted[i]) / (h * sigma[i]);
+        }
+    }
+    let singular = scaled_condition(&normal_matrix(&jac, m, nd), nd) > 1e12;
+    Ok((singular, jac))
 }
 
 /// `J^T J` of a row-major `m x n` Jacobian.
