@@ -33,11 +33,13 @@
 #![deny(missing_docs)]
 
 pub mod colour;
+mod covariance;
 pub mod error;
 pub mod forward;
 pub mod kubelka;
 pub mod linalg;
 pub mod rxt;
+mod search;
 pub mod slab;
 pub mod sphere;
 pub mod stack;

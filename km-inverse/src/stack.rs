@@ -281,9 +281,9 @@ impl StackModel {
         let out = |inside: &[f64], k: usize| self.t_out[k] * inside[k];
         let mut r = self.r_air[n_air] * a[n_air] + out(&up, dim - 1);
         let mut t = out(&bottom, dim - 1);
-        for i in 0..n_air {
-            r += self.air_flux[i] * (self.r_air[i] * a[i] + out(&up, i));
-            t += self.air_flux[i] * out(&bottom, i);
+        for (i, (&f, &ai)) in self.air_flux.iter().zip(a).enumerate() {
+            r += f * (self.r_air[i] * ai + out(&up, i));
+            t += f * out(&bottom, i);
         }
         Ok((r, t))
     }
