@@ -56,42 +56,7 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
         return Err(InverseError::parse(Some(1), "an .rxt file must begin with IAD1"));
     }
     let lines = clean_lines(&text[4..]);
-    // Tokens of the header, line by line, until 17 numbers are read. iad
-    // reads the file as a stream of tokens, so a "terse" file may carry the
-    // legend and the data on the header's last line (iad's `terse_A.rxt`):
-    // what follows the 17th number on its line is kept for them.
-    let mut header = Vec::with_capacity(17);
-    let mut li = 0;
-    let mut rest: Vec<(usize, String)> = Vec::new();
-    while header.len() < 17 {
-        let Some((no, l)) = lines.get(li) else {
-            return Err(InverseError::parse(None, "the header ends before its 17 numbers"));
-        };
-        for tok in l.split_whitespace() {
-            if header.len() == 17 {
-                rest.push((*no, tok.to_string()));
-            } else {
-                header.push(number(tok, *no)?);
-            }
-        }
-        li += 1;
-    }
-    // The legend: the next token on the header's line, else the next line with content.
-    let (legend_line, legend) = if !rest.is_empty() {
-        let (no, tok) = rest.remove(0);
-        (no, tok.chars().filter(|c| *c != '-').collect::<String>())
-    } else {
-        loop {
-            let Some((no, l)) = lines.get(li) else {
-                return Err(InverseError::parse(None, "no legend line after the header"));
-            };
-            li += 1;
-            let s: String = l.chars().filter(|c| !c.is_whitespace() && *c != '-').collect();
-            if !s.is_empty() {
-                break (*no, s);
-            }
-        }
-    };
+    let (header, (legend_line, legend), rest, li) = read_header(&lines)?;
     let numeric = legend.len() == 1 && ('1'..='7').contains(&legend.chars().next().unwrap_or(' '));
     let labels: Vec<char> = if numeric { Vec::new() } else { legend.chars().collect() };
     for c in &labels {
@@ -153,71 +118,8 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
                 InverseError::parse(Some(no), "the file ends in the middle of a row")
             })
         };
-        let (mut m_r, mut m_t, mut m_u, mut lambda, mut g) = (None, None, None, None, None);
-        let mut b = base.clone();
-        if numeric {
-            // iad's rule: a first value above 1 is the wavelength.
-            let first = take()?;
-            m_r = Some(if first > 1.0 {
-                lambda = Some(first);
-                take()?
-            } else {
-                first
-            });
-            if k >= 2 {
-                m_t = Some(take()?);
-            }
-            if k >= 3 {
-                m_u = Some(take()?);
-            }
-            if k >= 4 {
-                b.r_sphere.r_wall = take()?;
-                b.t_sphere.r_wall = b.r_sphere.r_wall;
-            }
-            if k >= 5 {
-                b.t_sphere.r_wall = take()?;
-            }
-            if k >= 6 {
-                b.r_std = take()?;
-            }
-            if k >= 7 {
-                b.t_std = take()?;
-            }
-        } else {
-            let mut w_read = false;
-            for &c in &labels {
-                let x = take()?;
-                match c {
-                    'L' => lambda = Some(x),
-                    'r' => m_r = Some(x),
-                    't' => m_t = Some(x),
-                    'u' => m_u = Some(x),
-                    'g' => g = Some(x),
-                    'd' => b.thickness = x,
-                    'D' => b.slide_thickness = x,
-                    'n' => b.n_sample = x,
-                    'N' => b.n_slide = x,
-                    'R' => b.r_std = x,
-                    'T' => b.t_std = x,
-                    'w' => {
-                        b.r_sphere.r_wall = x;
-                        if !w_read {
-                            b.t_sphere.r_wall = x;
-                        }
-                    }
-                    'W' => {
-                        b.t_sphere.r_wall = x;
-                        w_read = true;
-                    }
-                    'c' => b.c = x,
-                    'C' => b.c_t = x,
-                    'i' => b.theta = x,
-                    'S' | 'M' => b.count = x,
-                    // Beam diameter, tolerance, quadrature: no effect on this inverse.
-                    _ => {}
-                }
-            }
-        }
+        let (Read { m_r, m_t, m_u, lambda, g }, b) =
+            read_row(&mut take, &base, numeric, k, &labels)?;
         let m_r = m_r.ok_or_else(|| InverseError::parse(Some(no), "row without M_R"))?;
         let m_t = m_t.ok_or_else(|| {
             InverseError::parse(Some(no), "row without M_T: km fit needs M_R and M_T")
@@ -236,6 +138,139 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
         return Err(InverseError::parse(None, "no measurement rows"));
     }
     Ok(rows)
+}
+
+/// The header's 17 numbers, the legend (its line and text), the tokens that
+/// follow the legend on the header's last line (iad's terse form), and the
+/// index of the first line after the legend.
+type Header = (Vec<f64>, (usize, String), Vec<(usize, String)>, usize);
+
+/// Read the header and legend of an `.rxt` file from its cleaned lines.
+fn read_header(lines: &[(usize, String)]) -> Result<Header, InverseError> {
+    // Tokens of the header, line by line, until 17 numbers are read. iad
+    // reads the file as a stream of tokens, so a "terse" file may carry the
+    // legend and the data on the header's last line (iad's `terse_A.rxt`):
+    // what follows the 17th number on its line is kept for them.
+    let mut header = Vec::with_capacity(17);
+    let mut li = 0;
+    let mut rest: Vec<(usize, String)> = Vec::new();
+    while header.len() < 17 {
+        let Some((no, l)) = lines.get(li) else {
+            return Err(InverseError::parse(None, "the header ends before its 17 numbers"));
+        };
+        for tok in l.split_whitespace() {
+            if header.len() == 17 {
+                rest.push((*no, tok.to_string()));
+            } else {
+                header.push(number(tok, *no)?);
+            }
+        }
+        li += 1;
+    }
+    // The legend: the next token on the header's line, else the next line with content.
+    let legend = if !rest.is_empty() {
+        let (no, tok) = rest.remove(0);
+        (no, tok.chars().filter(|c| *c != '-').collect::<String>())
+    } else {
+        loop {
+            let Some((no, l)) = lines.get(li) else {
+                return Err(InverseError::parse(None, "no legend line after the header"));
+            };
+            li += 1;
+            let s: String = l.chars().filter(|c| !c.is_whitespace() && *c != '-').collect();
+            if !s.is_empty() {
+                break (*no, s);
+            }
+        }
+    };
+    Ok((header, legend, rest, li))
+}
+
+/// What one row gives besides the set-up.
+struct Read {
+    m_r: Option<f64>,
+    m_t: Option<f64>,
+    m_u: Option<f64>,
+    lambda: Option<f64>,
+    g: Option<f64>,
+}
+
+/// Read one row with `take` (the next number of the file): by iad's digit
+/// legend `k` (`numeric`) or by the column letters `labels`; returns the
+/// measured values and the header's set-up with the row's overrides.
+fn read_row(
+    take: &mut dyn FnMut() -> Result<f64, InverseError>,
+    base: &Base,
+    numeric: bool,
+    k: usize,
+    labels: &[char],
+) -> Result<(Read, Base), InverseError> {
+    let (mut m_r, mut m_t, mut m_u, mut lambda, mut g) = (None, None, None, None, None);
+    let mut b = base.clone();
+    if numeric {
+        // iad's rule: a first value above 1 is the wavelength.
+        let first = take()?;
+        m_r = Some(if first > 1.0 {
+            lambda = Some(first);
+            take()?
+        } else {
+            first
+        });
+        if k >= 2 {
+            m_t = Some(take()?);
+        }
+        if k >= 3 {
+            m_u = Some(take()?);
+        }
+        if k >= 4 {
+            b.r_sphere.r_wall = take()?;
+            b.t_sphere.r_wall = b.r_sphere.r_wall;
+        }
+        if k >= 5 {
+            b.t_sphere.r_wall = take()?;
+        }
+        if k >= 6 {
+            b.r_std = take()?;
+        }
+        if k >= 7 {
+            b.t_std = take()?;
+        }
+    } else {
+        let mut w_read = false;
+        for &c in labels {
+            let x = take()?;
+            match c {
+                'L' => lambda = Some(x),
+                'r' => m_r = Some(x),
+                't' => m_t = Some(x),
+                'u' => m_u = Some(x),
+                'g' => g = Some(x),
+                'd' => b.thickness = x,
+                'D' => b.slide_thickness = x,
+                'n' => b.n_sample = x,
+                'N' => b.n_slide = x,
+                'R' => b.r_std = x,
+                'T' => b.t_std = x,
+                'w' => {
+                    b.r_sphere.r_wall = x;
+                    if !w_read {
+                        b.t_sphere.r_wall = x;
+                    }
+                }
+                'W' => {
+                    b.t_sphere.r_wall = x;
+                    w_read = true;
+                }
+                'c' => b.c = x,
+                'C' => b.c_t = x,
+                'i' => b.theta = x,
+                'S' | 'M' => b.count = x,
+                // Beam diameter, tolerance, quadrature: no effect on this inverse.
+                _ => {}
+            }
+        }
+    }
+    Ok((Read { m_r, m_t, m_u, lambda, g }, b))
 }
 
 /// The header's values, overridable per row.
