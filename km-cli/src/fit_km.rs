@@ -30,8 +30,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use km_bench::chart::{LineChart, Mark, Series, write_chart};
-use km_inverse::kubelka::{self, Film, Saunderson, Specular, Uncertainty};
-use serde_json::{Map, Value, json};
+use km_inverse::drawdown::{DrawdownFit, Readings, fit_drawdown, hiding_curves};
+use km_inverse::kubelka::{KubelkaError, Saunderson, Specular};
+use serde_json::Value;
 
 /// The readings and settings of `km fit --km` (all optional; which are
 /// required depends on the mode, see the module documentation).
@@ -58,14 +59,9 @@ pub struct KmFitInputs {
     pub n: Option<f64>,
 }
 
-/// Which inverse the inputs ask for.
-enum Mode {
-    BlackWhite { r_black: f64, g_black: f64, r_white: f64, g_white: f64, thickness: f64 },
-    RInfRZero { r_inf: f64, r_zero: f64, thickness: f64 },
-    RInf { r_inf: f64 },
-}
-
-fn mode(i: &KmFitInputs) -> Result<Mode> {
+/// Which readings the flags give (`--r-black`/`--r-white`, or `--r-inf`
+/// [`--r-zero`]), each missing or conflicting flag named.
+fn mode(i: &KmFitInputs) -> Result<Readings> {
     let two_grounds = i.r_black.is_some() || i.r_white.is_some();
     let opaque = i.r_inf.is_some() || i.r_zero.is_some();
     if two_grounds && opaque {
@@ -84,7 +80,7 @@ fn mode(i: &KmFitInputs) -> Result<Mode> {
             .context("--r-white-ground (the reflectance of the light ground) is required")?;
         let thickness = i.thickness.context("--thickness (the film thickness) is required")?;
         let g_black = i.r_black_ground.unwrap_or(0.0);
-        return Ok(Mode::BlackWhite { r_black, g_black, r_white, g_white, thickness });
+        return Ok(Readings::BlackWhite { r_black, g_black, r_white, g_white, thickness });
     }
     if i.r_white_ground.is_some() || i.r_black_ground.is_some() {
         bail!("--r-white-ground/--r-black-ground belong to --r-black/--r-white");
@@ -92,14 +88,14 @@ fn mode(i: &KmFitInputs) -> Result<Mode> {
     match (i.r_inf, i.r_zero) {
         (Some(r_inf), Some(r_zero)) => {
             let thickness = i.thickness.context("--thickness (the film thickness) is required")?;
-            Ok(Mode::RInfRZero { r_inf, r_zero, thickness })
+            Ok(Readings::RInfRZero { r_inf, r_zero, thickness })
         }
         (None, Some(_)) => bail!("--r-zero needs --r-inf (the reflectance of the opaque film)"),
         (Some(r_inf), None) => {
             if i.thickness.is_some() {
                 bail!("--thickness needs --r-zero: an opaque film alone gives only K/S");
             }
-            Ok(Mode::RInf { r_inf })
+            Ok(Readings::RInf { r_inf })
         }
         (None, None) => bail!(
             "no readings: give --r-black, --r-white, --r-white-ground and --thickness, or \
@@ -118,131 +114,29 @@ fn saunderson(i: &KmFitInputs) -> Result<Option<Saunderson>> {
     })
 }
 
-/// Standard uncertainty assumed for each reading as given (a spectrophotometer's
-/// typical repeatability) in the `uncertainty` key.
-const READING_U: f64 = 1e-3;
-
-/// `d(internal)/d(reading)` of Saunderson's correction (1 without it), by a
-/// central difference of step 1e-7 (one-sided at the ends of `[0, 1]`);
-/// `NaN` when a step leaves the correction's domain.
-fn internal_slope(corr: &Option<Saunderson>, r: f64) -> f64 {
-    let Some(c) = corr else { return 1.0 };
-    let (lo, hi) = ((r - 1e-7).max(0.0), (r + 1e-7).min(1.0));
-    match (c.internal_from_measured(lo), c.internal_from_measured(hi)) {
-        (Ok(a), Ok(b)) => (b - a) / (hi - lo),
-        _ => f64::NAN,
-    }
-}
-
-fn uncertainty_json(u: Option<Uncertainty>) -> Value {
-    match u {
-        Some(u) if u.k.is_finite() && u.s.is_finite() => json!({
-            "K": u.k, "S": u.s, "correlation": u.correlation, "u_reading": READING_U
-        }),
-        _ => Value::Null,
-    }
-}
-
-/// Solve and build the JSON object (the contract's `K`, `S` and more).
+/// Solve and build the JSON object (the contract's `K`, `S` and more):
+/// [`km_inverse::drawdown::fit_drawdown`] on the readings of the flags.
 ///
 /// # Errors
 /// Missing or conflicting inputs; the library's refusals (values out of
-/// range, readings no film can produce), each naming the value.
+/// range, readings no film can produce), each naming the value and its flag.
 pub fn compute(inputs: &KmFitInputs) -> Result<Value> {
-    let mode = mode(inputs)?;
+    Ok(fit(inputs)?.to_json())
+}
+
+fn fit(inputs: &KmFitInputs) -> Result<DrawdownFit> {
+    let readings = mode(inputs)?;
     let corr = saunderson(inputs)?;
-    // Measured -> internal reflectance, naming the input on failure.
-    let internal = |name: &str, r: f64| -> Result<f64> {
-        match &corr {
-            None => Ok(r),
-            Some(c) => c.internal_from_measured(r).with_context(|| format!("--{name}")),
-        }
-    };
-    let mut inputs_json = Map::new();
-    let mut internal_json = Map::new();
-    let mut out = Map::new();
-    let film: Option<Film> = match mode {
-        Mode::BlackWhite { r_black, g_black, r_white, g_white, thickness } => {
-            let rb = internal("r-black", r_black)?;
-            let rw = internal("r-white", r_white)?;
-            for (k, v) in [
-                ("r_black", r_black),
-                ("r_white", r_white),
-                ("r_black_ground", g_black),
-                ("r_white_ground", g_white),
-                ("thickness", thickness),
-            ] {
-                inputs_json.insert(k.into(), json!(v));
+    fit_drawdown(readings, corr).map_err(|e| {
+        // Name the flag of the reading the library names.
+        let flag = match &e {
+            KubelkaError::Invalid { name, .. } | KubelkaError::Infeasible { name, .. } => {
+                format!("--{}", name.replace('_', "-"))
             }
-            internal_json.insert("r_black".into(), json!(rb));
-            internal_json.insert("r_white".into(), json!(rw));
-            out.insert("mode".into(), json!("black_white"));
-            let film = kubelka::from_black_white(rb, g_black, rw, g_white, thickness)?;
-            let (ub, uw) = (
-                READING_U * internal_slope(&corr, r_black),
-                READING_U * internal_slope(&corr, r_white),
-            );
-            let u = kubelka::black_white_uncertainty(rb, g_black, rw, g_white, thickness, ub, uw);
-            out.insert("uncertainty".into(), uncertainty_json(u.ok()));
-            Some(film)
-        }
-        Mode::RInfRZero { r_inf, r_zero, thickness } => {
-            let ri = internal("r-inf", r_inf)?;
-            let r0 = internal("r-zero", r_zero)?;
-            for (k, v) in [("r_inf", r_inf), ("r_zero", r_zero), ("thickness", thickness)] {
-                inputs_json.insert(k.into(), json!(v));
-            }
-            internal_json.insert("r_inf".into(), json!(ri));
-            internal_json.insert("r_zero".into(), json!(r0));
-            out.insert("mode".into(), json!("r_inf_r_zero"));
-            let film = kubelka::from_r_inf_r0(ri, r0, thickness)?;
-            let (ui, u0) = (
-                READING_U * internal_slope(&corr, r_inf),
-                READING_U * internal_slope(&corr, r_zero),
-            );
-            let u = kubelka::r_inf_r0_uncertainty(ri, r0, thickness, ui, u0);
-            out.insert("uncertainty".into(), uncertainty_json(u.ok()));
-            Some(film)
-        }
-        Mode::RInf { r_inf } => {
-            let ri = internal("r-inf", r_inf)?;
-            inputs_json.insert("r_inf".into(), json!(r_inf));
-            internal_json.insert("r_inf".into(), json!(ri));
-            out.insert("mode".into(), json!("r_inf"));
-            out.insert("K_over_S".into(), json!(kubelka::k_over_s(ri)?));
-            out.insert("R_inf".into(), json!(ri));
-            out.insert("uncertainty".into(), Value::Null);
-            None
-        }
-    };
-    match film {
-        Some(f) => {
-            out.insert("K".into(), json!(f.k));
-            out.insert("S".into(), json!(f.s));
-            out.insert("K_over_S".into(), json!(f.k_over_s));
-            out.insert("S_X".into(), json!(f.sx));
-            out.insert("R_inf".into(), json!(f.r_inf));
-            out.insert("R_0".into(), json!(f.r0));
-            out.insert("T".into(), json!(f.t));
-            out.insert("thickness".into(), json!(f.sx / f.s));
-        }
-        None => {
-            for k in ["K", "S", "S_X", "R_0", "T", "thickness"] {
-                out.insert(k.into(), Value::Null);
-            }
-        }
-    }
-    if let (Some(c), Some(ri)) = (&corr, out.get("R_inf").and_then(Value::as_f64)) {
-        // What an instrument would read on the opaque film.
-        out.insert("R_inf_measured".into(), json!(c.measured_from_internal(ri)?));
-    }
-    out.insert(
-        "saunderson".into(),
-        corr.map(|c| json!({ "k1": c.k1, "k2": c.k2 })).unwrap_or(Value::Null),
-    );
-    out.insert("inputs".into(), Value::Object(inputs_json));
-    out.insert("internal".into(), Value::Object(internal_json));
-    Ok(Value::Object(out))
+            _ => "--km".into(),
+        };
+        anyhow::Error::new(e).context(flag)
+    })
 }
 
 /// Run `km fit --km`: print a table, or the JSON object with `--json`.
@@ -307,55 +201,27 @@ pub fn run(inputs: &KmFitInputs, json: bool) -> Result<()> {
 /// Points of the hiding curves (thicknesses from 0 to this many, at most).
 const PLOT_POINTS: usize = 200;
 
-/// Draw the fitted film's hiding curves into `dir/km-fit-km.svg` and `.png`:
-/// internal reflectance over each ground against film thickness (Kubelka
-/// 1948 eq. 11 with the fitted `K`, `S`), the (internal) readings at the
-/// measured thickness, and `R_inf`. The thickness axis runs to 1.2 times the
-/// hiding thickness (`R_0 = 0.98 R_inf`, from eq. I4), kept within 2 to 20
-/// times the measured thickness. Returns the two paths.
+/// Draw the fitted film's hiding curves ([`km_inverse::drawdown::hiding_curves`])
+/// into `dir/km-fit-km.svg` and `.png`, with the readings at the measured
+/// thickness and `R_inf`. Returns the two paths.
 ///
 /// # Errors
 /// Those of [`compute`]; only `--r-inf` given (no `K`, `S` to draw); a
 /// directory that cannot be created; drawing errors.
 pub fn write_plot(inputs: &KmFitInputs, dir: &Path) -> Result<[PathBuf; 2]> {
-    let v = compute(inputs)?;
-    let (Some(k), Some(s), Some(x)) = (v["K"].as_f64(), v["S"].as_f64(), v["thickness"].as_f64())
-    else {
+    let fit = fit(inputs)?;
+    let Some((curves, x)) = hiding_curves(&fit, PLOT_POINTS)? else {
         bail!("--plot needs K and S: give --r-zero and --thickness, or --r-black and --r-white");
     };
-    let r_inf = v["R_inf"].as_f64().unwrap_or(f64::NAN);
-    // Hiding thickness: where the film over black reaches 98 % of R_inf.
-    let hiding = kubelka::from_r_inf_r0(r_inf, 0.98 * r_inf, 1.0).map(|f| f.sx / s).unwrap_or(x);
-    let x_max = (1.2 * hiding).clamp(2.0 * x, 20.0 * x);
-    // The grounds and readings to draw.
-    let internal = &v["internal"];
-    let grounds: Vec<(String, f64, Option<f64>)> = match v["mode"].as_str() {
-        Some("black_white") => vec![
-            (
-                "over dark ground".into(),
-                v["inputs"]["r_black_ground"].as_f64().unwrap_or(0.0),
-                internal["r_black"].as_f64(),
-            ),
-            (
-                "over light ground".into(),
-                v["inputs"]["r_white_ground"].as_f64().unwrap_or(1.0),
-                internal["r_white"].as_f64(),
-            ),
-        ],
-        _ => vec![("over ideal black".into(), 0.0, internal["r_zero"].as_f64())],
-    };
     let mut series = Vec::new();
-    for (i, (label, g, reading)) in grounds.iter().enumerate() {
-        let mut pts = Vec::with_capacity(PLOT_POINTS + 1);
-        for j in 0..=PLOT_POINTS {
-            let t = x_max * j as f64 / PLOT_POINTS as f64;
-            pts.push((t, kubelka::reflectance_over_ground(k, s, t, *g)?));
+    for (i, c) in curves.into_iter().enumerate() {
+        if let Some(r) = c.reading {
+            let label = format!("reading, {}", c.label);
+            series.push(Series::new(label, vec![(x, r)], Mark::Points, i));
         }
-        series.push(Series::new(format!("{label} ({g})"), pts, Mark::Line, i));
-        if let Some(r) = reading {
-            series.push(Series::new(format!("reading, {label}"), vec![(x, *r)], Mark::Points, i));
-        }
+        series.push(Series::new(format!("{} ({})", c.label, c.ground), c.points, Mark::Line, i));
     }
+    let (k, s, r_inf) = fit.film.map_or((f64::NAN, f64::NAN, fit.r_inf), |f| (f.k, f.s, f.r_inf));
     let chart = LineChart {
         title: format!("Kubelka–Munk fit: K = {k:.4}, S = {s:.4} (internal reflectance)"),
         x_label: "film thickness".into(),
@@ -395,28 +261,11 @@ mod tests {
         assert!((v["K"].as_f64().unwrap() - k).abs() < 1e-12, "{v}");
         assert!((v["S"].as_f64().unwrap() - s).abs() < 1e-12, "{v}");
         assert_eq!(v["mode"], "black_white");
+        // The uncertainty through Saunderson's slope is the library's
+        // (km_inverse::drawdown tests); here only its keys.
+        assert_eq!(v["uncertainty"]["u_reading"], 1e-3);
+        assert!(v["uncertainty"]["K"].as_f64().unwrap() > 0.0);
         assert!(run(&inputs, true).is_ok() && run(&inputs, false).is_ok());
-        // The uncertainty for readings +-0.001, through Saunderson's slope
-        // dR/dR_m = (1-k1)(1-k2) / ((1-k1)(1-k2) + k2 y)^2 (eq. I9 differentiated).
-        let slope = |rm: f64| {
-            let (a, y) = ((1.0 - c.k1) * (1.0 - c.k2), rm - c.k1);
-            a / (a + c.k2 * y).powi(2)
-        };
-        let (rb, rw) = (inputs.r_black.unwrap(), inputs.r_white.unwrap());
-        let lib = kubelka::black_white_uncertainty(
-            c.internal_from_measured(rb).unwrap(),
-            0.02,
-            c.internal_from_measured(rw).unwrap(),
-            0.85,
-            x,
-            1e-3 * slope(rb),
-            1e-3 * slope(rw),
-        )
-        .unwrap();
-        let u = &v["uncertainty"];
-        // Central differences of step 1e-7 on a smooth function: ~1e-7 relative.
-        assert!((u["K"].as_f64().unwrap() / lib.k - 1.0).abs() < 1e-6, "{u} {lib:?}");
-        assert!((u["S"].as_f64().unwrap() / lib.s - 1.0).abs() < 1e-6, "{u} {lib:?}");
     }
 
     #[test]

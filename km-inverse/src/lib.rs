@@ -21,6 +21,9 @@
 //!   uncertainty of `K`, `S` from that of the readings. Every inverse is the
 //!   exact inverse of `km_core::two_flux` (round trips to rounding level).
 //!   Errors: [`kubelka::KubelkaError`], naming the value.
+//! * [`drawdown`]: one film's readings to `K`, `S` (with Saunderson's
+//!   correction and the readings' uncertainty) and its hiding curves: what
+//!   `km fit --km` computes.
 //! * [`colour`]: spectra to CIE 1931 XYZ (2° observer; 1964 10° too), CIELAB
 //!   under D65 or D50, sRGB (IEC 61966-2-1), the CIEDE2000 colour difference,
 //!   and an SVG swatch. The CIE tables are carried in the crate
@@ -34,6 +37,7 @@
 
 pub mod colour;
 mod covariance;
+pub mod drawdown;
 pub mod error;
 pub mod forward;
 pub mod kubelka;
