@@ -4,14 +4,14 @@
 //! (`--m-r`, `--m-t`, `[--m-u]`, or a spectrum file), and, with `--km`, the
 //! Kubelka–Munk inverse of paint drawdowns (`docs/inverse-km.md`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::Args;
 use km_inverse::forward::Sample;
 use km_inverse::rxt::{Row, parse_csv, parse_rxt};
 use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
-use serde_json::json;
+use km_inverse::spectrum::{RowOverrides, fit_rows, rows_json};
 
 /// Arguments of `km fit`.
 #[derive(Args, Debug, Clone)]
@@ -166,93 +166,76 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
     }
     let opts = FitOptions { g: args.g, streams: args.streams };
     match &args.file {
-        None => {
-            let (Some(m_r), Some(m_t)) = (args.m_r, args.m_t) else {
-                bail!("give --m-r and --m-t (or a measurement file)");
-            };
-            let meas = Measurement {
-                m_r,
-                m_t,
-                m_u: args.m_u,
-                sigma_r: args.sigma_r,
-                sigma_t: args.sigma_t,
-                sigma_u: args.sigma_u,
-            };
-            let r = km_inverse::fit(&args.setup()?, &meas, &opts)?;
-            if args.json {
-                crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&r.to_json())?))
-            } else {
-                crate::stdout::print(&table(&[(None, r)]))
-            }
-        }
-        Some(path) => {
-            if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
-                bail!("give either a measurement file or --m-r/--m-t/--m-u, not both");
-            }
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
-            let rows: Vec<Row> = match ext.as_str() {
-                "rxt" => parse_rxt(&text),
-                "csv" => parse_csv(&text, &args.setup()?),
-                _ => bail!("{}: expected a .rxt or .csv file", path.display()),
-            }
-            .with_context(|| format!("{}", path.display()))?;
-            let (c, c_t) = args.fractions();
-            let mut results = Vec::with_capacity(rows.len());
-            for row in rows {
-                let mut setup = row.setup;
-                // Flags that differ from the defaults override an .rxt file.
-                if c != 1.0 {
-                    setup.specular_in_m_r = c;
-                }
-                if c_t != 1.0 {
-                    setup.unscattered_in_m_t = c_t;
-                }
-                let mut meas = row.measurement;
-                meas.sigma_r = meas.sigma_r.or(args.sigma_r);
-                meas.sigma_t = meas.sigma_t.or(args.sigma_t);
-                meas.sigma_u = meas.sigma_u.or(args.sigma_u);
-                let o = FitOptions { g: row.g.or(opts.g), ..opts };
-                // A bad row (e.g. M_T = 0) is reported in its place; the others are fitted.
-                results.push((row.wavelength_nm, km_inverse::fit(&setup, &meas, &o)));
-            }
-            let failed = results.iter().filter(|(_, r)| r.is_err()).count();
-            if args.json {
-                let list: Vec<serde_json::Value> = results
-                    .iter()
-                    .map(|(w, r)| match r {
-                        Ok(r) => {
-                            let mut v = r.to_json();
-                            v["wavelength_nm"] = json!(w);
-                            v
-                        }
-                        Err(e) => json!({
-                            "wavelength_nm": w, "status": "invalid", "error": e.to_string()
-                        }),
-                    })
-                    .collect();
-                crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&list)?))?;
-            } else {
-                let ok: Vec<(Option<f64>, FitResult)> = results
-                    .iter()
-                    .filter_map(|(w, r)| r.as_ref().ok().map(|r| (*w, r.clone())))
-                    .collect();
-                let mut out = table(&ok);
-                for (w, r) in &results {
-                    if let Err(e) = r {
-                        let w = w.map_or("-".to_string(), |w| format!("{w:.1}"));
-                        out += &format!("{w:>9} invalid: {e}\n");
-                    }
-                }
-                crate::stdout::print(&out)?;
-            }
-            if failed == results.len() {
-                bail!("no row of {} could be fitted", path.display());
-            }
-            Ok(())
-        }
+        None => run_one(args, &opts),
+        Some(path) => run_file(args, &opts, path),
     }
+}
+
+/// One measurement from `--m-r`, `--m-t` [`--m-u`].
+fn run_one(args: &FitArgs, opts: &FitOptions) -> anyhow::Result<()> {
+    let (Some(m_r), Some(m_t)) = (args.m_r, args.m_t) else {
+        bail!("give --m-r and --m-t (or a measurement file)");
+    };
+    let meas = Measurement {
+        m_r,
+        m_t,
+        m_u: args.m_u,
+        sigma_r: args.sigma_r,
+        sigma_t: args.sigma_t,
+        sigma_u: args.sigma_u,
+    };
+    let r = km_inverse::fit(&args.setup()?, &meas, opts)?;
+    if args.json {
+        crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&r.to_json())?))
+    } else {
+        crate::stdout::print(&table(&[(None, r)]))
+    }
+}
+
+/// A spectrum file: every row fitted (`km_inverse::spectrum`), bad rows reported in place.
+fn run_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> anyhow::Result<()> {
+    if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
+        bail!("give either a measurement file or --m-r/--m-t/--m-u, not both");
+    }
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+    let rows: Vec<Row> = match ext.as_str() {
+        "rxt" => parse_rxt(&text),
+        "csv" => parse_csv(&text, &args.setup()?),
+        _ => bail!("{}: expected a .rxt or .csv file", path.display()),
+    }
+    .with_context(|| format!("{}", path.display()))?;
+    // Flags that differ from the defaults override an .rxt file.
+    let (c, c_t) = args.fractions();
+    let over = RowOverrides {
+        specular_in_m_r: (c != 1.0).then_some(c),
+        unscattered_in_m_t: (c_t != 1.0).then_some(c_t),
+        sigma_r: args.sigma_r,
+        sigma_t: args.sigma_t,
+        sigma_u: args.sigma_u,
+    };
+    let fits = fit_rows(&rows, &over, opts);
+    if args.json {
+        crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&rows_json(&fits))?))?;
+    } else {
+        let ok: Vec<(Option<f64>, FitResult)> = fits
+            .iter()
+            .filter_map(|f| f.result.as_ref().ok().map(|r| (f.wavelength_nm, r.clone())))
+            .collect();
+        let mut out = table(&ok);
+        for f in &fits {
+            if let Err(e) = &f.result {
+                let w = f.wavelength_nm.map_or("-".to_string(), |w| format!("{w:.1}"));
+                out += &format!("{w:>9} invalid: {e}\n");
+            }
+        }
+        crate::stdout::print(&out)?;
+    }
+    if fits.iter().all(|f| f.result.is_err()) {
+        bail!("no row of {} could be fitted", path.display());
+    }
+    Ok(())
 }
 
 /// A plain-text table of results.

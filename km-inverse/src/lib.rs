@@ -13,6 +13,7 @@
 //! * [`stack`]: the same stack with its boundaries cached, the fit's fast forward model.
 //! * [`sphere`]: single- and double-integrating-sphere measurement equations.
 //! * [`rxt`]: iad's `.rxt` measurement files and a plain CSV of spectra.
+//! * [`spectrum`]: the rows of such a file fitted one by one, with the caller's overrides.
 //! * [`kubelka`]: the paint engineer's Kubelka–Munk inverse. `K` and `S` of a
 //!   film from its reflectance over black and over white grounds (Kubelka
 //!   1948), or from `R_inf` and `R_0`; Saunderson's correction between measured
@@ -45,6 +46,7 @@ pub mod linalg;
 pub mod rxt;
 mod search;
 pub mod slab;
+pub mod spectrum;
 pub mod sphere;
 pub mod stack;
 
