@@ -20,7 +20,7 @@ use km_core::two_flux::{self, KmCoefficients};
 /// (often `S_w = 1`: a relative scale).
 ///
 /// * `r_inf_masstone`, `r_inf_tint`: internal reflectances of the opaque
-///   masstone and tint, in `(0, 1]` (apply [`Saunderson`] to readings first);
+///   masstone and tint, in `(0, 1]` (apply [`Saunderson`](super::Saunderson) to readings first);
 /// * `c_pigment`, `c_white`: concentrations in the tint, `> 0`;
 /// * `white`: `K_w >= 0`, `S_w > 0`.
 ///
@@ -92,7 +92,7 @@ pub fn masstone_tint(
 /// R = R_inf(K/S) (opaque, eq. I2)  or  Kubelka (1948) eq. 11 over R_g      (I11)
 /// ```
 ///
-/// Apply [`Saunderson::measured_from_internal`] for what an instrument reads.
+/// Apply [`Saunderson::measured_from_internal`](super::Saunderson::measured_from_internal) for what an instrument reads.
 ///
 /// # Errors
 /// Those of `mix_pigments` and [`reflectance_over_ground`].

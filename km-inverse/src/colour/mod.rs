@@ -26,11 +26,18 @@
 //! package by `km-bench/scripts/cie_tables.py`. D illuminants are
 //! interpolated linearly to 1 nm (CIE 015:2018 §7.2.1.1).
 
-use std::fmt::Write as _;
 use std::sync::OnceLock;
 
 use km_core::{Scene, Solution};
 use thiserror::Error;
+
+mod ciede2000;
+mod srgb;
+mod swatch;
+
+pub use ciede2000::{De2000Weights, ciede2000, ciede2000_weighted};
+pub use srgb::{srgb, xyz_from_srgb};
+pub use swatch::{Patch, srgb_u8, swatch_svg};
 
 /// An error of the colour pipeline, naming the offending value.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -58,9 +65,9 @@ fn invalid(name: &str, value: f64, reason: impl Into<String>) -> ColourError {
 // The CIE tables, embedded.
 
 /// CIE 1931 2° and 1964 10° colour-matching functions, 360–830 nm at 1 nm.
-const CMF_CSV: &str = include_str!("../data/cie_cmf_1nm.csv");
+const CMF_CSV: &str = include_str!("../../data/cie_cmf_1nm.csv");
 /// D65 and D50 relative spectral power, 300–780 nm at 5 nm.
-const ILLUMINANTS_CSV: &str = include_str!("../data/cie_illuminants_5nm.csv");
+const ILLUMINANTS_CSV: &str = include_str!("../../data/cie_illuminants_5nm.csv");
 
 /// First and last wavelength of the integration, nm: the CIE
 /// colour-matching functions start at 360 nm; the D illuminant tables carried
@@ -484,303 +491,6 @@ pub fn xyz_from_lab(lab: Lab, white: Xyz) -> Xyz {
     let fx = fy + lab.a / 500.0;
     let fz = fy - lab.b / 200.0;
     Xyz { x: white.x * lab_f_inv(fx), y: white.y * lab_f_inv(fy), z: white.z * lab_f_inv(fz) }
-}
-
-// ---------------------------------------------------------------------------
-// sRGB (IEC 61966-2-1).
-
-/// Linear sRGB -> XYZ (D65, `Y` of white = 1), IEC 61966-2-1:1999 eq. 7.
-#[rustfmt::skip]
-const SRGB_TO_XYZ: [[f64; 3]; 3] = [
-    [0.4124, 0.3576, 0.1805],
-    [0.2126, 0.7152, 0.0722],
-    [0.0193, 0.1192, 0.9505],
-];
-
-/// XYZ -> linear sRGB: the exact inverse of [`SRGB_TO_XYZ`] (the standard
-/// prints it rounded to four decimals: 3.2406, -1.5372, -0.4986; -0.9689,
-/// 1.8758, 0.0415; 0.0557, -0.2040, 1.0570; the test
-/// `srgb_matrix_is_the_standards` checks the agreement to 1e-4).
-fn xyz_to_srgb_matrix() -> [[f64; 3]; 3] {
-    let m = SRGB_TO_XYZ;
-    // Adjugate over determinant.
-    let cof =
-        |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
-    let det = m[0][0] * cof(1, 2, 1, 2) - m[0][1] * cof(1, 2, 0, 2) + m[0][2] * cof(1, 2, 0, 1);
-    [
-        [cof(1, 2, 1, 2) / det, -cof(0, 2, 1, 2) / det, cof(0, 1, 1, 2) / det],
-        [-cof(1, 2, 0, 2) / det, cof(0, 2, 0, 2) / det, -cof(0, 1, 0, 2) / det],
-        [cof(1, 2, 0, 1) / det, -cof(0, 2, 0, 1) / det, cof(0, 1, 0, 1) / det],
-    ]
-}
-
-/// sRGB encoding of a linear value (eq. C6), as IEC 61966-2-1 writes it:
-/// `12.92 c` for `c <= 0.0031308` (negative, out-of-gamut values included),
-/// else `1.055 c^(1/2.4) - 0.055` (values above 1 included). No clipping, so
-/// [`xyz_from_srgb`] inverts it everywhere.
-fn srgb_encode(c: f64) -> f64 {
-    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
-}
-
-/// The inverse of [`srgb_encode`]: `e / 12.92` for `e <= 0.04045`, else
-/// `((e + 0.055) / 1.055)^2.4`.
-fn srgb_decode(e: f64) -> f64 {
-    if e <= 0.040_45 { e / 12.92 } else { ((e + 0.055) / 1.055).powf(2.4) }
-}
-
-/// sRGB (non-linear, `[0, 1]` in gamut; unclipped) of D65-referred
-/// tristimulus values with `Y = 100` for white:
-///
-/// `(R, G, B)_lin = M^-1 (X, Y, Z) / 100` (eq. C5), then the sRGB transfer
-/// function of eq. C6 on each channel. Colours outside the sRGB gamut give
-/// values outside `[0, 1]` (clip for display; [`swatch_svg`] does).
-///
-/// # Reference
-/// IEC 61966-2-1:1999, §5.2 (eq. 5–7 and the inverse matrix of Annex).
-///
-/// ```
-/// use km_inverse::colour::{Xyz, srgb};
-/// // The sRGB white (x, y = 0.3127, 0.3290) is (1, 1, 1).
-/// let w = Xyz { x: 100.0 * 0.4124 + 35.76 + 18.05, y: 100.0, z: 1.93 + 11.92 + 95.05 };
-/// let rgb = srgb(w);
-/// assert!(rgb.iter().all(|c| (c - 1.0).abs() < 1e-12));
-/// ```
-pub fn srgb(xyz: Xyz) -> [f64; 3] {
-    let m = xyz_to_srgb_matrix();
-    let v = [xyz.x / 100.0, xyz.y / 100.0, xyz.z / 100.0];
-    let mut out = [0.0; 3];
-    for (o, row) in out.iter_mut().zip(m) {
-        *o = srgb_encode(row[0] * v[0] + row[1] * v[1] + row[2] * v[2]);
-    }
-    out
-}
-
-/// D65-referred tristimulus values (`Y = 100` for white) of an sRGB colour,
-/// the inverse of [`srgb`].
-///
-/// # Reference
-/// IEC 61966-2-1:1999, §5.2 (eq. 7 and the decoding of eq. 5).
-///
-/// ```
-/// use km_inverse::colour::{srgb, xyz_from_srgb};
-/// let c = xyz_from_srgb([0.2, 0.5, 0.8]);
-/// let back = srgb(c);
-/// assert!((back[0] - 0.2).abs() < 1e-12 && (back[2] - 0.8).abs() < 1e-12);
-/// ```
-pub fn xyz_from_srgb(rgb: [f64; 3]) -> Xyz {
-    let lin = rgb.map(srgb_decode);
-    let m = SRGB_TO_XYZ;
-    let row = |r: usize| 100.0 * (m[r][0] * lin[0] + m[r][1] * lin[1] + m[r][2] * lin[2]);
-    Xyz { x: row(0), y: row(1), z: row(2) }
-}
-
-// ---------------------------------------------------------------------------
-// CIEDE2000.
-
-/// Parametric factors of CIEDE2000 (`k_L`, `k_C`, `k_H`), 1 for the
-/// reference conditions (textiles use `k_L = 2`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct De2000Weights {
-    /// Lightness factor `k_L > 0`.
-    pub k_l: f64,
-    /// Chroma factor `k_C > 0`.
-    pub k_c: f64,
-    /// Hue factor `k_H > 0`.
-    pub k_h: f64,
-}
-
-impl Default for De2000Weights {
-    fn default() -> Self {
-        De2000Weights { k_l: 1.0, k_c: 1.0, k_h: 1.0 }
-    }
-}
-
-/// The CIEDE2000 colour difference `Delta E_00` of two CIELAB colours, with
-/// the reference parametric factors `k_L = k_C = k_H = 1`.
-///
-/// See [`ciede2000_weighted`] for the formula.
-///
-/// # Reference
-/// CIE 142-2001; Sharma, Wu & Dalal (2005), eq. 1–22.
-///
-/// ```
-/// use km_inverse::colour::{Lab, ciede2000};
-/// // Sharma, Wu & Dalal (2005), Table 1, pair 1.
-/// let d = ciede2000(Lab { l: 50.0, a: 2.6772, b: -79.7751 },
-///                   Lab { l: 50.0, a: 0.0, b: -82.7485 });
-/// assert!((d - 2.0425).abs() < 1e-4);
-/// ```
-pub fn ciede2000(lab1: Lab, lab2: Lab) -> f64 {
-    ciede2000_weighted(lab1, lab2, De2000Weights::default())
-}
-
-/// The CIEDE2000 colour difference with parametric factors:
-///
-/// ```text
-/// C_ab = sqrt(a^2 + b^2),  G = (1 - sqrt(C^7 / (C^7 + 25^7))) / 2 (C: mean C_ab)
-/// a' = (1 + G) a,  C' = sqrt(a'^2 + b^2),  h' = atan2(b, a') in [0, 360)
-/// dL' = L2 - L1,  dC' = C'2 - C'1,  dh' = h'2 - h'1 wrapped to (-180, 180]
-/// dH' = 2 sqrt(C'1 C'2) sin(dh'/2)
-/// T = 1 - 0.17 cos(h - 30) + 0.24 cos(2h) + 0.32 cos(3h + 6) - 0.20 cos(4h - 63)
-/// S_L = 1 + 0.015 (L - 50)^2 / sqrt(20 + (L - 50)^2),  S_C = 1 + 0.045 C,
-/// S_H = 1 + 0.015 C T,  R_T = -sin(60 exp(-((h - 275)/25)^2)) 2 sqrt(C^7/(C^7 + 25^7))
-/// dE00 = sqrt((dL'/k_L S_L)^2 + (dC'/k_C S_C)^2 + (dH'/k_H S_H)^2
-///             + R_T (dC'/k_C S_C)(dH'/k_H S_H))                            (C7)
-/// ```
-///
-/// with `L`, `C`, `h` the means of `L`, `C'`, `h'` (the hue mean taken on the
-/// short arc, Sharma et al. eq. 14; the plain mean when `|h'1 - h'2| <= 180`).
-/// Hues exactly 180° apart (Sharma's pairs 10 and 14, where the published
-/// values take `|h'1 - h'2| = 180` as `<= 180`) are detected exactly, from
-/// `a'1 b2 - b1 a'2 = 0` and `a'1 a'2 + b1 b2 < 0`, not from the rounded
-/// difference of the two `atan2` angles.
-///
-/// # Reference
-/// CIE 142-2001; Sharma, Wu & Dalal (2005), eq. 1–22.
-pub fn ciede2000_weighted(lab1: Lab, lab2: Lab, w: De2000Weights) -> f64 {
-    const P25_7: f64 = 6_103_515_625.0; // 25^7
-    let rad = |d: f64| d.to_radians();
-    // Chroma and the a* rescaling G (eq. 2-5).
-    let c1 = lab1.a.hypot(lab1.b);
-    let c2 = lab2.a.hypot(lab2.b);
-    let c_bar7 = ((c1 + c2) / 2.0).powi(7);
-    let g = 0.5 * (1.0 - (c_bar7 / (c_bar7 + P25_7)).sqrt());
-    let (a1p, a2p) = ((1.0 + g) * lab1.a, (1.0 + g) * lab2.a);
-    let (c1p, c2p) = (a1p.hypot(lab1.b), a2p.hypot(lab2.b));
-    // Hue angles in [0, 360), 0 for a neutral (eq. 7).
-    let hue = |a: f64, b: f64| {
-        if a == 0.0 && b == 0.0 { 0.0 } else { b.atan2(a).to_degrees().rem_euclid(360.0) }
-    };
-    let (h1p, h2p) = (hue(a1p, lab1.b), hue(a2p, lab2.b));
-    // Differences (eq. 8-11). Hue pairs exactly opposite (Sharma's pairs 10
-    // and 14) are decided by the exact test cross = 0, dot < 0 rather than
-    // by the rounding of h'2 - h'1 around 180: |h'2 - h'1| = 180 exactly.
-    let dl = lab2.l - lab1.l;
-    let dc = c2p - c1p;
-    let neutral = c1p * c2p == 0.0;
-    let cross = a1p * lab2.b - lab1.b * a2p;
-    let dot = a1p * a2p + lab1.b * lab2.b;
-    let opposite = cross == 0.0 && dot < 0.0;
-    let diff = h2p - h1p;
-    let dh = if neutral {
-        0.0
-    } else if opposite {
-        180.0_f64.copysign(diff)
-    } else if diff.abs() <= 180.0 {
-        diff
-    } else if diff > 180.0 {
-        diff - 360.0
-    } else {
-        diff + 360.0
-    };
-    let d_big_h = 2.0 * (c1p * c2p).sqrt() * (rad(dh) / 2.0).sin();
-    // Means (eq. 12-14).
-    let l_bar = (lab1.l + lab2.l) / 2.0;
-    let c_bar = (c1p + c2p) / 2.0;
-    let h_sum = h1p + h2p;
-    let h_bar = if neutral {
-        h_sum
-    } else if opposite || diff.abs() <= 180.0 {
-        h_sum / 2.0
-    } else if h_sum < 360.0 {
-        (h_sum + 360.0) / 2.0
-    } else {
-        (h_sum - 360.0) / 2.0
-    };
-    // Weighting functions and rotation (eq. 15-22).
-    let t = 1.0 - 0.17 * rad(h_bar - 30.0).cos()
-        + 0.24 * rad(2.0 * h_bar).cos()
-        + 0.32 * rad(3.0 * h_bar + 6.0).cos()
-        - 0.20 * rad(4.0 * h_bar - 63.0).cos();
-    let d_theta = 30.0 * (-((h_bar - 275.0) / 25.0).powi(2)).exp();
-    let c_bar7p = c_bar.powi(7);
-    let r_c = 2.0 * (c_bar7p / (c_bar7p + P25_7)).sqrt();
-    let l50 = (l_bar - 50.0).powi(2);
-    let s_l = 1.0 + 0.015 * l50 / (20.0 + l50).sqrt();
-    let s_c = 1.0 + 0.045 * c_bar;
-    let s_h = 1.0 + 0.015 * c_bar * t;
-    let r_t = -(rad(2.0 * d_theta)).sin() * r_c;
-    let (tl, tc, th) = (dl / (w.k_l * s_l), dc / (w.k_c * s_c), d_big_h / (w.k_h * s_h));
-    (tl * tl + tc * tc + th * th + r_t * tc * th).max(0.0).sqrt()
-}
-
-// ---------------------------------------------------------------------------
-// Swatch.
-
-/// One labelled patch of a swatch: an sRGB colour as from [`srgb`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct Patch {
-    /// Caption under the patch (plain text; escaped for SVG).
-    pub label: String,
-    /// sRGB values; clipped to `[0, 1]` and rounded to 8 bits for display.
-    pub srgb: [f64; 3],
-}
-
-/// 8-bit sRGB of a patch, clipped to the gamut (`NaN` becomes 0).
-pub fn srgb_u8(rgb: [f64; 3]) -> [u8; 3] {
-    rgb.map(|c| if c.is_nan() { 0 } else { (c.clamp(0.0, 1.0) * 255.0).round() as u8 })
-}
-
-fn escape_xml(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for ch in s.chars() {
-        match ch {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// A small SVG image: one 96 x 96 px square per patch in a row, its label
-/// and its 8-bit hex colour underneath. A patch outside the sRGB gamut is
-/// clipped and marked `(clipped)`.
-///
-/// # Errors
-/// No patch, or more than 64 (a swatch is small by design).
-///
-/// ```
-/// use km_inverse::colour::{Patch, swatch_svg};
-/// let svg = swatch_svg(&[Patch { label: "white".into(), srgb: [1.0, 1.0, 1.0] }]).unwrap();
-/// assert!(svg.starts_with("<svg") && svg.contains("#ffffff"));
-/// ```
-pub fn swatch_svg(patches: &[Patch]) -> Result<String, ColourError> {
-    const SIZE: usize = 96;
-    const GAP: usize = 8;
-    if patches.is_empty() || patches.len() > 64 {
-        return Err(invalid("patches", patches.len() as f64, "a swatch has 1 to 64 patches"));
-    }
-    let width = patches.len() * (SIZE + GAP) + GAP;
-    let height = SIZE + 2 * GAP + 36;
-    let mut s = String::new();
-    // Writing to a String cannot fail.
-    let _ = writeln!(
-        s,
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width}\" height=\"{height}\" \
-         viewBox=\"0 0 {width} {height}\" font-family=\"sans-serif\" font-size=\"11\">"
-    );
-    let _ = writeln!(s, "<rect width=\"{width}\" height=\"{height}\" fill=\"#ffffff\"/>");
-    for (i, p) in patches.iter().enumerate() {
-        let [r, g, b] = srgb_u8(p.srgb);
-        let hex = format!("#{r:02x}{g:02x}{b:02x}");
-        let clipped = p.srgb.iter().any(|c| !(0.0..=1.0).contains(c));
-        let x = GAP + i * (SIZE + GAP);
-        let _ = writeln!(
-            s,
-            "<rect x=\"{x}\" y=\"{GAP}\" width=\"{SIZE}\" height=\"{SIZE}\" fill=\"{hex}\" \
-             stroke=\"#808080\"/>"
-        );
-        let ty = GAP + SIZE + 14;
-        let _ = writeln!(s, "<text x=\"{x}\" y=\"{ty}\">{}</text>", escape_xml(&p.label));
-        let note = if clipped { " (clipped)" } else { "" };
-        let _ =
-            writeln!(s, "<text x=\"{x}\" y=\"{}\" fill=\"#404040\">{hex}{note}</text>", ty + 14);
-    }
-    s.push_str("</svg>\n");
-    Ok(s)
 }
 
 #[cfg(test)]
