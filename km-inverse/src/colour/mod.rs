@@ -31,10 +31,12 @@ use std::sync::OnceLock;
 use km_core::{Scene, Solution};
 use thiserror::Error;
 
+mod adaptation;
 mod ciede2000;
 mod srgb;
 mod swatch;
 
+pub use adaptation::{SRGB_WHITE, bradford, srgb_adapted};
 pub use ciede2000::{De2000Weights, ciede2000, ciede2000_weighted};
 pub use srgb::{srgb, xyz_from_srgb};
 pub use swatch::{Patch, srgb_u8, swatch_svg};
