@@ -22,13 +22,16 @@ import numpy as np
 
 from ._km import KmError, Partial, Scene, Solution, __version__, merge, run_shard, solve
 from . import _km
+from ._bsdf import Bsdf, bsdf
 
 __all__ = [
     "Batch",
+    "Bsdf",
     "KmError",
     "Partial",
     "Scene",
     "Solution",
+    "bsdf",
     "layer",
     "merge",
     "run_shard",

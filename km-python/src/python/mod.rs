@@ -18,6 +18,7 @@ use pyo3::prelude::*;
 use crate::error::Error;
 
 mod batch;
+mod bsdf;
 mod convert;
 mod scene;
 mod solution;
@@ -70,6 +71,7 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScene>()?;
     m.add_class::<PySolution>()?;
     m.add_class::<batch::PyPartial>()?;
+    m.add_class::<bsdf::PyBsdfCore>()?;
     m.add_function(wrap_pyfunction!(batch::solve, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_sweep, m)?)?;

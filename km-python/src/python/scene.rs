@@ -18,7 +18,7 @@ use crate::error::Error;
 #[pyclass(frozen, name = "Scene", module = "km")]
 pub struct PyScene {
     pub(crate) scene: Scene,
-    toml: String,
+    pub(crate) toml: String,
 }
 
 impl PyScene {
