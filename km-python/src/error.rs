@@ -115,3 +115,14 @@ impl From<km::bsdf::BsdfError> for Error {
         }
     }
 }
+
+impl From<km_inverse::InverseError> for Error {
+    fn from(e: km_inverse::InverseError) -> Self {
+        match e {
+            km_inverse::InverseError::Invalid { ref name, .. } => {
+                Error::Option { name: name.clone(), reason: e.to_string() }
+            }
+            other => Error::Solver(other.to_string()),
+        }
+    }
+}

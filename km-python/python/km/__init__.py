@@ -23,15 +23,19 @@ import numpy as np
 from ._km import KmError, Partial, Scene, Solution, __version__, merge, run_shard, solve
 from . import _km
 from ._bsdf import Bsdf, bsdf
+from ._fit import fit
+from ._km import FitResult
 
 __all__ = [
     "Batch",
     "Bsdf",
+    "FitResult",
     "KmError",
     "Partial",
     "Scene",
     "Solution",
     "bsdf",
+    "fit",
     "layer",
     "merge",
     "run_shard",

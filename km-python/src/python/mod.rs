@@ -20,6 +20,7 @@ use crate::error::Error;
 mod batch;
 mod bsdf;
 mod convert;
+mod fit;
 mod scene;
 mod solution;
 
@@ -72,6 +73,9 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySolution>()?;
     m.add_class::<batch::PyPartial>()?;
     m.add_class::<bsdf::PyBsdfCore>()?;
+    m.add_class::<fit::PyFitResult>()?;
+    m.add_function(wrap_pyfunction!(fit::_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::_fit_many, m)?)?;
     m.add_function(wrap_pyfunction!(batch::solve, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_sweep, m)?)?;
