@@ -70,3 +70,52 @@ def test_bad_input_names_the_value():
     assert isinstance(out[0], km.FitResult) and isinstance(out[1], km.KmError)
     with pytest.raises(km.KmError, match="point 1"):
         km.fit([0.3, 0.3], [0.2, 0.2], thickness=1, g=[0.0, 1.5])
+
+
+KM_CASES = [
+    (["--r-black", "0.30", "--r-white", "0.50", "--r-white-ground", "0.80", "--thickness",
+      "0.05"], dict(r_black=0.30, r_white=0.50, r_white_ground=0.80, thickness=0.05)),
+    (["--r-black", "0.30", "--r-white", "0.50", "--r-white-ground", "0.80", "--r-black-ground",
+      "0.02", "--thickness", "0.05", "--n-sample", "1.5"],
+     dict(r_black=0.30, r_white=0.50, r_white_ground=0.80, r_black_ground=0.02, thickness=0.05,
+          n=1.5)),
+    (["--r-inf", "0.6", "--r-zero", "0.3", "--thickness", "2"],
+     dict(r_inf=0.6, r_zero=0.3, thickness=2)),
+    (["--r-inf", "0.6", "--n-sample", "1.5", "--k2", "0.6"], dict(r_inf=0.6, n=1.5, k2=0.6)),
+]
+
+
+@pytest.mark.parametrize("flags,kwargs", KM_CASES, ids=["black-white", "saunderson", "rinf-r0",
+                                                         "rinf-only"])
+def test_fit_km_equals_km_fit_km_json(km_cli, flags, kwargs):
+    same(km.fit_km(**kwargs), cli(km_cli, "--km", *flags))
+
+
+def test_fit_km_refusals():
+    with pytest.raises(km.KmError) as e:
+        km.fit_km(r_black=0.3, r_white=0.5, thickness=1)
+    assert e.value.key == "r_white_ground"
+    with pytest.raises(km.KmError, match="not both"):
+        km.fit_km(r_black=0.3, r_white=0.5, r_inf=0.6)
+    with pytest.raises(km.KmError):
+        km.fit_km(r_black=0.5, r_white=0.3, r_white_ground=0.8, thickness=1)
+
+
+def test_colour():
+    # The perfect diffuser is the white point: L* = 100, a* = b* = 0, and
+    # D65 white is sRGB (1, 1, 1) (IEC 61966-2-1; the matrix's rounding: 1e-3).
+    wl = np.arange(360.0, 831.0, 5.0)
+    c = km.colour(wl, np.ones_like(wl))
+    assert np.allclose(c["xyz"], c["white"], rtol=1e-12)
+    assert abs(c["lab"][0] - 100) < 1e-9 and max(map(abs, c["lab"][1:])) < 1e-9
+    assert np.allclose(c["srgb"], 1.0, atol=1e-3)
+    # A red spectrum is red.
+    red = km.colour(wl, np.where(wl > 600, 0.8, 0.05))
+    assert red["lab"][1] > 30 and red["srgb"][0] > red["srgb"][1]
+    # CIEDE2000 test data of Sharma, Wu & Dalal (2005), Table 1, pairs 1 and 7.
+    assert abs(km.delta_e2000((50, 2.6772, -79.7751), (50, 0, -82.7485)) - 2.0425) < 1e-4
+    assert abs(km.delta_e2000((50, 0, 0), (50, -1, 2)) - 2.3669) < 1e-4
+    with pytest.raises(km.KmError):
+        km.colour([500, 400], [0.1, 0.2])
+    with pytest.raises(km.KmError, match="observer"):
+        km.colour(wl, np.ones_like(wl), observer="1900")

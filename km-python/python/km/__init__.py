@@ -24,7 +24,7 @@ from ._km import KmError, Partial, Scene, Solution, __version__, merge, run_shar
 from . import _km
 from ._bsdf import Bsdf, bsdf
 from ._fit import fit
-from ._km import FitResult
+from ._km import FitResult, colour, delta_e2000, fit_km, srgb
 
 __all__ = [
     "Batch",
@@ -35,12 +35,16 @@ __all__ = [
     "Scene",
     "Solution",
     "bsdf",
+    "colour",
+    "delta_e2000",
     "fit",
+    "fit_km",
     "layer",
     "merge",
     "run_shard",
     "solve",
     "solve_many",
+    "srgb",
     "__version__",
 ]
 

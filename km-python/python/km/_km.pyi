@@ -274,3 +274,37 @@ def _fit_many(m_r: npt.NDArray[np.float64], m_t: npt.NDArray[np.float64],
               sigma_r: npt.NDArray[np.float64] | None, sigma_t: npt.NDArray[np.float64] | None,
               sigma_u: npt.NDArray[np.float64] | None,
               **options: Any) -> list[FitResult | KmError]: ...
+
+def fit_km(*, r_black: float | None = None, r_white: float | None = None,
+           r_white_ground: float | None = None, r_black_ground: float | None = None,
+           r_inf: float | None = None, r_zero: float | None = None,
+           thickness: float | None = None, n: float | None = None,
+           k2: float | None = None) -> dict[str, Any]:
+    """Kubelka-Munk inverse of a paint film (``km fit --km``; docs/inverse-km.md).
+
+    Three ways in: ``r_black``, ``r_white``, ``r_white_ground``
+    [``r_black_ground``] and ``thickness`` (a drawdown over two grounds,
+    Kubelka 1948); ``r_inf``, ``r_zero`` and ``thickness`` (an opaque film
+    and one over ideal black); ``r_inf`` alone (only K/S). With ``n`` (and
+    optionally ``k2``) the readings are instrument readings and get
+    Saunderson's correction. Returns the ``km fit --km --json`` object as a
+    dict (``K``, ``S``, ``K_over_S``, ``S_X``, ``R_inf``, ``R_0``, ``T``,
+    ``thickness``, ``mode``, ``uncertainty``, ``saunderson``, ``inputs``,
+    ``internal``). Raises :class:`KmError` naming the reading at fault.
+    """
+
+def colour(wavelengths_nm: Sequence[float], values: Sequence[float], *,
+           observer: str = "1931", illuminant: str = "D65") -> dict[str, Any]:
+    """Colour of a reflectance or transmittance spectrum (docs/colour.md).
+
+    ``observer``: ``"1931"`` (2 degrees) or ``"1964"`` (10 degrees);
+    ``illuminant``: ``"D65"`` or ``"D50"``. Returns ``xyz`` (Y = 100 for
+    the perfect diffuser), ``white`` (the illuminant's white point),
+    ``lab`` (CIELAB), ``srgb`` (0..1, encoded) and ``srgb_u8``.
+    """
+
+def delta_e2000(lab1: tuple[float, float, float], lab2: tuple[float, float, float]) -> float:
+    """CIEDE2000 colour difference (Sharma, Wu & Dalal 2005)."""
+
+def srgb(xyz: tuple[float, float, float]) -> tuple[float, float, float]:
+    """sRGB (IEC 61966-2-1, encoded, 0..1) of CIE XYZ with Y = 100 for white."""

@@ -8,7 +8,8 @@
 //!
 //! Modules: `convert` (Python values to scene TOML, JSON to Python),
 //! `scene` (`km.Scene`), `solution` (`km.Solution`), `batch` (`km.solve`,
-//! batch solves, Monte Carlo shards), `bsdf` (`km.Bsdf`), `fit` (`km.fit`).
+//! batch solves, Monte Carlo shards), `bsdf` (`km.Bsdf`), `fit` (`km.fit`),
+//! `fit_km` (`km.fit_km`, `km.colour`).
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
@@ -21,6 +22,7 @@ mod batch;
 mod bsdf;
 mod convert;
 mod fit;
+mod fit_km;
 mod scene;
 mod solution;
 
@@ -76,6 +78,10 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fit::PyFitResult>()?;
     m.add_function(wrap_pyfunction!(fit::_fit, m)?)?;
     m.add_function(wrap_pyfunction!(fit::_fit_many, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::fit_km, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::colour_of, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::delta_e2000, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::srgb, m)?)?;
     m.add_function(wrap_pyfunction!(batch::solve, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_sweep, m)?)?;
