@@ -177,3 +177,58 @@ def test_white_furnace(text):
     assert abs(img.mean() - 1.0) <= 3e-4 + 5 * noise
     # And the stack absorbs: the seed's paint in the same furnace is darker.
     assert furnace(SEED, spp=8).mean() < 0.6
+
+
+CHANNELS_SCRIPT = r"""
+import json, math, sys
+import numpy as np
+import mitsuba as mi
+import km, km.mitsuba
+variant, text = sys.argv[1], sys.argv[2]
+mi.set_variant(variant)
+km.mitsuba.register()
+plugin = mi.load_dict({"type": "km", "scene": text, "streams": 8})
+si = mi.SurfaceInteraction3f()
+si.wi = mi.Vector3f(math.sin(0.5), 0.0, math.cos(0.5))
+if "spectral" in variant:
+    si.wavelengths = mi.Spectrum(420.0, 500.0, 575.0, 700.0)
+wo = mi.Vector3f(-0.3, 0.2, math.sqrt(1 - 0.13))
+v = plugin.eval(mi.BSDFContext(), si, wo)
+print(json.dumps([float(v[i]) for i in range(len(v))]))
+"""
+
+SPECTRAL = """
+[spectrum]
+wavelengths_nm = [450.0, 550.0, 650.0]
+[[layer]]
+sigma_a = [0.5, 0.1, 0.02]
+sigma_s = [1.0, 1.0, 1.0]
+thickness = 1.0
+g = 0.3
+n = 1.4
+"""
+
+
+@pytest.mark.parametrize("variant,text", [
+    ("scalar_rgb", (REPO / "examples" / "paint-over-primer.toml").read_text()),
+    ("scalar_spectral", SPECTRAL),
+], ids=["rgb-three-channels", "spectral-wavelengths"])
+def test_channels_become_colours(variant, text):
+    # In a fresh interpreter (a variant per process): the RGB variant takes the
+    # three channels as R, G, B; the spectral variant interpolates the
+    # channels' wavelengths linearly (clamped outside 450..650 nm).
+    import json
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", CHANNELS_SCRIPT, variant, text],
+                         capture_output=True, text=True, check=True)
+    got = np.array(json.loads(out.stdout))
+    tab = km.mitsuba.table_for(text, 8)
+    theta_i = math.degrees(0.5)
+    mu = math.sqrt(1 - 0.13)
+    phi = math.degrees(math.atan2(0.2, -0.3))
+    f = tab.eval("above", False, theta_i, math.degrees(math.acos(mu)), phi) * mu
+    want = f if variant == "scalar_rgb" else np.interp([420, 500, 575, 700], [450, 550, 650], f)
+    # Single precision in Mitsuba's scalar variants: 1e-6 relative.
+    assert np.allclose(got, want, rtol=1e-5, atol=0), (got, want)
+    assert np.ptp(want) > 0.1 * want.max()  # the channels differ: the test sees them

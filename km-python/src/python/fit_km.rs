@@ -80,101 +80,105 @@ fn saunderson(i: &Inputs) -> Result<Option<Saunderson>, Error> {
     })
 }
 
+/// The three maps of the JSON object being assembled.
+#[derive(Default)]
+struct Out {
+    inputs: Map<String, Value>,
+    internals: Map<String, Value>,
+    out: Map<String, Value>,
+}
+
+/// Measured -> internal reflectance (Saunderson's correction, if any), naming the input.
+fn internal(corr: &Option<Saunderson>, name: &str, r: f64) -> Result<f64, Error> {
+    match corr {
+        None => Ok(r),
+        Some(c) => c.internal_from_measured(r).map_err(|e| lib(name, e)),
+    }
+}
+
+/// A film over a dark and a light ground (Kubelka 1948; eq. I5–I7 of docs/inverse-km.md).
+fn two_grounds(i: &Inputs, corr: &Option<Saunderson>, o: &mut Out) -> Result<Film, Error> {
+    let r_black = need(i.r_black, "r_black", "the film over the dark ground")?;
+    let r_white = need(i.r_white, "r_white", "the film over the light ground")?;
+    let g_white = need(i.r_white_ground, "r_white_ground", "the light ground's reflectance")?;
+    let thickness = need(i.thickness, "thickness", "the film thickness")?;
+    let g_black = i.r_black_ground.unwrap_or(0.0);
+    let (rb, rw) = (internal(corr, "r_black", r_black)?, internal(corr, "r_white", r_white)?);
+    for (k, v) in [
+        ("r_black", r_black),
+        ("r_white", r_white),
+        ("r_black_ground", g_black),
+        ("r_white_ground", g_white),
+        ("thickness", thickness),
+    ] {
+        o.inputs.insert(k.into(), json!(v));
+    }
+    o.internals.insert("r_black".into(), json!(rb));
+    o.internals.insert("r_white".into(), json!(rw));
+    o.out.insert("mode".into(), json!("black_white"));
+    let film = kubelka::from_black_white(rb, g_black, rw, g_white, thickness)
+        .map_err(|e| lib("r_black", e))?;
+    let (ub, uw) =
+        (READING_U * internal_slope(corr, r_black), READING_U * internal_slope(corr, r_white));
+    let u = kubelka::black_white_uncertainty(rb, g_black, rw, g_white, thickness, ub, uw);
+    o.out.insert("uncertainty".into(), uncertainty_json(u.ok()));
+    Ok(film)
+}
+
+/// An opaque film and, with `r_zero`, the film over ideal black (eq. I4),
+/// or the opaque film alone (`K/S` only, eq. I1).
+fn opaque(i: &Inputs, corr: &Option<Saunderson>, o: &mut Out) -> Result<Option<Film>, Error> {
+    if i.r_white_ground.is_some() || i.r_black_ground.is_some() {
+        return Err(Error::option(
+            "r_white_ground",
+            "r_white_ground/r_black_ground belong to r_black/r_white",
+        ));
+    }
+    let r_inf = need(i.r_inf, "r_inf", "the reflectance of the opaque film")?;
+    let ri = internal(corr, "r_inf", r_inf)?;
+    o.inputs.insert("r_inf".into(), json!(r_inf));
+    o.internals.insert("r_inf".into(), json!(ri));
+    let Some(r_zero) = i.r_zero else {
+        if i.thickness.is_some() {
+            return Err(Error::option(
+                "thickness",
+                "needs r_zero: an opaque film alone gives only K/S",
+            ));
+        }
+        o.out.insert("mode".into(), json!("r_inf"));
+        let ks = kubelka::k_over_s(ri).map_err(|e| lib("r_inf", e))?;
+        o.out.insert("K_over_S".into(), json!(ks));
+        o.out.insert("R_inf".into(), json!(ri));
+        o.out.insert("uncertainty".into(), Value::Null);
+        return Ok(None);
+    };
+    let thickness = need(i.thickness, "thickness", "the film thickness")?;
+    let r0 = internal(corr, "r_zero", r_zero)?;
+    o.inputs.insert("r_zero".into(), json!(r_zero));
+    o.inputs.insert("thickness".into(), json!(thickness));
+    o.internals.insert("r_zero".into(), json!(r0));
+    o.out.insert("mode".into(), json!("r_inf_r_zero"));
+    let film = kubelka::from_r_inf_r0(ri, r0, thickness).map_err(|e| lib("r_zero", e))?;
+    let (ui, u0) =
+        (READING_U * internal_slope(corr, r_inf), READING_U * internal_slope(corr, r_zero));
+    let u = kubelka::r_inf_r0_uncertainty(ri, r0, thickness, ui, u0);
+    o.out.insert("uncertainty".into(), uncertainty_json(u.ok()));
+    Ok(Some(film))
+}
+
 /// The `km fit --km --json` object.
 fn compute(i: &Inputs) -> Result<Value, Error> {
-    let two_grounds = i.r_black.is_some() || i.r_white.is_some();
-    let opaque = i.r_inf.is_some() || i.r_zero.is_some();
-    if two_grounds && opaque {
+    let two = i.r_black.is_some() || i.r_white.is_some();
+    if two && (i.r_inf.is_some() || i.r_zero.is_some()) {
         return Err(Error::option(
             "r_inf",
             "give either r_black/r_white (film over two grounds) or r_inf [r_zero], not both",
         ));
     }
     let corr = saunderson(i)?;
-    let internal = |name: &str, r: f64| -> Result<f64, Error> {
-        match &corr {
-            None => Ok(r),
-            Some(c) => c.internal_from_measured(r).map_err(|e| lib(name, e)),
-        }
-    };
-    let (mut inputs, mut internals, mut out) = (Map::new(), Map::new(), Map::new());
-    let film: Option<Film> = if two_grounds {
-        let r_black = need(i.r_black, "r_black", "the film over the dark ground")?;
-        let r_white = need(i.r_white, "r_white", "the film over the light ground")?;
-        let g_white = need(i.r_white_ground, "r_white_ground", "the light ground's reflectance")?;
-        let thickness = need(i.thickness, "thickness", "the film thickness")?;
-        let g_black = i.r_black_ground.unwrap_or(0.0);
-        let (rb, rw) = (internal("r_black", r_black)?, internal("r_white", r_white)?);
-        for (k, v) in [
-            ("r_black", r_black),
-            ("r_white", r_white),
-            ("r_black_ground", g_black),
-            ("r_white_ground", g_white),
-            ("thickness", thickness),
-        ] {
-            inputs.insert(k.into(), json!(v));
-        }
-        internals.insert("r_black".into(), json!(rb));
-        internals.insert("r_white".into(), json!(rw));
-        out.insert("mode".into(), json!("black_white"));
-        let film = kubelka::from_black_white(rb, g_black, rw, g_white, thickness)
-            .map_err(|e| lib("r_black", e))?;
-        let (ub, uw) = (
-            READING_U * internal_slope(&corr, r_black),
-            READING_U * internal_slope(&corr, r_white),
-        );
-        let u = kubelka::black_white_uncertainty(rb, g_black, rw, g_white, thickness, ub, uw);
-        out.insert("uncertainty".into(), uncertainty_json(u.ok()));
-        Some(film)
-    } else {
-        if i.r_white_ground.is_some() || i.r_black_ground.is_some() {
-            return Err(Error::option(
-                "r_white_ground",
-                "r_white_ground/r_black_ground belong to r_black/r_white",
-            ));
-        }
-        let r_inf = need(i.r_inf, "r_inf", "the reflectance of the opaque film")?;
-        match i.r_zero {
-            Some(r_zero) => {
-                let thickness = need(i.thickness, "thickness", "the film thickness")?;
-                let (ri, r0) = (internal("r_inf", r_inf)?, internal("r_zero", r_zero)?);
-                for (k, v) in [("r_inf", r_inf), ("r_zero", r_zero), ("thickness", thickness)] {
-                    inputs.insert(k.into(), json!(v));
-                }
-                internals.insert("r_inf".into(), json!(ri));
-                internals.insert("r_zero".into(), json!(r0));
-                out.insert("mode".into(), json!("r_inf_r_zero"));
-                let film =
-                    kubelka::from_r_inf_r0(ri, r0, thickness).map_err(|e| lib("r_zero", e))?;
-                let (ui, u0) = (
-                    READING_U * internal_slope(&corr, r_inf),
-                    READING_U * internal_slope(&corr, r_zero),
-                );
-                let u = kubelka::r_inf_r0_uncertainty(ri, r0, thickness, ui, u0);
-                out.insert("uncertainty".into(), uncertainty_json(u.ok()));
-                Some(film)
-            }
-            None => {
-                if i.thickness.is_some() {
-                    return Err(Error::option(
-                        "thickness",
-                        "needs r_zero: an opaque film alone gives only K/S",
-                    ));
-                }
-                let ri = internal("r_inf", r_inf)?;
-                inputs.insert("r_inf".into(), json!(r_inf));
-                internals.insert("r_inf".into(), json!(ri));
-                out.insert("mode".into(), json!("r_inf"));
-                out.insert(
-                    "K_over_S".into(),
-                    json!(kubelka::k_over_s(ri).map_err(|e| lib("r_inf", e))?),
-                );
-                out.insert("R_inf".into(), json!(ri));
-                out.insert("uncertainty".into(), Value::Null);
-                None
-            }
-        }
-    };
+    let mut o = Out::default();
+    let film = if two { Some(two_grounds(i, &corr, &mut o)?) } else { opaque(i, &corr, &mut o)? };
+    let out = &mut o.out;
     match film {
         Some(f) => {
             for (k, v) in [
@@ -204,9 +208,9 @@ fn compute(i: &Inputs) -> Result<Value, Error> {
         "saunderson".into(),
         corr.map(|c| json!({ "k1": c.k1, "k2": c.k2 })).unwrap_or(Value::Null),
     );
-    out.insert("inputs".into(), Value::Object(inputs));
-    out.insert("internal".into(), Value::Object(internals));
-    Ok(Value::Object(out))
+    out.insert("inputs".into(), Value::Object(o.inputs));
+    out.insert("internal".into(), Value::Object(o.internals));
+    Ok(Value::Object(o.out))
 }
 
 /// Kubelka–Munk inverse of a film (see `km.fit_km`): the `km fit --km --json` dict.
