@@ -137,5 +137,8 @@ def test_errors_and_pickle():
     with pytest.raises(km.KmError) as e:
         km.bsdf(scene, streams=0)
     assert "streams" in str(e.value)
+    # Work is bounded: 2000 x 2000 distinct polar angles are refused before any solve.
+    with pytest.raises(km.KmError, match="pairs"):
+        b.eval(np.linspace(0, 80, 2000), np.linspace(0, 80, 2000), 0.0)
     c = pickle.loads(pickle.dumps(b))
     assert c.streams == b.streams and c.eval(30.0, 40.0, 50.0) == b.eval(30.0, 40.0, 50.0)

@@ -64,8 +64,26 @@ pub struct PyBsdfCore {
     n_below: Option<f64>,
 }
 
+/// At most this many (channel, distinct theta_i, distinct theta_o) triples per
+/// evaluation: the operators keep `M + 1` coefficients and the correction
+/// weights per triple (about 1 kB each), so 2^20 triples stay near 1 GB.
+const MAX_PAIRS: usize = 1 << 20;
+
 impl PyBsdfCore {
     fn build(&self, side: &str, theta_i: &[f64], theta_o: &[f64]) -> Result<Bsdf, Error> {
+        let pairs = self.scene.channels.len() * theta_i.len() * theta_o.len();
+        if pairs > MAX_PAIRS {
+            return Err(Error::option(
+                "theta_o",
+                format!(
+                    "{} channel(s) x {} distinct theta_i x {} distinct theta_o = {pairs} pairs \
+                     (at most {MAX_PAIRS}): evaluate on a coarser grid or in chunks",
+                    self.scene.channels.len(),
+                    theta_i.len(),
+                    theta_o.len()
+                ),
+            ));
+        }
         let options = BsdfOptions { solver: self.opts.clone(), side: side_of(side)? };
         Ok(Bsdf::new(&self.scene, theta_i, theta_o, &options)?)
     }
