@@ -70,6 +70,31 @@ def test_eval_agrees_with_km_within_the_interpolation_error():
         assert abs(r - tot["reflectance"][i]) <= 1e-3
 
 
+@pytest.mark.parametrize("side,transmitted", [("above", True), ("below", False),
+                                              ("below", True)])
+def test_eval_of_a_transmitting_stack_from_both_sides(side, transmitted):
+    # The free slab: reflection and transmission, lit from above and from
+    # below (wi in the lower hemisphere), against km.bsdf; same bound as above.
+    plugin = mi.load_dict({"type": "km", "scene": SLAB, "streams": 16})
+    b = km.bsdf(km.Scene.from_toml(SLAB), streams=16)
+    rng = np.random.default_rng(3)
+    ti, to = rng.uniform(0, 85, 6), rng.uniform(0, 85, 6)
+    ph = rng.uniform(0, 360, (6, 6))
+    exact = b.eval(ti[:, None], to[None, :], ph, transmitted=transmitted, side=side)
+    up = 1.0 if side == "above" else -1.0
+    out = up * (-1.0 if transmitted else 1.0)
+    ctx = mi.BSDFContext()
+    got = np.zeros_like(exact)
+    for i, a in enumerate(ti):
+        si = interaction(a, 30.0, up)
+        for o, c in enumerate(to):
+            wo = direction(c, 30.0 + ph[i, o], out)
+            got[i, o] = plugin.eval(ctx, si, wo)[0] / math.cos(math.radians(c))
+    err = np.abs(got - exact).max() / exact.max()
+    print(f"{side}, transmitted={transmitted}: max |error| = {err:.2e} of max f")
+    assert err <= 1e-2
+
+
 def histogram_test(plugin, theta_i, n, seed, up=1.0):
     """Chi-square of plugin.sample against plugin.pdf on the table's cells.
 
