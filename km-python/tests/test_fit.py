@@ -119,3 +119,24 @@ def test_colour():
         km.colour([500, 400], [0.1, 0.2])
     with pytest.raises(km.KmError, match="observer"):
         km.colour(wl, np.ones_like(wl), observer="1900")
+
+
+@pytest.mark.parametrize("name,kwargs,flags", [
+    ("fit-synthetic.rxt", {}, []),
+    ("fit-spectrum.csv", dict(thickness=1, n_sample=1.4, n_slide=1.5),
+     ["--thickness", "1", "--n-sample", "1.4", "--n-slide", "1.5"]),
+], ids=["rxt", "csv"])
+def test_fit_file_equals_km_fit_file_json(km_cli, name, kwargs, flags):
+    path = REPO / "examples" / name
+    same(km.fit_file(path, **kwargs), cli(km_cli, str(path), *flags))
+
+
+def test_fit_file_refusals(tmp_path):
+    with pytest.raises(km.KmError, match="thickness"):
+        km.fit_file(REPO / "examples" / "fit-spectrum.csv")
+    bad = tmp_path / "m.txt"
+    bad.write_text("1 2 3\n")
+    with pytest.raises(km.KmError, match=r"\.rxt or \.csv"):
+        km.fit_file(bad)
+    with pytest.raises(km.KmError, match="m.csv"):
+        km.fit_file(tmp_path / "m.csv", thickness=1)

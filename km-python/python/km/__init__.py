@@ -24,7 +24,7 @@ from ._km import KmError, Partial, Scene, Solution, __version__, merge, run_shar
 from . import _km
 from ._bsdf import Bsdf, bsdf
 from ._fit import fit
-from ._km import FitResult, colour, delta_e2000, fit_km, srgb
+from ._km import FitResult, colour, delta_e2000, fit_file, fit_km, srgb
 
 __all__ = [
     "Batch",
@@ -38,6 +38,7 @@ __all__ = [
     "colour",
     "delta_e2000",
     "fit",
+    "fit_file",
     "fit_km",
     "layer",
     "merge",

@@ -308,3 +308,19 @@ def delta_e2000(lab1: tuple[float, float, float], lab2: tuple[float, float, floa
 
 def srgb(xyz: tuple[float, float, float]) -> tuple[float, float, float]:
     """sRGB (IEC 61966-2-1, encoded, 0..1) of CIE XYZ with Y = 100 for white."""
+
+def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
+             n_sample: float = 1.0, n_slide: float | None = None, g: float | None = None,
+             sigma_r: float | None = None, sigma_t: float | None = None,
+             sigma_u: float | None = None, specular_in_m_r: float = 1.0,
+             unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
+             streams: int | None = None) -> list[dict[str, Any]]:
+    """Fit every row of a measurement file, as ``km fit FILE --json`` does.
+
+    iad's ``.rxt`` (sample and spheres from its header) or a ``.csv`` with
+    columns wavelength_nm, m_r, m_t[, m_u, sigma_r, sigma_t, sigma_u, g]
+    (``thickness`` required). Returns the command's list: per row the
+    :class:`FitResult` dict plus ``wavelength_nm``, or ``{"wavelength_nm",
+    "status": "invalid", "error"}`` for a row that cannot be fitted. Rows are
+    fitted in parallel with the GIL released.
+    """

@@ -259,3 +259,105 @@ pub(crate) fn _fit_many<'py>(
     }
     Ok(list)
 }
+
+/// Largest measurement file read (bytes): a spectrum of 10^5 rows is ~5 MB.
+const MAX_FILE_BYTES: u64 = 64 << 20;
+
+/// Fit every row of a measurement file (see `km.fit_file`): the list of
+/// `km fit FILE --json`, as dicts.
+#[pyfunction]
+#[pyo3(signature = (path, *, thickness=None, n_sample=1.0, n_slide=None, g=None, sigma_r=None,
+                    sigma_t=None, sigma_u=None, specular_in_m_r=1.0, unscattered_in_m_t=1.0,
+                    incidence=0.0, streams=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fit_file<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    thickness: Option<f64>,
+    n_sample: f64,
+    n_slide: Option<f64>,
+    g: Option<f64>,
+    sigma_r: Option<f64>,
+    sigma_t: Option<f64>,
+    sigma_u: Option<f64>,
+    specular_in_m_r: f64,
+    unscattered_in_m_t: f64,
+    incidence: f64,
+    streams: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let list = guarded(py, || {
+        let name = path.display().to_string();
+        let cannot = |e: String| Error::option("path", format!("{name}: {e}"));
+        let len = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?.len();
+        if len > MAX_FILE_BYTES {
+            return Err(cannot(format!("{len} bytes (at most {MAX_FILE_BYTES})")));
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| cannot(e.to_string()))?;
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+        let rows = match ext.as_str() {
+            "rxt" => km_inverse::rxt::parse_rxt(&text),
+            "csv" => {
+                let Some(thickness) = thickness else {
+                    return Err(Error::option("thickness", "is required for a .csv file"));
+                };
+                let how = How {
+                    thickness,
+                    n_sample,
+                    n_slide,
+                    incidence,
+                    specular_in_m_r,
+                    unscattered_in_m_t,
+                    streams,
+                };
+                km_inverse::rxt::parse_csv(&text, &how.setup()?)
+            }
+            _ => return Err(cannot("expected a .rxt or .csv file".into())),
+        }
+        .map_err(|e| cannot(e.to_string()))?;
+        // As `km fit FILE`: fractions other than 1 override the file, the
+        // sigmas and g given here stand where a row has none.
+        let results: Vec<(Option<f64>, Result<FitResult, Error>)> = rows
+            .into_par_iter()
+            .map(|row| {
+                let mut set = row.setup;
+                if specular_in_m_r != 1.0 {
+                    set.specular_in_m_r = specular_in_m_r;
+                }
+                if unscattered_in_m_t != 1.0 {
+                    set.unscattered_in_m_t = unscattered_in_m_t;
+                }
+                let mut meas = row.measurement;
+                meas.sigma_r = meas.sigma_r.or(sigma_r);
+                meas.sigma_t = meas.sigma_t.or(sigma_t);
+                meas.sigma_u = meas.sigma_u.or(sigma_u);
+                let opts = FitOptions { g: row.g.or(g), streams };
+                (row.wavelength_nm, km_inverse::fit(&set, &meas, &opts).map_err(Error::from))
+            })
+            .collect();
+        if !results.is_empty() && results.iter().all(|(_, r)| r.is_err()) {
+            return Err(cannot("no row could be fitted".into()));
+        }
+        Ok(results
+            .into_iter()
+            .map(|(w, r)| match r {
+                Ok(r) => {
+                    let mut v = r.to_json();
+                    v["wavelength_nm"] = serde_json::json!(w);
+                    v
+                }
+                Err(e) => serde_json::json!({
+                    "wavelength_nm": w, "status": "invalid", "error": inverse_message(&e)
+                }),
+            })
+            .collect::<Vec<_>>())
+    })?;
+    json_to_py(py, &serde_json::Value::Array(list))
+}
+
+/// The library's own words of a failed row (as `km fit` prints them).
+fn inverse_message(e: &Error) -> String {
+    match e {
+        Error::Option { reason, .. } => reason.clone(),
+        other => other.to_string(),
+    }
+}

@@ -78,6 +78,7 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fit::PyFitResult>()?;
     m.add_function(wrap_pyfunction!(fit::_fit, m)?)?;
     m.add_function(wrap_pyfunction!(fit::_fit_many, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit_file, m)?)?;
     m.add_function(wrap_pyfunction!(fit_km::fit_km, m)?)?;
     m.add_function(wrap_pyfunction!(fit_km::colour_of, m)?)?;
     m.add_function(wrap_pyfunction!(fit_km::delta_e2000, m)?)?;
