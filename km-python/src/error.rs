@@ -105,3 +105,24 @@ impl From<km_dipole::DipoleError> for Error {
         }
     }
 }
+
+impl From<km::bsdf::BsdfError> for Error {
+    fn from(e: km::bsdf::BsdfError) -> Self {
+        match e {
+            km::bsdf::BsdfError::Solver(m) => m.into(),
+            km::bsdf::BsdfError::Input { name, reason } => Error::option(name, reason),
+            other => Error::Solver(other.to_string()),
+        }
+    }
+}
+
+impl From<km_inverse::InverseError> for Error {
+    fn from(e: km_inverse::InverseError) -> Self {
+        match e {
+            km_inverse::InverseError::Invalid { ref name, .. } => {
+                Error::Option { name: name.clone(), reason: e.to_string() }
+            }
+            other => Error::Solver(other.to_string()),
+        }
+    }
+}

@@ -22,18 +22,30 @@ import numpy as np
 
 from ._km import KmError, Partial, Scene, Solution, __version__, merge, run_shard, solve
 from . import _km
+from ._bsdf import Bsdf, bsdf
+from ._fit import fit
+from ._km import FitResult, colour, delta_e2000, fit_file, fit_km, srgb
 
 __all__ = [
     "Batch",
+    "Bsdf",
+    "FitResult",
     "KmError",
     "Partial",
     "Scene",
     "Solution",
+    "bsdf",
+    "colour",
+    "delta_e2000",
+    "fit",
+    "fit_file",
+    "fit_km",
     "layer",
     "merge",
     "run_shard",
     "solve",
     "solve_many",
+    "srgb",
     "__version__",
 ]
 

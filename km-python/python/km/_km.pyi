@@ -208,3 +208,119 @@ def merge(parts: Sequence[Partial]) -> Solution:
 def _solve_scenes(scenes: Sequence[Scene], method: str = ..., **options: Any) -> dict[str, Any]: ...
 def _solve_sweep(scene: Scene, keys: Sequence[str], values: npt.NDArray[np.float64],
                  method: str = ..., **options: Any) -> dict[str, Any]: ...
+
+class _BsdfCore:
+    """The BSDF of a scene's stack; use :func:`km.bsdf` (km/_bsdf.py wraps it)."""
+    def __init__(self, scene: Scene, streams: int | None = None,
+                 max_fourier_order: int | None = None) -> None: ...
+    @property
+    def streams(self) -> int: ...
+    @property
+    def max_fourier_order(self) -> int | None: ...
+    @property
+    def transmits(self) -> bool: ...
+    @property
+    def n_above(self) -> float: ...
+    @property
+    def n_below(self) -> float | None: ...
+    @property
+    def channels(self) -> int: ...
+    @property
+    def labels(self) -> list[str]: ...
+    @property
+    def wavelengths_nm(self) -> list[float] | None: ...
+    def scene_toml(self) -> str: ...
+    def _eval(self, side: str, transmitted: bool, theta_i: npt.NDArray[np.float64],
+              theta_o: npt.NDArray[np.float64],
+              phi: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+    def _totals(self, side: str, theta_i: npt.NDArray[np.float64]) -> dict[str, Any]: ...
+    def _table(self, side: str, theta_i: npt.NDArray[np.float64],
+               theta_o: npt.NDArray[np.float64],
+               phi: npt.NDArray[np.float64]) -> dict[str, Any]: ...
+
+class FitResult:
+    """The result of :func:`km.fit` (``to_dict()`` is the ``km fit --json`` object)."""
+    @property
+    def albedo(self) -> float: ...
+    @property
+    def tau(self) -> float: ...
+    @property
+    def g(self) -> float: ...
+    @property
+    def mu_a(self) -> float: ...
+    @property
+    def mu_s(self) -> float: ...
+    @property
+    def mu_s_prime(self) -> float: ...
+    @property
+    def fitted(self) -> dict[str, float]: ...
+    @property
+    def residual(self) -> float: ...
+    @property
+    def status(self) -> str: ...
+    @property
+    def uncertainty(self) -> dict[str, Any]: ...
+    @property
+    def streams(self) -> int: ...
+    @property
+    def evaluations(self) -> int: ...
+    @property
+    def notes(self) -> list[str]: ...
+    def to_dict(self) -> dict[str, Any]: ...
+
+def _fit(m_r: float, m_t: float, m_u: float | None = None, **options: Any) -> FitResult: ...
+def _fit_many(m_r: npt.NDArray[np.float64], m_t: npt.NDArray[np.float64],
+              m_u: npt.NDArray[np.float64] | None, g: npt.NDArray[np.float64] | None,
+              sigma_r: npt.NDArray[np.float64] | None, sigma_t: npt.NDArray[np.float64] | None,
+              sigma_u: npt.NDArray[np.float64] | None,
+              **options: Any) -> list[FitResult | KmError]: ...
+
+def fit_km(*, r_black: float | None = None, r_white: float | None = None,
+           r_white_ground: float | None = None, r_black_ground: float | None = None,
+           r_inf: float | None = None, r_zero: float | None = None,
+           thickness: float | None = None, n: float | None = None,
+           k2: float | None = None) -> dict[str, Any]:
+    """Kubelka-Munk inverse of a paint film (``km fit --km``; docs/inverse-km.md).
+
+    Three ways in: ``r_black``, ``r_white``, ``r_white_ground``
+    [``r_black_ground``] and ``thickness`` (a drawdown over two grounds,
+    Kubelka 1948); ``r_inf``, ``r_zero`` and ``thickness`` (an opaque film
+    and one over ideal black); ``r_inf`` alone (only K/S). With ``n`` (and
+    optionally ``k2``) the readings are instrument readings and get
+    Saunderson's correction. Returns the ``km fit --km --json`` object as a
+    dict (``K``, ``S``, ``K_over_S``, ``S_X``, ``R_inf``, ``R_0``, ``T``,
+    ``thickness``, ``mode``, ``uncertainty``, ``saunderson``, ``inputs``,
+    ``internal``). Raises :class:`KmError` naming the reading at fault.
+    """
+
+def colour(wavelengths_nm: Sequence[float], values: Sequence[float], *,
+           observer: str = "1931", illuminant: str = "D65") -> dict[str, Any]:
+    """Colour of a reflectance or transmittance spectrum (docs/colour.md).
+
+    ``observer``: ``"1931"`` (2 degrees) or ``"1964"`` (10 degrees);
+    ``illuminant``: ``"D65"`` or ``"D50"``. Returns ``xyz`` (Y = 100 for
+    the perfect diffuser), ``white`` (the illuminant's white point),
+    ``lab`` (CIELAB), ``srgb`` (0..1, encoded) and ``srgb_u8``.
+    """
+
+def delta_e2000(lab1: tuple[float, float, float], lab2: tuple[float, float, float]) -> float:
+    """CIEDE2000 colour difference (Sharma, Wu & Dalal 2005)."""
+
+def srgb(xyz: tuple[float, float, float]) -> tuple[float, float, float]:
+    """sRGB (IEC 61966-2-1, encoded, 0..1) of CIE XYZ with Y = 100 for white."""
+
+def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
+             n_sample: float = 1.0, n_slide: float | None = None, g: float | None = None,
+             sigma_r: float | None = None, sigma_t: float | None = None,
+             sigma_u: float | None = None, specular_in_m_r: float = 1.0,
+             unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
+             streams: int | None = None) -> list[dict[str, Any]]:
+    """Fit every row of a measurement file, as ``km fit FILE --json`` does.
+
+    iad's ``.rxt`` (sample and spheres from its header) or a ``.csv`` with
+    columns wavelength_nm, m_r, m_t[, m_u, sigma_r, sigma_t, sigma_u, g]
+    (``thickness`` required). Returns the command's list: per row the
+    :class:`FitResult` dict plus ``wavelength_nm``, or ``{"wavelength_nm",
+    "status": "invalid", "error"}`` for a row that cannot be fitted. Rows are
+    fitted in parallel with the GIL released.
+    """

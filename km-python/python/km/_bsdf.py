@@ -1,0 +1,164 @@
+"""The whole BSDF of a stack as numpy arrays (:func:`km.bsdf`, :class:`Bsdf`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import _km
+
+_TOTALS = ("reflectance", "transmittance", "reflectance_specular", "transmittance_direct")
+
+
+def _gauss_angles(n: int) -> np.ndarray:
+    """Arccosines (degrees, ascending) of the n Gauss-Legendre nodes on mu in (0, 1)."""
+    x, _ = np.polynomial.legendre.leggauss(n)
+    return np.sort(np.degrees(np.arccos(0.5 * (x + 1.0))))
+
+
+def _check_side(side: str) -> str:
+    if side not in ("above", "below"):
+        raise _km.KmError(f'invalid option side: "{side}": expected "above" or "below"')
+    return side
+
+
+def _shape(values: np.ndarray, channels: int, shape: tuple[int, ...]) -> Any:
+    """A ``channels x n`` array as ``shape`` (one channel) or ``(channels,) + shape``."""
+    if channels == 1:
+        out = values[0].reshape(shape)
+        return float(out) if shape == () else out
+    return values.reshape((channels,) + shape)
+
+
+class Bsdf:
+    """The whole BSDF of a scene's stack (docs/bsdf.md), from :func:`km.bsdf`.
+
+    The smooth parts (BRDF, BTDF, 1/sr per unit irradiance on the surface)
+    at any incidence ``theta_i``, exit ``theta_o`` (degrees in [0, 90), each
+    from the normal on its side) and azimuth ``phi`` (degrees; light arrives
+    from ``phi = 0``, ``phi = 180`` is the mirror side), for light from
+    above (the ambient medium) or from below (through a transparent
+    substrate); the delta parts (mirror reflection, unscattered beam) and
+    the totals per incidence. Every call solves the stack (multi-flux, one
+    set of operators per Fourier order) on the distinct polar angles it is
+    given, with the same streams each time (:attr:`streams`): the values are
+    those of ``km bsdf`` at those angles, not an interpolation.
+    """
+
+    def __init__(self, core: Any) -> None:
+        self._core = core
+
+    def __reduce__(self):  # picklable through the core
+        return (Bsdf, (self._core,))
+
+    def __repr__(self) -> str:
+        return (f"km.Bsdf({self.channels} channel(s), streams={self.streams}, "
+                f"transmits={self.transmits})")
+
+    @property
+    def streams(self) -> int:
+        """Gauss nodes per hemisphere and Snell segment used by every evaluation."""
+        return self._core.streams
+
+    @property
+    def transmits(self) -> bool:
+        """Whether light leaves through the far side (transparent substrate, no half-space)."""
+        return self._core.transmits
+
+    @property
+    def n_above(self) -> float:
+        """Refractive index of the ambient medium."""
+        return self._core.n_above
+
+    @property
+    def n_below(self) -> float | None:
+        """Refractive index of the medium below the stack, None when it is opaque."""
+        return self._core.n_below
+
+    @property
+    def channels(self) -> int:
+        """Number of spectral channels."""
+        return self._core.channels
+
+    @property
+    def labels(self) -> list[str]:
+        """Channel labels."""
+        return self._core.labels
+
+    @property
+    def wavelengths_nm(self) -> list[float] | None:
+        """Wavelengths (nm) of the channels when the scene gives them."""
+        return self._core.wavelengths_nm
+
+    def eval(self, theta_i: Any, theta_o: Any, phi: Any, *, transmitted: bool = False,
+             side: str = "above") -> Any:
+        """The smooth BRDF (or, with ``transmitted=True``, BTDF), 1/sr.
+
+        ``theta_i``, ``theta_o``, ``phi`` (degrees) broadcast against each
+        other (numpy rules); the result has their broadcast shape for a
+        one-channel scene and ``(channels,) + shape`` otherwise (a float for
+        scalar arguments and one channel). The BTDF of an opaque stack is 0.
+        Eq. B1 of docs/bsdf.md; ``side="below"`` lights the stack from its
+        substrate (transparent substrates only).
+        """
+        ti, to, ph = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64)
+                                           for a in (theta_i, theta_o, phi)))
+        shape = ti.shape
+        flat = [np.ascontiguousarray(a.ravel()) for a in (ti, to, ph)]
+        values = self._core._eval(_check_side(side), bool(transmitted), *flat)
+        return _shape(np.asarray(values), self.channels, shape)
+
+    def brdf(self, theta_i: Any, theta_o: Any, phi: Any, *, side: str = "above") -> Any:
+        """``eval(..., transmitted=False)``: the smooth BRDF, 1/sr."""
+        return self.eval(theta_i, theta_o, phi, transmitted=False, side=side)
+
+    def btdf(self, theta_i: Any, theta_o: Any, phi: Any, *, side: str = "above") -> Any:
+        """``eval(..., transmitted=True)``: the smooth BTDF, 1/sr (0 when opaque)."""
+        return self.eval(theta_i, theta_o, phi, transmitted=True, side=side)
+
+    def totals(self, theta_i: Any, *, side: str = "above") -> dict[str, Any]:
+        """Per incidence: ``reflectance`` and ``transmittance`` (totals, delta
+        parts included), ``reflectance_specular`` (mirror reflection) and
+        ``transmittance_direct`` (unscattered beam), each with the shape of
+        ``theta_i`` (one channel) or ``(channels,) + shape``.
+
+        The smooth parts' albedo is ``reflectance - reflectance_specular``
+        (resp. ``transmittance - transmittance_direct``) = the integral of
+        ``eval(...) * cos(theta_o)`` over the exit hemisphere.
+        """
+        ti = np.asarray(theta_i, dtype=np.float64)
+        d = self._core._totals(_check_side(side), np.ascontiguousarray(ti.ravel()))
+        return {k: _shape(np.asarray(d[k]), self.channels, ti.shape) for k in _TOTALS}
+
+    def table(self, theta_i: Any = None, theta_o: Any = None, phi: Any = None, *,
+              side: str = "above") -> dict[str, Any]:
+        """The arrays that ``km bsdf --format npz`` writes, on the grids given.
+
+        Defaults as ``km bsdf``: ``theta_i`` the arccosines of 32 Gauss nodes
+        in mu, ``theta_o`` = ``theta_i``, ``phi`` = 0, 5, ..., 355. Keys:
+        ``theta_i``, ``theta_o``, ``phi`` (1-D, degrees), ``brdf``, ``btdf``
+        (``channels x n_i x n_o x n_phi``, 1/sr), ``reflectance``,
+        ``transmittance``, ``reflectance_specular``, ``transmittance_direct``
+        (``channels x n_i``), ``fourier_orders`` (per channel) and
+        ``streams``. Always with the channel axis, as in the file.
+        """
+        ti = _gauss_angles(32) if theta_i is None else np.asarray(theta_i, dtype=np.float64)
+        to = ti if theta_o is None else np.asarray(theta_o, dtype=np.float64)
+        ph = np.arange(72) * 5.0 if phi is None else np.asarray(phi, dtype=np.float64)
+        args = [np.ascontiguousarray(np.atleast_1d(a).ravel()) for a in (ti, to, ph)]
+        return dict(self._core._table(_check_side(side), *args))
+
+
+def bsdf(scene: Any, *, streams: int | None = None,
+         max_fourier_order: int | None = None) -> Bsdf:
+    """The whole BSDF of ``scene``'s stack (multi-flux; docs/bsdf.md).
+
+    The scene's light and output directions are ignored. ``streams``: Gauss
+    nodes per hemisphere and Snell segment (default: what ``km bsdf``
+    chooses by default, the solver's default for the most demanding of its
+    32 default incidences, over all channels). ``max_fourier_order`` bounds
+    the azimuthal series (default: as the series needs). Raises
+    :class:`km.KmError` for a scene the multi-flux solver refuses.
+    """
+    return Bsdf(_km._BsdfCore(scene, streams, max_fourier_order))

@@ -1,0 +1,363 @@
+//! `km.fit`: optical properties of a slab from its measured reflectance and
+//! transmittance (km-inverse's slab inverse, `km fit`; docs/inverse.md), one
+//! point or many in parallel (a spectrum) with the GIL released.
+
+use km_inverse::forward::Sample;
+use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
+use numpy::PyReadonlyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+use rayon::prelude::*;
+
+use super::convert::json_to_py;
+use super::{guarded, py_err};
+use crate::error::Error;
+
+/// The result of a slab fit: the `km fit --json` object (docs/inverse.md §6).
+#[pyclass(frozen, name = "FitResult", module = "km")]
+pub struct PyFitResult {
+    r: FitResult,
+}
+
+#[pymethods]
+impl PyFitResult {
+    /// Single-scattering albedo `mu_s / (mu_a + mu_s)`.
+    #[getter]
+    fn albedo(&self) -> f64 {
+        self.r.albedo
+    }
+    /// Optical thickness `(mu_a + mu_s) d`.
+    #[getter]
+    fn tau(&self) -> f64 {
+        self.r.tau
+    }
+    /// Anisotropy (fixed, or fitted when M_U was given).
+    #[getter]
+    fn g(&self) -> f64 {
+        self.r.g
+    }
+    /// Absorption coefficient, 1/(unit of the thickness).
+    #[getter]
+    fn mu_a(&self) -> f64 {
+        self.r.mu_a
+    }
+    /// Scattering coefficient, 1/(unit of the thickness).
+    #[getter]
+    fn mu_s(&self) -> f64 {
+        self.r.mu_s
+    }
+    /// Reduced scattering coefficient `mu_s (1 - g)`.
+    #[getter]
+    fn mu_s_prime(&self) -> f64 {
+        self.r.mu_s_prime
+    }
+    /// What the fitted sample would read: `{"m_r", "m_t"[, "m_u"]}`.
+    #[getter]
+    fn fitted<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.r.to_json()["fitted"])
+    }
+    /// Weighted residual of the fit.
+    #[getter]
+    fn residual(&self) -> f64 {
+        self.r.residual
+    }
+    /// How the fit ended (`converged`, ...; the JSON's `status`).
+    #[getter]
+    fn status(&self) -> String {
+        self.r.to_json()["status"].as_str().unwrap_or_default().to_string()
+    }
+    /// Standard uncertainties, correlations and conditioning (a dict).
+    #[getter]
+    fn uncertainty<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.r.to_json()["uncertainty"])
+    }
+    /// Streams of the forward model.
+    #[getter]
+    fn streams(&self) -> usize {
+        self.r.streams
+    }
+    /// Forward-model evaluations.
+    #[getter]
+    fn evaluations(&self) -> usize {
+        self.r.evaluations
+    }
+    /// Remarks of the fit.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.r.notes.clone()
+    }
+    /// The `km fit --json` object, as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.r.to_json())
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "km.FitResult(albedo={:.6}, tau={:.6}, g={:.4}, mu_a={:.6e}, mu_s_prime={:.6e}, \
+             status={})",
+            self.r.albedo,
+            self.r.tau,
+            self.r.g,
+            self.r.mu_a,
+            self.r.mu_s_prime,
+            self.status()
+        )
+    }
+}
+
+/// The sample and how it was measured (the flags of `km fit`).
+#[derive(Clone, Copy)]
+struct How {
+    thickness: f64,
+    n_sample: f64,
+    n_slide: Option<f64>,
+    incidence: f64,
+    specular_in_m_r: f64,
+    unscattered_in_m_t: f64,
+    streams: Option<usize>,
+}
+
+impl How {
+    fn setup(&self) -> Result<Setup, Error> {
+        let sample = Sample::new(self.thickness, self.n_sample, self.n_slide)?
+            .with_incidence(self.incidence)?;
+        Ok(Setup {
+            specular_in_m_r: self.specular_in_m_r,
+            unscattered_in_m_t: self.unscattered_in_m_t,
+            ..Setup::new(sample)
+        })
+    }
+}
+
+/// One measurement point: `m_r, m_t, m_u, sigma_r, sigma_t, sigma_u, g`.
+type Point = (f64, f64, Option<f64>, Option<f64>, Option<f64>, Option<f64>, Option<f64>);
+
+fn fit_point(set: &Setup, how: &How, p: Point) -> Result<FitResult, Error> {
+    let (m_r, m_t, m_u, sigma_r, sigma_t, sigma_u, g) = p;
+    let meas = Measurement { m_r, m_t, m_u, sigma_r, sigma_t, sigma_u };
+    Ok(km_inverse::fit(set, &meas, &FitOptions { g, streams: how.streams })?)
+}
+
+/// Fit one slab (see `km.fit`).
+#[pyfunction]
+#[pyo3(signature = (m_r, m_t, m_u=None, *, thickness, n_sample=1.0, n_slide=None, g=None,
+                    sigma_r=None, sigma_t=None, sigma_u=None, specular_in_m_r=1.0,
+                    unscattered_in_m_t=1.0, incidence=0.0, streams=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn _fit(
+    py: Python<'_>,
+    m_r: f64,
+    m_t: f64,
+    m_u: Option<f64>,
+    thickness: f64,
+    n_sample: f64,
+    n_slide: Option<f64>,
+    g: Option<f64>,
+    sigma_r: Option<f64>,
+    sigma_t: Option<f64>,
+    sigma_u: Option<f64>,
+    specular_in_m_r: f64,
+    unscattered_in_m_t: f64,
+    incidence: f64,
+    streams: Option<usize>,
+) -> PyResult<PyFitResult> {
+    let how = How {
+        thickness,
+        n_sample,
+        n_slide,
+        incidence,
+        specular_in_m_r,
+        unscattered_in_m_t,
+        streams,
+    };
+    let r = guarded(py, || {
+        let set = how.setup()?;
+        fit_point(&set, &how, (m_r, m_t, m_u, sigma_r, sigma_t, sigma_u, g))
+    })?;
+    Ok(PyFitResult { r })
+}
+
+/// An optional column: NaN entries are "not given".
+fn column(a: &Option<PyReadonlyArray1<'_, f64>>, n: usize) -> Result<Vec<Option<f64>>, Error> {
+    match a {
+        None => Ok(vec![None; n]),
+        Some(a) => {
+            let v: Vec<Option<f64>> =
+                a.as_array().iter().map(|x| (!x.is_nan()).then_some(*x)).collect();
+            if v.len() != n {
+                return Err(Error::option("m_u", "every column has the length of m_r"));
+            }
+            Ok(v)
+        }
+    }
+}
+
+/// Fit many points of one sample in parallel (see `km.fit`); a list of
+/// `FitResult` or, where a point fails, its `KmError`.
+#[pyfunction]
+#[pyo3(signature = (m_r, m_t, m_u, g, sigma_r, sigma_t, sigma_u, *, thickness, n_sample=1.0,
+                    n_slide=None, specular_in_m_r=1.0, unscattered_in_m_t=1.0, incidence=0.0,
+                    streams=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn _fit_many<'py>(
+    py: Python<'py>,
+    m_r: PyReadonlyArray1<'py, f64>,
+    m_t: PyReadonlyArray1<'py, f64>,
+    m_u: Option<PyReadonlyArray1<'py, f64>>,
+    g: Option<PyReadonlyArray1<'py, f64>>,
+    sigma_r: Option<PyReadonlyArray1<'py, f64>>,
+    sigma_t: Option<PyReadonlyArray1<'py, f64>>,
+    sigma_u: Option<PyReadonlyArray1<'py, f64>>,
+    thickness: f64,
+    n_sample: f64,
+    n_slide: Option<f64>,
+    specular_in_m_r: f64,
+    unscattered_in_m_t: f64,
+    incidence: f64,
+    streams: Option<usize>,
+) -> PyResult<Bound<'py, PyList>> {
+    let how = How {
+        thickness,
+        n_sample,
+        n_slide,
+        incidence,
+        specular_in_m_r,
+        unscattered_in_m_t,
+        streams,
+    };
+    let (r, t): (Vec<f64>, Vec<f64>) =
+        (m_r.as_array().to_vec(), m_t.as_array().iter().copied().collect());
+    let n = r.len();
+    let cols = (|| -> Result<_, Error> {
+        if t.len() != n {
+            return Err(Error::option("m_t", "every column has the length of m_r"));
+        }
+        Ok([
+            column(&m_u, n)?,
+            column(&g, n)?,
+            column(&sigma_r, n)?,
+            column(&sigma_t, n)?,
+            column(&sigma_u, n)?,
+        ])
+    })()
+    .map_err(|e| py_err(py, e))?;
+    let results = guarded(py, || {
+        let set = how.setup()?;
+        Ok((0..n)
+            .into_par_iter()
+            .map(|i| {
+                let p = (r[i], t[i], cols[0][i], cols[2][i], cols[3][i], cols[4][i], cols[1][i]);
+                fit_point(&set, &how, p)
+            })
+            .collect::<Vec<_>>())
+    })?;
+    let list = PyList::empty(py);
+    for r in results {
+        match r {
+            Ok(r) => list.append(Bound::new(py, PyFitResult { r })?)?,
+            Err(e) => list.append(py_err(py, e).into_value(py))?,
+        }
+    }
+    Ok(list)
+}
+
+/// Largest measurement file read (bytes): a spectrum of 10^5 rows is ~5 MB.
+const MAX_FILE_BYTES: u64 = 64 << 20;
+
+/// Fit every row of a measurement file (see `km.fit_file`): the list of
+/// `km fit FILE --json`, as dicts.
+#[pyfunction]
+#[pyo3(signature = (path, *, thickness=None, n_sample=1.0, n_slide=None, g=None, sigma_r=None,
+                    sigma_t=None, sigma_u=None, specular_in_m_r=1.0, unscattered_in_m_t=1.0,
+                    incidence=0.0, streams=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fit_file<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    thickness: Option<f64>,
+    n_sample: f64,
+    n_slide: Option<f64>,
+    g: Option<f64>,
+    sigma_r: Option<f64>,
+    sigma_t: Option<f64>,
+    sigma_u: Option<f64>,
+    specular_in_m_r: f64,
+    unscattered_in_m_t: f64,
+    incidence: f64,
+    streams: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let list = guarded(py, || {
+        let name = path.display().to_string();
+        let cannot = |e: String| Error::option("path", format!("{name}: {e}"));
+        let len = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?.len();
+        if len > MAX_FILE_BYTES {
+            return Err(cannot(format!("{len} bytes (at most {MAX_FILE_BYTES})")));
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| cannot(e.to_string()))?;
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+        let rows = match ext.as_str() {
+            "rxt" => km_inverse::rxt::parse_rxt(&text),
+            "csv" => {
+                let Some(thickness) = thickness else {
+                    return Err(Error::option("thickness", "is required for a .csv file"));
+                };
+                let how = How {
+                    thickness,
+                    n_sample,
+                    n_slide,
+                    incidence,
+                    specular_in_m_r,
+                    unscattered_in_m_t,
+                    streams,
+                };
+                km_inverse::rxt::parse_csv(&text, &how.setup()?)
+            }
+            _ => return Err(cannot("expected a .rxt or .csv file".into())),
+        }
+        .map_err(|e| cannot(e.to_string()))?;
+        // As `km fit FILE`: fractions other than 1 override the file, the
+        // sigmas and g given here stand where a row has none.
+        let results: Vec<(Option<f64>, Result<FitResult, Error>)> = rows
+            .into_par_iter()
+            .map(|row| {
+                let mut set = row.setup;
+                if specular_in_m_r != 1.0 {
+                    set.specular_in_m_r = specular_in_m_r;
+                }
+                if unscattered_in_m_t != 1.0 {
+                    set.unscattered_in_m_t = unscattered_in_m_t;
+                }
+                let mut meas = row.measurement;
+                meas.sigma_r = meas.sigma_r.or(sigma_r);
+                meas.sigma_t = meas.sigma_t.or(sigma_t);
+                meas.sigma_u = meas.sigma_u.or(sigma_u);
+                let opts = FitOptions { g: row.g.or(g), streams };
+                (row.wavelength_nm, km_inverse::fit(&set, &meas, &opts).map_err(Error::from))
+            })
+            .collect();
+        if !results.is_empty() && results.iter().all(|(_, r)| r.is_err()) {
+            return Err(cannot("no row could be fitted".into()));
+        }
+        Ok(results
+            .into_iter()
+            .map(|(w, r)| match r {
+                Ok(r) => {
+                    let mut v = r.to_json();
+                    v["wavelength_nm"] = serde_json::json!(w);
+                    v
+                }
+                Err(e) => serde_json::json!({
+                    "wavelength_nm": w, "status": "invalid", "error": inverse_message(&e)
+                }),
+            })
+            .collect::<Vec<_>>())
+    })?;
+    json_to_py(py, &serde_json::Value::Array(list))
+}
+
+/// The library's own words of a failed row (as `km fit` prints them).
+fn inverse_message(e: &Error) -> String {
+    match e {
+        Error::Option { reason, .. } => reason.clone(),
+        other => other.to_string(),
+    }
+}

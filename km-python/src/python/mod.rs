@@ -1,0 +1,93 @@
+//! The extension module `km._km` (feature `python`): thin wrappers of
+//! [`crate::engine`], [`crate::build`], [`crate::sweep`] and the Monte Carlo
+//! shards, with the GIL released while Rust works.
+//!
+//! Every error is a `km.KmError` (a `ValueError`) with attributes `key` and
+//! `line`; a panic inside a solver is caught at this boundary and becomes a
+//! `km.KmError` too (a last guard: solvers return errors, they do not panic).
+//!
+//! Modules: `convert` (Python values to scene TOML, JSON to Python),
+//! `scene` (`km.Scene`), `solution` (`km.Solution`), `batch` (`km.solve`,
+//! batch solves, Monte Carlo shards), `bsdf` (`km.Bsdf`), `fit` (`km.fit`),
+//! `fit_km` (`km.fit_km`, `km.colour`).
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::error::Error;
+
+mod batch;
+mod bsdf;
+mod convert;
+mod fit;
+mod fit_km;
+mod scene;
+mod solution;
+
+pub(crate) use scene::PyScene;
+pub(crate) use solution::PySolution;
+
+pyo3::create_exception!(
+    km,
+    KmError,
+    PyValueError,
+    "Bad input to km: a scene, an option or a method that cannot treat the scene.\n\n\
+     Attributes: `key` (the scene key or option named, or None) and `line`\n\
+     (1-based line of the scene text, or None)."
+);
+
+/// A `km.KmError` with `key` and `line` set.
+pub(crate) fn py_err(py: Python<'_>, e: Error) -> PyErr {
+    let err = KmError::new_err(e.to_string());
+    let v = err.value(py);
+    // Setting attributes on a fresh exception instance cannot fail in practice;
+    // if it did, the message still carries key and line.
+    let _ = v.setattr("key", e.key());
+    let _ = v.setattr("line", e.line());
+    err
+}
+
+/// Run `f` with the GIL released, turning a panic into [`Error::Internal`].
+pub(crate) fn guarded<T: Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> Result<T, Error> + Send,
+) -> PyResult<T> {
+    py.detach(|| {
+        catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "panic".into());
+            Err(Error::Internal(msg))
+        })
+    })
+    .map_err(|e| py_err(py, e))
+}
+
+/// The extension module `km._km`.
+#[pymodule]
+fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("KmError", m.py().get_type::<KmError>())?;
+    m.add_class::<PyScene>()?;
+    m.add_class::<PySolution>()?;
+    m.add_class::<batch::PyPartial>()?;
+    m.add_class::<bsdf::PyBsdfCore>()?;
+    m.add_class::<fit::PyFitResult>()?;
+    m.add_function(wrap_pyfunction!(fit::_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::_fit_many, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit_file, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::fit_km, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::colour_of, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::delta_e2000, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_km::srgb, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::solve, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_solve_scenes, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_solve_sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::run_shard, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::merge, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

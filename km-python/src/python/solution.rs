@@ -1,0 +1,249 @@
+//! `km.Solution`: totals, BRDF/BTDF samples, uncertainties, the plan.
+
+use km_core::solution::UncertaintyValue;
+use km_core::{Solution, Uncertainty};
+use numpy::{IntoPyArray, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde_json::Value;
+
+use super::convert::json_to_py;
+
+/// What a solve returns: totals, BRDF/BTDF samples, uncertainties, the plan.
+///
+/// For a one-channel scene the totals are floats and `brdf`/`btdf` 1-D
+/// arrays; for several channels each total is an array over channels and
+/// `brdf`/`btdf` are `channels x directions`. `to_dict()` is the
+/// `km solve --json` object.
+#[pyclass(frozen, name = "Solution", module = "km")]
+pub struct PySolution {
+    pub(crate) sol: Solution,
+}
+
+impl PySolution {
+    fn per_channel<'py>(
+        &self,
+        py: Python<'py>,
+        get: impl Fn(&km_core::ChannelResult) -> f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let v: Vec<f64> = self.sol.channels.iter().map(get).collect();
+        if v.len() == 1 {
+            Ok(v[0].into_pyobject(py)?.into_any())
+        } else {
+            Ok(v.into_pyarray(py).into_any())
+        }
+    }
+
+    fn angular<'py>(
+        &self,
+        py: Python<'py>,
+        get: impl Fn(&km_core::ChannelResult) -> &Vec<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let ch = &self.sol.channels;
+        let d = ch.first().map(|c| get(c).len()).unwrap_or(0);
+        if ch.len() == 1 {
+            return Ok(get(&ch[0]).clone().into_pyarray(py).into_any());
+        }
+        let flat: Vec<f64> = ch
+            .iter()
+            .flat_map(|c| {
+                let v = get(c);
+                (0..d).map(move |i| v.get(i).copied().unwrap_or(f64::NAN))
+            })
+            .collect();
+        Ok(flat.into_pyarray(py).reshape([ch.len(), d])?.into_any())
+    }
+
+    /// An uncertainty (stderr, error_estimate) as a dict: per key a float
+    /// (one channel) or an array over channels; list entries (brdf, btdf,
+    /// per-layer absorptance) become arrays, `channels x len` for several
+    /// channels; a value missing in a channel is NaN.
+    fn per_key<'py>(
+        &self,
+        py: Python<'py>,
+        get: impl Fn(&km_core::ChannelResult) -> Option<&Uncertainty>,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        if self.sol.channels.iter().all(|c| get(c).is_none()) {
+            return Ok(None);
+        }
+        let mut keys: Vec<(&'static str, Option<usize>)> = Vec::new();
+        for c in &self.sol.channels {
+            for (k, v) in get(c).map(Uncertainty::entries).unwrap_or_default() {
+                if !keys.iter().any(|(q, _)| *q == k) {
+                    let len = match v {
+                        UncertaintyValue::Number(_) => None,
+                        UncertaintyValue::List(l) => Some(l.len()),
+                    };
+                    keys.push((k, len));
+                }
+            }
+        }
+        let d = PyDict::new(py);
+        for (k, len) in keys {
+            let value = match len {
+                None => {
+                    self.per_channel(py, |c| get(c).and_then(|u| u.get(k)).unwrap_or(f64::NAN))?
+                }
+                Some(len) => {
+                    let ch = &self.sol.channels;
+                    let flat: Vec<f64> = ch
+                        .iter()
+                        .flat_map(|c| {
+                            let l = get(c).and_then(|u| u.get_list(k));
+                            (0..len)
+                                .map(move |i| l.and_then(|l| l.get(i)).copied().unwrap_or(f64::NAN))
+                        })
+                        .collect();
+                    if ch.len() == 1 {
+                        flat.into_pyarray(py).into_any()
+                    } else {
+                        flat.into_pyarray(py).reshape([ch.len(), len])?.into_any()
+                    }
+                }
+            };
+            d.set_item(k, value)?;
+        }
+        Ok(Some(d))
+    }
+}
+
+#[pymethods]
+impl PySolution {
+    /// Method name (`km`, `multiflux`, `mc`, `dipole`).
+    #[getter]
+    fn method(&self) -> String {
+        self.sol.method.clone()
+    }
+    /// Number of channels.
+    #[getter]
+    fn channels(&self) -> usize {
+        self.sol.channels.len()
+    }
+    /// Channel labels.
+    #[getter]
+    fn labels(&self) -> Vec<String> {
+        self.sol.labels.clone()
+    }
+    /// Total reflectance (specular part included).
+    #[getter]
+    fn reflectance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.per_channel(py, |c| c.reflectance)
+    }
+    /// The mirror (delta) part of the reflectance.
+    #[getter]
+    fn reflectance_specular<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.per_channel(py, |c| c.reflectance_specular)
+    }
+    /// Total transmittance (unscattered part included).
+    #[getter]
+    fn transmittance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.per_channel(py, |c| c.transmittance)
+    }
+    /// The unscattered (delta) part of the transmittance.
+    #[getter]
+    fn transmittance_direct<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.per_channel(py, |c| c.transmittance_direct)
+    }
+    /// Absorbed fraction.
+    #[getter]
+    fn absorptance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.per_channel(py, |c| c.absorptance)
+    }
+    /// Smooth BRDF (1/sr) at the scene's output directions.
+    #[getter]
+    fn brdf<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.angular(py, |c| &c.brdf)
+    }
+    /// Smooth BTDF (1/sr) at the scene's output directions.
+    #[getter]
+    fn btdf<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.angular(py, |c| &c.btdf)
+    }
+    /// Absorbed fraction per layer (top first), when the method gives it.
+    #[getter]
+    fn absorptance_layers<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        if self.sol.channels.iter().any(|c| c.absorptance_layers.is_none()) {
+            return Ok(None);
+        }
+        let empty = Vec::new();
+        let get = |c: &km_core::ChannelResult| -> Vec<f64> {
+            c.absorptance_layers.as_ref().unwrap_or(&empty).clone()
+        };
+        let ch = &self.sol.channels;
+        if ch.len() == 1 {
+            return Ok(Some(get(&ch[0]).into_pyarray(py).into_any()));
+        }
+        let d = get(&ch[0]).len();
+        let flat: Vec<f64> = ch.iter().flat_map(get).collect();
+        if flat.len() != d * ch.len() {
+            return Ok(None);
+        }
+        Ok(Some(flat.into_pyarray(py).reshape([ch.len(), d])?.into_any()))
+    }
+    /// Standard errors by key (Monte Carlo), or None.
+    #[getter]
+    fn stderr<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.per_key(py, |c| c.stderr.as_ref())
+    }
+    /// Estimated errors by key (an accuracy target was given), or None.
+    #[getter]
+    fn error_estimate<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.per_key(py, |c| c.error_estimate.as_ref())
+    }
+    /// Notes of the solver (what it simplified, bounds of what it neglected).
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.sol.notes.clone()
+    }
+    /// The plan obeyed: effects present, work skipped and why (a dict), or None.
+    #[getter]
+    fn plan<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match &self.sol.plan {
+            Some(p) => json_to_py(py, &p.to_json()),
+            None => Ok(py.None().into_bound(py)),
+        }
+    }
+    /// How an accuracy target was met (the JSON's `tolerance` object), or None.
+    #[getter]
+    fn accuracy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match (&self.sol.accuracy, self.sol.to_json().get("tolerance")) {
+            (Some(_), Some(v)) => json_to_py(py, v),
+            _ => Ok(py.None().into_bound(py)),
+        }
+    }
+    /// The output directions `[theta_deg, phi_deg]` of `brdf`/`btdf`.
+    #[getter]
+    fn directions_deg(&self) -> Vec<[f64; 2]> {
+        self.sol.directions.clone()
+    }
+    /// Method settings and diagnostics (`streams`, `fourier_orders`, ...), a dict.
+    #[getter]
+    fn extra<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &Value::Object(self.sol.extra.clone()))
+    }
+    /// The solver's own wall time, seconds.
+    #[getter]
+    fn seconds(&self) -> f64 {
+        self.sol.seconds
+    }
+    /// The `km solve --json` object, as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.sol.to_json())
+    }
+    /// The `km solve --json` object, as text.
+    #[pyo3(signature = (indent=false))]
+    fn to_json(&self, indent: bool) -> String {
+        let v = self.sol.to_json();
+        if indent { serde_json::to_string_pretty(&v).unwrap_or_default() } else { v.to_string() }
+    }
+    fn __repr__(&self) -> String {
+        let c = &self.sol.channels;
+        match c.len() {
+            1 => format!(
+                "km.Solution(method={:?}, reflectance={:.6}, transmittance={:.6}, absorptance={:.6})",
+                self.sol.method, c[0].reflectance, c[0].transmittance, c[0].absorptance
+            ),
+            n => format!("km.Solution(method={:?}, {n} channels)", self.sol.method),
+        }
+    }
+}

@@ -1,0 +1,142 @@
+"""`km.fit`: the slab inverse of `km fit`; `to_dict()` equals `km fit --json`
+(numbers to 1e-12: the same library call), for one point, with M_U (g
+fitted), and a spectrum fitted in parallel against the command's rows."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import km
+from conftest import REPO
+from test_cli_parity import same
+
+
+def cli(km_cli, *args):
+    out = subprocess.run([str(km_cli), "fit", *args, "--json"], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout)
+
+
+CASES = [
+    (["--m-r", "0.2726", "--m-t", "0.2991", "--thickness", "1", "--n-sample", "1.4",
+      "--n-slide", "1.5"],
+     dict(m_r=0.2726, m_t=0.2991, thickness=1, n_sample=1.4, n_slide=1.5)),
+    (["--m-r", "0.2726", "--m-t", "0.2991", "--m-u", "0.1244", "--thickness", "1",
+      "--n-sample", "1.4", "--n-slide", "1.5"],
+     dict(m_r=0.2726, m_t=0.2991, m_u=0.1244, thickness=1, n_sample=1.4, n_slide=1.5)),
+    (["--m-r", "0.4", "--m-t", "0.2", "--thickness", "2", "--g", "0.8", "--exclude-specular",
+      "--sigma-r", "0.01", "--sigma-t", "0.01"],
+     dict(m_r=0.4, m_t=0.2, thickness=2, g=0.8, specular_in_m_r=0.0, sigma_r=0.01,
+          sigma_t=0.01)),
+]
+
+
+@pytest.mark.parametrize("flags,kwargs", CASES, ids=["rt", "rtu", "g-fixed-no-specular"])
+def test_to_dict_equals_km_fit_json(km_cli, flags, kwargs):
+    r = km.fit(**kwargs)
+    ref = cli(km_cli, *flags)
+    same(r.to_dict(), ref)
+    assert r.albedo == ref["albedo"] and r.mu_s_prime == ref["mu_s_prime"]
+    assert r.status == ref["status"] and r.uncertainty == ref["uncertainty"]
+
+
+def test_spectrum_in_parallel_equals_the_cli_rows(km_cli):
+    path = REPO / "examples" / "fit-spectrum.csv"
+    lines = [ln for ln in path.read_text().splitlines() if ln and not ln.startswith("#")]
+    head = lines[0].split(",")
+    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
+    rows = {k: data[:, i] for i, k in enumerate(head)}
+    ref = cli(km_cli, str(path), "--thickness", "1", "--n-sample", "1.4", "--n-slide", "1.5")
+    got = km.fit(rows["m_r"], rows["m_t"], thickness=1, n_sample=1.4, n_slide=1.5,
+                 sigma_r=rows["sigma_r"], sigma_t=rows["sigma_t"])
+    assert len(got) == len(ref) == len(data)
+    for r, want in zip(got, ref):
+        want = dict(want)
+        want.pop("wavelength_nm")
+        same(r.to_dict(), want)
+    # The synthetic truth of the file (header): albedo 0.9, 0.95, 0.99.
+    assert abs(got[0].albedo - 0.9) < 1e-3
+
+
+def test_bad_input_names_the_value():
+    with pytest.raises(km.KmError) as e:
+        km.fit(0.3, 0.2, thickness=-1)
+    assert e.value.key == "thickness" and "-1" in str(e.value)
+    out = km.fit([0.3, 0.3], [0.2, 0.2], thickness=1, g=[0.0, 1.5], errors="keep")
+    assert isinstance(out[0], km.FitResult) and isinstance(out[1], km.KmError)
+    with pytest.raises(km.KmError, match="point 1"):
+        km.fit([0.3, 0.3], [0.2, 0.2], thickness=1, g=[0.0, 1.5])
+
+
+KM_CASES = [
+    (["--r-black", "0.30", "--r-white", "0.50", "--r-white-ground", "0.80", "--thickness",
+      "0.05"], dict(r_black=0.30, r_white=0.50, r_white_ground=0.80, thickness=0.05)),
+    (["--r-black", "0.30", "--r-white", "0.50", "--r-white-ground", "0.80", "--r-black-ground",
+      "0.02", "--thickness", "0.05", "--n-sample", "1.5"],
+     dict(r_black=0.30, r_white=0.50, r_white_ground=0.80, r_black_ground=0.02, thickness=0.05,
+          n=1.5)),
+    (["--r-inf", "0.6", "--r-zero", "0.3", "--thickness", "2"],
+     dict(r_inf=0.6, r_zero=0.3, thickness=2)),
+    (["--r-inf", "0.6", "--n-sample", "1.5", "--k2", "0.6"], dict(r_inf=0.6, n=1.5, k2=0.6)),
+]
+
+
+@pytest.mark.parametrize("flags,kwargs", KM_CASES, ids=["black-white", "saunderson", "rinf-r0",
+                                                         "rinf-only"])
+def test_fit_km_equals_km_fit_km_json(km_cli, flags, kwargs):
+    same(km.fit_km(**kwargs), cli(km_cli, "--km", *flags))
+
+
+def test_fit_km_refusals():
+    with pytest.raises(km.KmError) as e:
+        km.fit_km(r_black=0.3, r_white=0.5, thickness=1)
+    assert e.value.key == "r_white_ground"
+    with pytest.raises(km.KmError, match="not both"):
+        km.fit_km(r_black=0.3, r_white=0.5, r_inf=0.6)
+    with pytest.raises(km.KmError):
+        km.fit_km(r_black=0.5, r_white=0.3, r_white_ground=0.8, thickness=1)
+
+
+def test_colour():
+    # The perfect diffuser is the white point: L* = 100, a* = b* = 0, and
+    # D65 white is sRGB (1, 1, 1) (IEC 61966-2-1; the matrix's rounding: 1e-3).
+    wl = np.arange(360.0, 831.0, 5.0)
+    c = km.colour(wl, np.ones_like(wl))
+    assert np.allclose(c["xyz"], c["white"], rtol=1e-12)
+    assert abs(c["lab"][0] - 100) < 1e-9 and max(map(abs, c["lab"][1:])) < 1e-9
+    assert np.allclose(c["srgb"], 1.0, atol=1e-3)
+    # A red spectrum is red.
+    red = km.colour(wl, np.where(wl > 600, 0.8, 0.05))
+    assert red["lab"][1] > 30 and red["srgb"][0] > red["srgb"][1]
+    # CIEDE2000 test data of Sharma, Wu & Dalal (2005), Table 1, pairs 1 and 7.
+    assert abs(km.delta_e2000((50, 2.6772, -79.7751), (50, 0, -82.7485)) - 2.0425) < 1e-4
+    assert abs(km.delta_e2000((50, 0, 0), (50, -1, 2)) - 2.3669) < 1e-4
+    with pytest.raises(km.KmError):
+        km.colour([500, 400], [0.1, 0.2])
+    with pytest.raises(km.KmError, match="observer"):
+        km.colour(wl, np.ones_like(wl), observer="1900")
+
+
+@pytest.mark.parametrize("name,kwargs,flags", [
+    ("fit-synthetic.rxt", {}, []),
+    ("fit-spectrum.csv", dict(thickness=1, n_sample=1.4, n_slide=1.5),
+     ["--thickness", "1", "--n-sample", "1.4", "--n-slide", "1.5"]),
+], ids=["rxt", "csv"])
+def test_fit_file_equals_km_fit_file_json(km_cli, name, kwargs, flags):
+    path = REPO / "examples" / name
+    same(km.fit_file(path, **kwargs), cli(km_cli, str(path), *flags))
+
+
+def test_fit_file_refusals(tmp_path):
+    with pytest.raises(km.KmError, match="thickness"):
+        km.fit_file(REPO / "examples" / "fit-spectrum.csv")
+    bad = tmp_path / "m.txt"
+    bad.write_text("1 2 3\n")
+    with pytest.raises(km.KmError, match=r"\.rxt or \.csv"):
+        km.fit_file(bad)
+    with pytest.raises(km.KmError, match="m.csv"):
+        km.fit_file(tmp_path / "m.csv", thickness=1)
