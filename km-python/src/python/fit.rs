@@ -4,6 +4,7 @@
 
 use km_inverse::forward::Sample;
 use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
+use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyList;
@@ -314,50 +315,25 @@ pub(crate) fn fit_file<'py>(
             _ => return Err(cannot("expected a .rxt or .csv file".into())),
         }
         .map_err(|e| cannot(e.to_string()))?;
-        // As `km fit FILE`: fractions other than 1 override the file, the
-        // sigmas and g given here stand where a row has none.
-        let results: Vec<(Option<f64>, Result<FitResult, Error>)> = rows
-            .into_par_iter()
-            .map(|row| {
-                let mut set = row.setup;
-                if specular_in_m_r != 1.0 {
-                    set.specular_in_m_r = specular_in_m_r;
-                }
-                if unscattered_in_m_t != 1.0 {
-                    set.unscattered_in_m_t = unscattered_in_m_t;
-                }
-                let mut meas = row.measurement;
-                meas.sigma_r = meas.sigma_r.or(sigma_r);
-                meas.sigma_t = meas.sigma_t.or(sigma_t);
-                meas.sigma_u = meas.sigma_u.or(sigma_u);
-                let opts = FitOptions { g: row.g.or(g), streams };
-                (row.wavelength_nm, km_inverse::fit(&set, &meas, &opts).map_err(Error::from))
-            })
+        // As `km fit FILE` (km_inverse::spectrum): fractions other than 1
+        // override the file, the sigmas and g given here stand where a row
+        // has none; the rows are fitted in parallel, each as the command does.
+        let over = RowOverrides {
+            specular_in_m_r: (specular_in_m_r != 1.0).then_some(specular_in_m_r),
+            unscattered_in_m_t: (unscattered_in_m_t != 1.0).then_some(unscattered_in_m_t),
+            sigma_r,
+            sigma_t,
+            sigma_u,
+        };
+        let opts = FitOptions { g, streams };
+        let fits: Vec<RowFit> = rows
+            .par_iter()
+            .flat_map_iter(|row| fit_rows(std::slice::from_ref(row), &over, &opts))
             .collect();
-        if !results.is_empty() && results.iter().all(|(_, r)| r.is_err()) {
+        if !fits.is_empty() && fits.iter().all(|f| f.result.is_err()) {
             return Err(cannot("no row could be fitted".into()));
         }
-        Ok(results
-            .into_iter()
-            .map(|(w, r)| match r {
-                Ok(r) => {
-                    let mut v = r.to_json();
-                    v["wavelength_nm"] = serde_json::json!(w);
-                    v
-                }
-                Err(e) => serde_json::json!({
-                    "wavelength_nm": w, "status": "invalid", "error": inverse_message(&e)
-                }),
-            })
-            .collect::<Vec<_>>())
+        Ok(rows_json(&fits))
     })?;
-    json_to_py(py, &serde_json::Value::Array(list))
-}
-
-/// The library's own words of a failed row (as `km fit` prints them).
-fn inverse_message(e: &Error) -> String {
-    match e {
-        Error::Option { reason, .. } => reason.clone(),
-        other => other.to_string(),
-    }
+    json_to_py(py, &list)
 }
