@@ -427,28 +427,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let Some(out) = &args.out else {
                     bail!("--shard {shard} needs --out FILE for the partial tally");
                 };
-                let part = methods::mc_shard(&scene, &args, i, n)?;
+                let part = km::mc_shard(&scene, &methods::options(&args)?, i, n)?;
                 write_json(out, &serde_json::to_value(&part)?, std::slice::from_ref(&args.scene))?;
                 eprintln!("wrote shard {i}/{n} to {}", out.display());
                 return Ok(());
             }
-            let mut sol = methods::solve(&scene, &args)?;
-            if args.repeat > 1 {
-                // Warm calls after the first: the same answer, timed again.
-                let mut times = vec![sol.seconds];
-                for _ in 1..args.repeat {
-                    times.push(methods::solve(&scene, &args)?.seconds);
-                }
-                times.sort_by(f64::total_cmp);
-                let median = if times.len() % 2 == 1 {
-                    times[times.len() / 2]
-                } else {
-                    0.5 * (times[times.len() / 2 - 1] + times[times.len() / 2])
-                };
-                sol.extra.insert("repeat".into(), args.repeat.into());
-                sol.extra.insert("seconds_best".into(), times[0].into());
-                sol.extra.insert("seconds_median".into(), median.into());
-            }
+            let sol = methods::solve(&scene, &args)?;
             if let Some(out) = &args.out {
                 write_json(out, &sol.to_json(), std::slice::from_ref(&args.scene))?;
             }
@@ -484,7 +468,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let opts = methods::options(&SolveArgs::defaults(method))?;
             let points = km::sweep(&text, &edits, &axes, &opts)?;
-            methods::print_sweep(&axes, &points, format)
+            let format = match format {
+                SweepFormat::Table => km::SweepFormat::Table,
+                SweepFormat::Csv => km::SweepFormat::Csv,
+                SweepFormat::Jsonl => km::SweepFormat::Jsonl,
+            };
+            stdout::print(&km::sweep_text(&axes, &points, format))
         }
         Command::Plan { scene, set, method, json, all_effects } => {
             let s = load(&scene, &set)?;
