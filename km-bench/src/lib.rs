@@ -11,6 +11,8 @@
 //! * [`report`]: the Markdown report.
 //! * [`methods`]: a method at a setting ([`methods::Setting`]) through the library's solver interface.
 //! * [`scenes`]: the scenes of the recipes (the seed's §4.4 example, study scenes).
+//! * [`seed`]: the seed's §4.4 example, loaded from `examples/seed-three-layers.toml`,
+//!   its three layers alone and combined, and its truncation study.
 //! * [`recipes`]: one function per figure of the seed's §4 and per study.
 #![deny(missing_docs)]
 
@@ -23,6 +25,7 @@ pub mod recipes;
 pub mod report;
 pub mod reproduce;
 pub mod scenes;
+pub mod seed;
 
 pub use reproduce::{
     Progress, ReproduceOptions, Size, Summary, SummaryRow, recipe_names, reproduce,

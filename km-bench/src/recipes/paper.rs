@@ -374,7 +374,7 @@ pub fn fig7(ctx: &mut Ctx) -> anyhow::Result<Section> {
 /// Solver, drawing or file errors.
 pub fn fig9(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let nd = n_directions(ctx);
-    let ex = direction_set::seed_example_3_layers(nd)?;
+    let ex = crate::seed::seed_example_3_layers(nd)?;
     let panels: [(&str, &str, &StackResponse); 4] = [
         ("fig9a", "(a) interface n = 1 -> 1.3", &ex.interface),
         ("fig9b", "(b) coating alone (index-matched)", &ex.layer),
@@ -421,7 +421,7 @@ pub fn fig9(ctx: &mut Ctx) -> anyhow::Result<Section> {
 /// Solver, drawing or file errors.
 pub fn fig10(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let nd = n_directions(ctx);
-    let st = direction_set::seed_truncation_study(nd)?;
+    let st = crate::seed::seed_truncation_study(nd)?;
     let chart = response_chart(
         "Fig. 10: exact adding (solid) and 0th-order truncation (dashed)",
         45.0,
