@@ -22,7 +22,7 @@ impl Parser {
         let tau = self.opt_coef(&k("tau"), &l.tau)?;
         let albedo = self.opt_coef(&k("albedo"), &l.albedo)?;
         let g = self.opt_coef(&k("g"), &l.g)?.unwrap_or(Coef::constant(&k("g"), 0.0));
-        let mut n = self.opt_coef(&k("n"), &l.n)?;
+        let n = self.opt_coef(&k("n"), &l.n)?;
         let is_last = i + 1 == n_layers;
 
         // The layer's form: preset, (sigma_a, sigma_s, thickness) or (tau, albedo).
@@ -38,50 +38,7 @@ impl Parser {
                     "a preset gives sigma_a and sigma_s: remove them or the preset",
                 ));
             }
-            let Some(m) = presets::lookup(p.get_ref()) else {
-                return Err(CoreError::scene(
-                    k("preset"),
-                    line,
-                    format!(
-                        "unknown preset \"{}\" (known: {})",
-                        p.get_ref(),
-                        presets::names().join(", ")
-                    ),
-                ));
-            };
-            // sigma_s = sigma_s' / (1 - g): the preset gives the reduced coefficient.
-            let mut s = Vec::with_capacity(3);
-            for c in 0..3 {
-                // A g list of another length is refused later with the list-length rule.
-                let gc = g.values[c.min(g.values.len() - 1)];
-                s.push(m.sigma_s_prime[c] / (1.0 - gc.clamp(-0.999_999, 0.999_999)));
-            }
-            if n.is_none() {
-                n = Some(Coef { key: k("n"), line, values: vec![m.eta] });
-            }
-            let thickness = match thickness {
-                Some(t) => t,
-                None => {
-                    if !is_last {
-                        return Err(CoreError::scene(
-                            k("thickness"),
-                            line,
-                            "a preset layer that is not the last needs a thickness",
-                        ));
-                    }
-                    Coef { key: k("thickness"), line, values: vec![f64::INFINITY] }
-                }
-            };
-            return self.finish_layer(
-                i,
-                is_last,
-                Form::Sigma,
-                Coef { key: k("sigma_a"), line, values: m.sigma_a.to_vec() },
-                Coef { key: k("sigma_s"), line, values: s },
-                thickness,
-                g,
-                n.unwrap_or(Coef { key: k("n"), line: None, values: ambient_n.values.clone() }),
-            );
+            return self.preset_layer(i, is_last, p, thickness, g, n, ambient_n);
         }
         if sigma_form && tau_form {
             let c = tau.as_ref().or(albedo.as_ref()).map(|c| (c.key.clone(), c.line));
@@ -128,6 +85,68 @@ impl Parser {
         let sigma_s = sigma_s.ok_or_else(|| missing("sigma_s"))?;
         let thickness = thickness.ok_or_else(|| missing("thickness"))?;
         self.finish_layer(i, is_last, Form::Sigma, sigma_a, sigma_s, thickness, g, n)
+    }
+
+    /// A layer given by a measured preset (`docs/scene-file.md`): its
+    /// `sigma_a`, `sigma_s = sigma_s' / (1 - g)` and index; a half-space when
+    /// it is the last layer and has no thickness.
+    #[allow(clippy::too_many_arguments)]
+    fn preset_layer(
+        &self,
+        i: usize,
+        is_last: bool,
+        p: &Spanned<String>,
+        thickness: Option<Coef>,
+        g: Coef,
+        mut n: Option<Coef>,
+        ambient_n: &Coef,
+    ) -> Result<LayerCoefs, CoreError> {
+        let k = |name: &str| format!("layer[{}].{name}", i + 1);
+        let line = self.line(p.span());
+        let Some(m) = presets::lookup(p.get_ref()) else {
+            return Err(CoreError::scene(
+                k("preset"),
+                line,
+                format!(
+                    "unknown preset \"{}\" (known: {})",
+                    p.get_ref(),
+                    presets::names().join(", ")
+                ),
+            ));
+        };
+        // sigma_s = sigma_s' / (1 - g): the preset gives the reduced coefficient.
+        let mut s = Vec::with_capacity(3);
+        for c in 0..3 {
+            // A g list of another length is refused later with the list-length rule.
+            let gc = g.values[c.min(g.values.len() - 1)];
+            s.push(m.sigma_s_prime[c] / (1.0 - gc.clamp(-0.999_999, 0.999_999)));
+        }
+        if n.is_none() {
+            n = Some(Coef { key: k("n"), line, values: vec![m.eta] });
+        }
+        let thickness = match thickness {
+            Some(t) => t,
+            None => {
+                if !is_last {
+                    return Err(CoreError::scene(
+                        k("thickness"),
+                        line,
+                        "a preset layer that is not the last needs a thickness",
+                    ));
+                }
+                Coef { key: k("thickness"), line, values: vec![f64::INFINITY] }
+            }
+        };
+        self.finish_layer(
+            i,
+            is_last,
+            Form::Sigma,
+            Coef { key: k("sigma_a"), line, values: m.sigma_a.to_vec() },
+            Coef { key: k("sigma_s"), line, values: s },
+            thickness,
+            g,
+            n.unwrap_or(Coef { key: k("n"), line: None, values: ambient_n.values.clone() }),
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
