@@ -9,6 +9,7 @@
 //!   as SVG and PNG with an embedded font ([`font`]).
 //! * [`data`]: CSV files with the parameters and the seed in their header.
 //! * [`report`]: the Markdown report.
+//! * [`context`]: what every recipe gets (output directory, run size, seed).
 //! * [`methods`]: a method at a setting ([`methods::Setting`]) through the library's solver interface.
 //! * [`scenes`]: the scenes of the recipes (the seed's §4.4 example, study scenes).
 //! * [`seed`]: the seed's §4.4 example, loaded from `examples/seed-three-layers.toml`,
@@ -18,6 +19,7 @@
 
 pub mod bsdf_plot;
 pub mod chart;
+pub mod context;
 pub mod data;
 pub mod font;
 pub mod methods;

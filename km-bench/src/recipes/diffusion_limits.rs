@@ -16,10 +16,10 @@ use km_core::fresnel::{critical_cos, integrate_gl, reflectance};
 use km_core::{Scene, Substrate};
 
 use crate::chart::{LineChart, Mark, Series, format_number};
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods;
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 use crate::scenes::slab;
 
 /// Relative error above which the dipole is called "off".
@@ -136,7 +136,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
 /// Part 1: total diffuse reflectance over albedo.
 fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     let albedos: Vec<f64> = match ctx.size {
-        crate::reproduce::Size::Tiny => vec![0.1, 0.5, 0.9, 0.99, 0.999],
+        crate::context::Size::Tiny => vec![0.1, 0.5, 0.9, 0.99, 0.999],
         _ => vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 0.999, 0.9999],
     };
     let gs = [0.0, 0.9];

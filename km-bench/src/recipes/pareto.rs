@@ -4,11 +4,11 @@
 //! time each method needs to reach 1 %, 0.1 % and 0.01 %.
 
 use crate::chart::{LineChart, Mark, Series, format_number};
+use crate::context::{Ctx, Size};
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::recipes::accuracy::{rel, rel_rms, rel_rms_noise};
 use crate::report::{Section, Table};
-use crate::reproduce::{Ctx, Size};
 use crate::scenes::study_scenes;
 
 /// One method at one setting on one scene.

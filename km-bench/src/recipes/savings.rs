@@ -7,10 +7,10 @@
 use km::{McOptions, Method, MultifluxOptions, Options, Scene};
 
 use crate::chart::format_number;
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::recipes::common::{Spread, ratio_text};
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 
 /// Multi-flux agreement where the skipped work is exact (an identity
 /// interface, a zero scattering term, an order that is not excited): rounding only.

@@ -12,13 +12,13 @@ use km_core::Solution;
 use km_multiflux::direction_set::{self, Combine};
 
 use crate::chart::{LineChart, Mark, PolarChart, PolarCurve, Series, format_number, plane_angle};
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods::{self, Method};
 use crate::recipes::accuracy::{rel_rms, rel_rms_noise};
 use crate::recipes::common::{plane_cut, ratio_text, timed_spread};
 use crate::recipes::paper::n_directions;
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 use crate::scenes::{hemisphere_directions, plane_directions, seed_three_layers};
 
 /// Samples per incident direction in the seed's Monte Carlo (§4.2).
@@ -305,7 +305,7 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let n_inc = set.len();
     // --full: run the Monte Carlo at the paper's sample count for every incidence node.
     let mut measured_full = None;
-    if ctx.size == crate::reproduce::Size::Full {
+    if ctx.size == crate::context::Size::Full {
         let mut total = 0.0;
         for &mu in set.mu() {
             let theta = mu.acos().to_degrees().min(89.9);

@@ -6,10 +6,10 @@
 use km_core::{Solution, Substrate};
 
 use crate::chart::{HeatMap, format_number};
+use crate::context::{Ctx, Size};
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::report::{Section, Table};
-use crate::reproduce::{Ctx, Size};
 use crate::scenes::slab;
 
 /// Bottom of the colour scale of the error maps: the rounding level of
