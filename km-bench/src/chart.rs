@@ -42,23 +42,23 @@ pub const SIZE: (u32, u32) = (800, 560);
 
 /// A chart that can draw itself on any plotters backend.
 pub trait Chart {
-    /// Draw on a drawing area (already filled white).
-    ///
-    /// # Errors
-    /// Any plotters drawing error, as text.
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()>;
-
-    /// Draw, and return where things went (pixels of the backend). The
-    /// default draws with [`Chart::draw`] and returns an empty layout.
+    /// Draw on a drawing area (already filled white), and return where
+    /// things went (pixels of the backend).
     ///
     /// # Errors
     /// Any plotters drawing error, as text.
     fn draw_layout<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
-    ) -> anyhow::Result<ChartLayout> {
-        self.draw(root)?;
-        Ok(ChartLayout::default())
+    ) -> anyhow::Result<ChartLayout>;
+
+    /// Draw on a drawing area (already filled white): [`Chart::draw_layout`]
+    /// without the layout.
+    ///
+    /// # Errors
+    /// Any plotters drawing error, as text.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+        self.draw_layout(root).map(|_| ())
     }
 }
 

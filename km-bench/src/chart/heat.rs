@@ -67,10 +67,6 @@ impl HeatMap {
 }
 
 impl Chart for HeatMap {
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
-        self.draw_layout(root).map(|_| ())
-    }
-
     fn draw_layout<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,

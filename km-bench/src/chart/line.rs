@@ -141,10 +141,6 @@ fn error_bar(s: &Series, i: usize, p: (f64, f64), yl: bool, yr: (f64, f64)) -> O
 }
 
 impl Chart for LineChart {
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
-        self.draw_layout(root).map(|_| ())
-    }
-
     fn draw_layout<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,

@@ -62,10 +62,6 @@ pub struct PolarChart {
 }
 
 impl Chart for PolarChart {
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
-        self.draw_layout(root).map(|_| ())
-    }
-
     fn draw_layout<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
