@@ -143,244 +143,12 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     let etas = [1.0, 1.3];
     let samples = ctx.size.pick(2_000u64, 15_000, 400_000);
     let streams = methods::reference_streams(ctx.size);
-    let (mut t_dip, mut t_mf, mut t_mc) = (0.0, 0.0, 0.0);
-    let mut pts = Vec::new();
-    let mut k = 0u64;
-    for &eta in &etas {
-        for &g in &gs {
-            for &albedo in &albedos {
-                let scene = half_space(albedo, g, eta)?;
-                let t = Instant::now();
-                let dipole = km_dipole::compare::diffuse_reflectance_collimated(
-                    albedo,
-                    g,
-                    eta,
-                    1.0,
-                    Default::default(),
-                )?;
-                t_dip += t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let mf = multiflux_diffuse(&scene, streams)?;
-                let mf_half = multiflux_diffuse(&scene, streams / 2)?;
-                t_mf += t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let opts = methods::mc_options(samples, ctx.seed.wrapping_add(1000 + k));
-                k += 1;
-                let mc = km_montecarlo::solve(&scene, &opts)?;
-                t_mc += t.elapsed().as_secs_f64();
-                let c = &mc.channels[0];
-                pts.push(Point {
-                    eta,
-                    g,
-                    albedo,
-                    dipole,
-                    mf,
-                    mf_half,
-                    single: single_scattering_reflectance(albedo, g, eta),
-                    mc: c.reflectance - c.reflectance_specular,
-                    mc_se: methods::stderr_of(&mc, "reflectance").unwrap_or(f64::NAN),
-                });
-            }
-        }
-    }
-    // CSV of every point.
-    let mut csv = Csv::new(&[
-        "eta",
-        "g",
-        "albedo",
-        "one_minus_albedo",
-        "dipole",
-        "multiflux",
-        "multiflux_half_streams",
-        "single_scattering",
-        "multiflux_minus_single",
-        "montecarlo",
-        "montecarlo_stderr",
-        "rel_err_dipole_vs_total",
-        "rel_err_dipole_vs_multiple",
-    ]);
-    csv.comment(format!(
-        "Half-space, sigma_t = 1, HG phase, ambient index 1, collimated beam at normal incidence. \
-         Diffuse reflectance = R - R_specular per unit incident power. dipole: (1 - F(1)) Rd \
-         (Jensen et al. 2001, classical, exact F_dr), multiple scattering only. multiflux: \
-         Fourier-Gauss, {streams} streams (and {} for the convergence check), all orders. \
-         single_scattering: exact first order (eq. D23 of docs/diffusion.md). montecarlo: {samples} \
-         photons per point, survival biasing, seeds base+1000+k, all orders.",
-        streams / 2
-    ));
-    for p in &pts {
-        csv.push_nums(&[
-            p.eta,
-            p.g,
-            p.albedo,
-            1.0 - p.albedo,
-            p.dipole,
-            p.mf,
-            p.mf_half,
-            p.single,
-            p.mf - p.single,
-            p.mc,
-            p.mc_se,
-            p.err_total(),
-            p.err_multiple(),
-        ]);
-    }
-    ctx.csv("diffusion-limits-total", &mut csv)?;
-    // Charts: reflectance against 1 - albedo, one per g.
-    let case_pts = |eta: f64, g: f64| pts.iter().filter(move |p| p.eta == eta && p.g == g);
-    for (gi, &g) in gs.iter().enumerate() {
-        let mut series = Vec::new();
-        for (ei, &eta) in etas.iter().enumerate() {
-            let c = 4 * ei;
-            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
-                case_pts(eta, g).map(|p| (1.0 - p.albedo, f(p))).collect()
-            };
-            series.push(Series::new(
-                format!("dipole, eta {eta}"),
-                xy(&|p| p.dipole),
-                Mark::Line,
-                c,
-            ));
-            series.push(Series::new(
-                format!("multi-flux {streams} (all orders), eta {eta}"),
-                xy(&|p| p.mf),
-                Mark::LinePoints,
-                c + 1,
-            ));
-            series.push(Series::new(
-                format!("multi-flux minus single scattering, eta {eta}"),
-                xy(&|p| p.mf - p.single),
-                Mark::Dashed,
-                c + 2,
-            ));
-            series.push(
-                Series::new(
-                    format!("Monte Carlo {samples:.1e} (± 1 s.e.), eta {eta}"),
-                    xy(&|p| p.mc),
-                    Mark::Points,
-                    c + 3,
-                )
-                .with_y_err(case_pts(eta, g).map(|p| p.mc_se).collect()),
-            );
-        }
-        let stem = format!("diffusion-limits-total-g{}", if gi == 0 { "0" } else { "09" });
-        let chart = LineChart {
-            title: format!("Half-space diffuse reflectance, g = {g}, normal incidence"),
-            x_label: "1 - albedo".into(),
-            y_label: "R - R_specular".into(),
-            x_log: true,
-            y_log: true,
-            series,
-            ..Default::default()
-        };
-        ctx.chart(&stem, &chart)?;
-    }
-    // Chart: |relative error| of the dipole against 1 - albedo.
-    let mut series = Vec::new();
-    for (ei, &eta) in etas.iter().enumerate() {
-        for (gi, &g) in gs.iter().enumerate() {
-            let c = 2 * ei + gi;
-            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
-                case_pts(eta, g).map(|p| (1.0 / (1.0 - p.albedo), f(p).abs())).collect()
-            };
-            series.push(Series::new(
-                format!("vs total, g {g}, eta {eta}"),
-                xy(&|p| p.err_total()),
-                Mark::LinePoints,
-                c,
-            ));
-            series.push(Series::new(
-                format!("vs multiple scattering, g {g}, eta {eta}"),
-                xy(&|p| p.err_multiple()),
-                Mark::Dashed,
-                c,
-            ));
-        }
-    }
-    let chart = LineChart {
-        title: "Dipole: |relative error| against multi-flux".into(),
-        x_label: "1 / (1 - albedo)".into(),
-        y_label: "|dipole / reference - 1|".into(),
-        x_log: true,
-        y_log: true,
-        series,
-        h_lines: vec![(THRESHOLD, "10 %".into())],
-        ..Default::default()
-    };
-    ctx.chart("diffusion-limits-error", &chart)?;
-    // Tables: thresholds, then every point.
-    let mut tt = Table::new(&[
-        "eta",
-        "g",
-        "albedo below which |dipole/total - 1| > 10 %",
-        "same vs multiple scattering",
-        "worst |error| vs total (albedo)",
-        "error vs total at albedo 0.99",
-        "multi-flux convergence max |R(N) - R(N/2)|",
-        "max |MC - multi-flux| / MC s.e.",
-    ]);
-    let mut headline = Vec::new();
-    for &eta in &etas {
-        for &g in &gs {
-            let c: Vec<&Point> = case_pts(eta, g).collect();
-            let a: Vec<f64> = c.iter().map(|p| p.albedo).collect();
-            let et: Vec<f64> = c.iter().map(|p| p.err_total()).collect();
-            let em: Vec<f64> = c.iter().map(|p| p.err_multiple()).collect();
-            let tt_total = threshold_albedo(&a, &et);
-            let worst = c
-                .iter()
-                .max_by(|x, y| x.err_total().abs().total_cmp(&y.err_total().abs()))
-                .map(|p| format!("{:+.1} % ({})", 100.0 * p.err_total(), p.albedo))
-                .unwrap_or_default();
-            let at99 = c
-                .iter()
-                .find(|p| p.albedo == 0.99)
-                .map(|p| format!("{:+.1} %", 100.0 * p.err_total()))
-                .unwrap_or_else(|| "-".into());
-            let conv = c.iter().map(|p| (p.mf - p.mf_half).abs()).fold(0.0, f64::max);
-            let z = c.iter().map(|p| (p.mc - p.mf).abs() / p.mc_se).fold(0.0, f64::max);
-            if eta == 1.0 {
-                headline.push(format!(
-                    "eta 1, g {g}: off > 10 % below albedo {}",
-                    threshold_words(tt_total)
-                ));
-            }
-            tt.push(vec![
-                format!("{eta}"),
-                format!("{g}"),
-                threshold_words(tt_total),
-                threshold_words(threshold_albedo(&a, &em)),
-                worst,
-                at99,
-                format!("{conv:.1e}"),
-                format!("{z:.1}"),
-            ]);
-        }
-    }
-    let mut tp = Table::new(&[
-        "eta",
-        "g",
-        "albedo",
-        "dipole",
-        "multi-flux (all orders)",
-        "single scattering",
-        "Monte Carlo",
-        "dipole vs total",
-        "dipole vs multiple",
-    ]);
-    for p in &pts {
-        tp.push(vec![
-            format!("{}", p.eta),
-            format!("{}", p.g),
-            format!("{}", p.albedo),
-            format!("{:.4}", p.dipole),
-            format!("{:.4}", p.mf),
-            format!("{:.4}", p.single),
-            format!("{:.4} ± {:.4}", p.mc, p.mc_se),
-            format!("{:+.1} %", 100.0 * p.err_total()),
-            format!("{:+.1} %", 100.0 * p.err_multiple()),
-        ]);
-    }
+    let grid = Grid { albedos: &albedos, gs: &gs, etas: &etas, samples, streams };
+    let (pts, (t_dip, t_mf, t_mc)) = total_points(ctx, &grid)?;
+    totals_csv(ctx, &pts, &grid)?;
+    totals_charts(ctx, &pts, &grid)?;
+    let (tt, headline) = threshold_table(&pts, &grid);
+    let tp = points_table(&pts);
     sec.text(format!(
         "A half-space of unit extinction (Henyey–Greenstein `g`, relative index `eta` against \
          air, no other boundary) lit by a collimated beam at normal incidence, at {} albedos \
@@ -428,6 +196,285 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     )
     .table(tp);
     Ok(headline.join(", "))
+}
+
+/// The grid of part 1: albedos, `g`, relative indices, and the work per point.
+struct Grid<'a> {
+    albedos: &'a [f64],
+    gs: &'a [f64],
+    etas: &'a [f64],
+    samples: u64,
+    streams: usize,
+}
+
+/// The points of one (`eta`, `g`) case, in albedo order.
+fn case_pts(pts: &[Point], eta: f64, g: f64) -> impl Iterator<Item = &Point> {
+    pts.iter().filter(move |p| p.eta == eta && p.g == g)
+}
+
+/// Every point of the grid by the dipole, multi-flux (two stream counts)
+/// and Monte Carlo, with the wall times of the three (seconds).
+fn total_points(ctx: &Ctx, grid: &Grid) -> anyhow::Result<(Vec<Point>, (f64, f64, f64))> {
+    let Grid { albedos, gs, etas, samples, streams } = *grid;
+    let (mut t_dip, mut t_mf, mut t_mc) = (0.0, 0.0, 0.0);
+    let mut pts = Vec::new();
+    let mut k = 0u64;
+    for &eta in etas {
+        for &g in gs {
+            for &albedo in albedos {
+                let scene = half_space(albedo, g, eta)?;
+                let t = Instant::now();
+                let dipole = km_dipole::compare::diffuse_reflectance_collimated(
+                    albedo,
+                    g,
+                    eta,
+                    1.0,
+                    Default::default(),
+                )?;
+                t_dip += t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let mf = multiflux_diffuse(&scene, streams)?;
+                let mf_half = multiflux_diffuse(&scene, streams / 2)?;
+                t_mf += t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let opts = methods::mc_options(samples, ctx.seed.wrapping_add(1000 + k));
+                k += 1;
+                let mc = km_montecarlo::solve(&scene, &opts)?;
+                t_mc += t.elapsed().as_secs_f64();
+                let c = &mc.channels[0];
+                pts.push(Point {
+                    eta,
+                    g,
+                    albedo,
+                    dipole,
+                    mf,
+                    mf_half,
+                    single: single_scattering_reflectance(albedo, g, eta),
+                    mc: c.reflectance - c.reflectance_specular,
+                    mc_se: methods::stderr_of(&mc, "reflectance").unwrap_or(f64::NAN),
+                });
+            }
+        }
+    }
+    Ok((pts, (t_dip, t_mf, t_mc)))
+}
+
+/// `diffusion-limits-total.csv`: every point.
+fn totals_csv(ctx: &Ctx, pts: &[Point], grid: &Grid) -> anyhow::Result<()> {
+    let (samples, streams) = (grid.samples, grid.streams);
+    // CSV of every point.
+    let mut csv = Csv::new(&[
+        "eta",
+        "g",
+        "albedo",
+        "one_minus_albedo",
+        "dipole",
+        "multiflux",
+        "multiflux_half_streams",
+        "single_scattering",
+        "multiflux_minus_single",
+        "montecarlo",
+        "montecarlo_stderr",
+        "rel_err_dipole_vs_total",
+        "rel_err_dipole_vs_multiple",
+    ]);
+    csv.comment(format!(
+        "Half-space, sigma_t = 1, HG phase, ambient index 1, collimated beam at normal incidence. \
+         Diffuse reflectance = R - R_specular per unit incident power. dipole: (1 - F(1)) Rd \
+         (Jensen et al. 2001, classical, exact F_dr), multiple scattering only. multiflux: \
+         Fourier-Gauss, {streams} streams (and {} for the convergence check), all orders. \
+         single_scattering: exact first order (eq. D23 of docs/diffusion.md). montecarlo: {samples} \
+         photons per point, survival biasing, seeds base+1000+k, all orders.",
+        streams / 2
+    ));
+    for p in pts {
+        csv.push_nums(&[
+            p.eta,
+            p.g,
+            p.albedo,
+            1.0 - p.albedo,
+            p.dipole,
+            p.mf,
+            p.mf_half,
+            p.single,
+            p.mf - p.single,
+            p.mc,
+            p.mc_se,
+            p.err_total(),
+            p.err_multiple(),
+        ]);
+    }
+    ctx.csv("diffusion-limits-total", &mut csv)
+}
+
+/// The charts: reflectance against `1 - albedo` (one per `g`), and the
+/// dipole's relative error.
+fn totals_charts(ctx: &Ctx, pts: &[Point], grid: &Grid) -> anyhow::Result<()> {
+    let Grid { gs, etas, samples, streams, .. } = *grid;
+    // Charts: reflectance against 1 - albedo, one per g.
+    for (gi, &g) in gs.iter().enumerate() {
+        let mut series = Vec::new();
+        for (ei, &eta) in etas.iter().enumerate() {
+            let c = 4 * ei;
+            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
+                case_pts(pts, eta, g).map(|p| (1.0 - p.albedo, f(p))).collect()
+            };
+            series.push(Series::new(
+                format!("dipole, eta {eta}"),
+                xy(&|p| p.dipole),
+                Mark::Line,
+                c,
+            ));
+            series.push(Series::new(
+                format!("multi-flux {streams} (all orders), eta {eta}"),
+                xy(&|p| p.mf),
+                Mark::LinePoints,
+                c + 1,
+            ));
+            series.push(Series::new(
+                format!("multi-flux minus single scattering, eta {eta}"),
+                xy(&|p| p.mf - p.single),
+                Mark::Dashed,
+                c + 2,
+            ));
+            series.push(
+                Series::new(
+                    format!("Monte Carlo {samples:.1e} (± 1 s.e.), eta {eta}"),
+                    xy(&|p| p.mc),
+                    Mark::Points,
+                    c + 3,
+                )
+                .with_y_err(case_pts(pts, eta, g).map(|p| p.mc_se).collect()),
+            );
+        }
+        let stem = format!("diffusion-limits-total-g{}", if gi == 0 { "0" } else { "09" });
+        let chart = LineChart {
+            title: format!("Half-space diffuse reflectance, g = {g}, normal incidence"),
+            x_label: "1 - albedo".into(),
+            y_label: "R - R_specular".into(),
+            x_log: true,
+            y_log: true,
+            series,
+            ..Default::default()
+        };
+        ctx.chart(&stem, &chart)?;
+    }
+    // Chart: |relative error| of the dipole against 1 - albedo.
+    let mut series = Vec::new();
+    for (ei, &eta) in etas.iter().enumerate() {
+        for (gi, &g) in gs.iter().enumerate() {
+            let c = 2 * ei + gi;
+            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
+                case_pts(pts, eta, g).map(|p| (1.0 / (1.0 - p.albedo), f(p).abs())).collect()
+            };
+            series.push(Series::new(
+                format!("vs total, g {g}, eta {eta}"),
+                xy(&|p| p.err_total()),
+                Mark::LinePoints,
+                c,
+            ));
+            series.push(Series::new(
+                format!("vs multiple scattering, g {g}, eta {eta}"),
+                xy(&|p| p.err_multiple()),
+                Mark::Dashed,
+                c,
+            ));
+        }
+    }
+    let chart = LineChart {
+        title: "Dipole: |relative error| against multi-flux".into(),
+        x_label: "1 / (1 - albedo)".into(),
+        y_label: "|dipole / reference - 1|".into(),
+        x_log: true,
+        y_log: true,
+        series,
+        h_lines: vec![(THRESHOLD, "10 %".into())],
+        ..Default::default()
+    };
+    ctx.chart("diffusion-limits-error", &chart)
+}
+
+/// The thresholds table (per `eta`, `g`) and the headline's words.
+fn threshold_table(pts: &[Point], grid: &Grid) -> (Table, Vec<String>) {
+    let Grid { gs, etas, .. } = *grid;
+    let mut tt = Table::new(&[
+        "eta",
+        "g",
+        "albedo below which |dipole/total - 1| > 10 %",
+        "same vs multiple scattering",
+        "worst |error| vs total (albedo)",
+        "error vs total at albedo 0.99",
+        "multi-flux convergence max |R(N) - R(N/2)|",
+        "max |MC - multi-flux| / MC s.e.",
+    ]);
+    let mut headline = Vec::new();
+    for &eta in etas {
+        for &g in gs {
+            let c: Vec<&Point> = case_pts(pts, eta, g).collect();
+            let a: Vec<f64> = c.iter().map(|p| p.albedo).collect();
+            let et: Vec<f64> = c.iter().map(|p| p.err_total()).collect();
+            let em: Vec<f64> = c.iter().map(|p| p.err_multiple()).collect();
+            let tt_total = threshold_albedo(&a, &et);
+            let worst = c
+                .iter()
+                .max_by(|x, y| x.err_total().abs().total_cmp(&y.err_total().abs()))
+                .map(|p| format!("{:+.1} % ({})", 100.0 * p.err_total(), p.albedo))
+                .unwrap_or_default();
+            let at99 = c
+                .iter()
+                .find(|p| p.albedo == 0.99)
+                .map(|p| format!("{:+.1} %", 100.0 * p.err_total()))
+                .unwrap_or_else(|| "-".into());
+            let conv = c.iter().map(|p| (p.mf - p.mf_half).abs()).fold(0.0, f64::max);
+            let z = c.iter().map(|p| (p.mc - p.mf).abs() / p.mc_se).fold(0.0, f64::max);
+            if eta == 1.0 {
+                headline.push(format!(
+                    "eta 1, g {g}: off > 10 % below albedo {}",
+                    threshold_words(tt_total)
+                ));
+            }
+            tt.push(vec![
+                format!("{eta}"),
+                format!("{g}"),
+                threshold_words(tt_total),
+                threshold_words(threshold_albedo(&a, &em)),
+                worst,
+                at99,
+                format!("{conv:.1e}"),
+                format!("{z:.1}"),
+            ]);
+        }
+    }
+    (tt, headline)
+}
+
+/// The table of every point.
+fn points_table(pts: &[Point]) -> Table {
+    let mut tp = Table::new(&[
+        "eta",
+        "g",
+        "albedo",
+        "dipole",
+        "multi-flux (all orders)",
+        "single scattering",
+        "Monte Carlo",
+        "dipole vs total",
+        "dipole vs multiple",
+    ]);
+    for p in pts {
+        tp.push(vec![
+            format!("{}", p.eta),
+            format!("{}", p.g),
+            format!("{}", p.albedo),
+            format!("{:.4}", p.dipole),
+            format!("{:.4}", p.mf),
+            format!("{:.4}", p.single),
+            format!("{:.4} ± {:.4}", p.mc, p.mc_se),
+            format!("{:+.1} %", 100.0 * p.err_total()),
+            format!("{:+.1} %", 100.0 * p.err_multiple()),
+        ]);
+    }
+    tp
 }
 
 /// Seconds, compactly.
