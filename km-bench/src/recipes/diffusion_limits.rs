@@ -567,56 +567,12 @@ fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
                 )
                 .with_y_err(mc.stderr[c].clone()),
             );
-            // Table row.
-            let sp = preset.sigma_s_prime[c];
-            let st = sp + preset.sigma_a[c];
-            let mfp = 1.0 / st;
-            let ratio0 = dip[c][0] / mc.rd[c][0];
-            let mut rel: Vec<f64> = (0..mc.r.len())
-                .filter(|&i| mc.r[i] >= mfp && mc.rd[c][i] > 0.0)
-                .filter(|&i| mc.stderr[c][i] < 0.1 * mc.rd[c][i])
-                .map(|i| (dip[c][i] / mc.rd[c][i] - 1.0).abs())
-                .collect();
-            rel.sort_by(f64::total_cmp);
-            let median = rel.get(rel.len() / 2).copied().unwrap_or(f64::NAN);
-            // Power escaping inside and beyond one transport mean free path,
-            // sum of 2 pi r_i dr Rd(r_i) over the annuli (MC s.e. added in
-            // quadrature, annuli taken as independent).
-            let ring = |i: usize| 2.0 * std::f64::consts::PI * mc.r[i] * bins.dr;
-            let band = |near: bool| {
-                let idx = (0..mc.r.len()).filter(|&i| (mc.r[i] < mfp) == near);
-                let (mut d, mut m, mut v) = (0.0, 0.0, 0.0);
-                for i in idx {
-                    d += ring(i) * dip[c][i];
-                    m += ring(i) * mc.rd[c][i];
-                    v += (ring(i) * mc.stderr[c][i]).powi(2);
-                }
-                if m > 0.0 {
-                    format!("{:.3} ± {:.3}", d / m, d / m * v.sqrt() / m)
-                } else {
-                    "-".into()
-                }
-            };
-            let mcc = &mc.solution.channels[c];
-            let mc_tot = mcc.reflectance - mcc.reflectance_specular;
-            if median.is_finite() {
-                worst.push((median, format!("{name} {ch}")));
+            let band = Band { name, ch, c, entering, dip_total: dip_tot[c], dr: bins.dr };
+            let (cells, median) = profile_row(&band, &preset, &mc, &dip);
+            if let Some(m) = median {
+                worst.push((m, format!("{name} {ch}")));
             }
-            table.push(vec![
-                name.to_string(),
-                ch.to_string(),
-                format!("{:.4}", sp / st),
-                format!("{mfp:.2}"),
-                format!("{ratio0:.3}"),
-                band(true),
-                band(false),
-                if median.is_finite() {
-                    format!("{:.1} % ({} annuli)", 100.0 * median, rel.len())
-                } else {
-                    "- (no annulus with s.e. < 10 %)".into()
-                },
-                format!("{:.3}", entering * dip_tot[c] / mc_tot),
-            ]);
+            table.push(cells);
         }
         // The y axis spans the Monte Carlo points (down to a third of the
         // smallest): the dipole goes on decaying far below what the tracer
@@ -663,6 +619,74 @@ fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
         }
         _ => "Rd(r) computed".into(),
     })
+}
+
+/// One channel of one preset in the `Rd(r)` table.
+struct Band<'a> {
+    name: &'a str,
+    ch: &'a str,
+    c: usize,
+    /// Fraction of the beam that enters (1 - Fresnel at normal incidence).
+    entering: f64,
+    /// The dipole's total diffuse reflectance of the channel.
+    dip_total: f64,
+    /// Annulus width, mm.
+    dr: f64,
+}
+
+/// The table row of one channel: `Rd(r)` ratios near and beyond one
+/// transport mean free path, the median per-annulus error (also returned
+/// when finite), the totals' ratio.
+fn profile_row(
+    b: &Band,
+    preset: &km_core::presets::Preset,
+    mc: &km_montecarlo::RadialProfile,
+    dip: &[Vec<f64>],
+) -> (Vec<String>, Option<f64>) {
+    let c = b.c;
+    let sp = preset.sigma_s_prime[c];
+    let st = sp + preset.sigma_a[c];
+    let mfp = 1.0 / st;
+    let ratio0 = dip[c][0] / mc.rd[c][0];
+    let mut rel: Vec<f64> = (0..mc.r.len())
+        .filter(|&i| mc.r[i] >= mfp && mc.rd[c][i] > 0.0)
+        .filter(|&i| mc.stderr[c][i] < 0.1 * mc.rd[c][i])
+        .map(|i| (dip[c][i] / mc.rd[c][i] - 1.0).abs())
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    let median = rel.get(rel.len() / 2).copied().unwrap_or(f64::NAN);
+    // Power escaping inside and beyond one transport mean free path,
+    // sum of 2 pi r_i dr Rd(r_i) over the annuli (MC s.e. added in
+    // quadrature, annuli taken as independent).
+    let ring = |i: usize| 2.0 * std::f64::consts::PI * mc.r[i] * b.dr;
+    let band = |near: bool| {
+        let idx = (0..mc.r.len()).filter(|&i| (mc.r[i] < mfp) == near);
+        let (mut d, mut m, mut v) = (0.0, 0.0, 0.0);
+        for i in idx {
+            d += ring(i) * dip[c][i];
+            m += ring(i) * mc.rd[c][i];
+            v += (ring(i) * mc.stderr[c][i]).powi(2);
+        }
+        if m > 0.0 { format!("{:.3} ± {:.3}", d / m, d / m * v.sqrt() / m) } else { "-".into() }
+    };
+    let mcc = &mc.solution.channels[c];
+    let mc_tot = mcc.reflectance - mcc.reflectance_specular;
+    let cells = vec![
+        b.name.to_string(),
+        b.ch.to_string(),
+        format!("{:.4}", sp / st),
+        format!("{mfp:.2}"),
+        format!("{ratio0:.3}"),
+        band(true),
+        band(false),
+        if median.is_finite() {
+            format!("{:.1} % ({} annuli)", 100.0 * median, rel.len())
+        } else {
+            "- (no annulus with s.e. < 10 %)".into()
+        },
+        format!("{:.3}", b.entering * b.dip_total / mc_tot),
+    ];
+    (cells, median.is_finite().then_some(median))
 }
 
 #[cfg(test)]
