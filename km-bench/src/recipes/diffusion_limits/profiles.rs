@@ -51,33 +51,8 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
             .collect();
         let dip_tot = km_dipole::compare::preset_rd_total(name, Default::default())?;
         let t_dip = t.elapsed().as_secs_f64();
-        let mut csv = Csv::new(&[
-            "r_mm",
-            "rd_mc_r",
-            "rd_mc_r_stderr",
-            "rd_dipole_r",
-            "rd_mc_g",
-            "rd_mc_g_stderr",
-            "rd_dipole_g",
-            "rd_mc_b",
-            "rd_mc_b_stderr",
-            "rd_dipole_b",
-        ]);
-        csv.comment(format!(
-            "Rd(r) (1/mm^2, per unit incident power) of the preset \"{name}\" (Jensen et al. 2001; \
-             sigma_s' in 1/mm, g = 0, eta = {}), half-space, pencil beam at normal incidence. \
-             Monte Carlo {samples} photons per channel, seed {}, annuli dr = {} mm (r = annulus \
-             centre); dipole (1 - F(1)) Rd(r), multiple scattering only. MC {t_mc:.2} s, dipole \
-             {t_dip:.1e} s.",
-            preset.eta, opts.seed, bins.dr
-        ));
-        for (i, &r) in mc.r.iter().enumerate() {
-            let mut row = vec![r];
-            for ((rd, se), d) in mc.rd.iter().zip(&mc.stderr).zip(&dip) {
-                row.extend([rd[i], se[i], d[i]]);
-            }
-            csv.push_nums(&row);
-        }
+        let csv_times = (samples, opts.seed, t_mc, t_dip);
+        let mut csv = profile_csv(name, &preset, &mc, &dip, bins.dr, csv_times);
         let stem = format!("diffusion-limits-rd-{name}");
         ctx.csv(&stem, &mut csv)?;
         let mut series = Vec::new();
@@ -104,22 +79,7 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
             }
             table.push(cells);
         }
-        // The y axis spans the Monte Carlo points (down to a third of the
-        // smallest): the dipole goes on decaying far below what the tracer
-        // resolves, and its lines are cut at the axis.
-        let mc_pos = mc.rd.iter().flatten().copied().filter(|v| v.is_finite() && *v > 0.0);
-        let (lo, hi) = mc_pos.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
-        let top = dip.iter().flatten().copied().filter(|v| v.is_finite()).fold(hi, f64::max);
-        let chart = LineChart {
-            title: format!("Rd(r) of {name}: dipole vs Monte Carlo (R, G, B)"),
-            x_label: "r (mm)".into(),
-            y_label: "Rd(r) (1/mm^2)".into(),
-            y_log: true,
-            y_range: (lo.is_finite() && top > lo).then_some((lo / 3.0, 2.0 * top)),
-            series,
-            ..Default::default()
-        };
-        ctx.chart(&stem, &chart)?;
+        ctx.chart(&stem, &profile_chart(name, &mc, &dip, series))?;
         sec.figure(
             &stem,
             format!(
@@ -217,4 +177,71 @@ fn profile_row(
         format!("{:.3}", b.entering * b.dip_total / mc_tot),
     ];
     (cells, median.is_finite().then_some(median))
+}
+
+/// `diffusion-limits-rd-NAME.csv`: per radius, per channel, the Monte Carlo
+/// `Rd(r)`, its standard error and the dipole's; `run` is (photons, seed,
+/// Monte Carlo seconds, dipole seconds).
+fn profile_csv(
+    name: &str,
+    preset: &km_core::presets::Preset,
+    mc: &km_montecarlo::RadialProfile,
+    dip: &[Vec<f64>],
+    dr: f64,
+    run: (u64, u64, f64, f64),
+) -> Csv {
+    let (samples, seed, t_mc, t_dip) = run;
+    let mut csv = Csv::new(&[
+        "r_mm",
+        "rd_mc_r",
+        "rd_mc_r_stderr",
+        "rd_dipole_r",
+        "rd_mc_g",
+        "rd_mc_g_stderr",
+        "rd_dipole_g",
+        "rd_mc_b",
+        "rd_mc_b_stderr",
+        "rd_dipole_b",
+    ]);
+    csv.comment(format!(
+        "Rd(r) (1/mm^2, per unit incident power) of the preset \"{name}\" (Jensen et al. 2001; \
+         sigma_s' in 1/mm, g = 0, eta = {}), half-space, pencil beam at normal incidence. \
+         Monte Carlo {samples} photons per channel, seed {}, annuli dr = {} mm (r = annulus \
+         centre); dipole (1 - F(1)) Rd(r), multiple scattering only. MC {t_mc:.2} s, dipole \
+         {t_dip:.1e} s.",
+        preset.eta, seed, dr
+    ));
+    for (i, &r) in mc.r.iter().enumerate() {
+        let mut row = vec![r];
+        for ((rd, se), d) in mc.rd.iter().zip(&mc.stderr).zip(dip) {
+            row.extend([rd[i], se[i], d[i]]);
+        }
+        csv.push_nums(&row);
+    }
+    csv
+}
+
+/// The chart of one preset's `Rd(r)`: `series` on a log axis spanning the
+/// Monte Carlo points.
+fn profile_chart(
+    name: &str,
+    mc: &km_montecarlo::RadialProfile,
+    dip: &[Vec<f64>],
+    series: Vec<Series>,
+) -> LineChart {
+    // The y axis spans the Monte Carlo points (down to a third of the
+    // smallest): the dipole goes on decaying far below what the tracer
+    // resolves, and its lines are cut at the axis.
+    let mc_pos = mc.rd.iter().flatten().copied().filter(|v| v.is_finite() && *v > 0.0);
+    let (lo, hi) = mc_pos.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let top = dip.iter().flatten().copied().filter(|v| v.is_finite()).fold(hi, f64::max);
+    LineChart {
+        title: format!("Rd(r) of {name}: dipole vs Monte Carlo (R, G, B)"),
+        x_label: "r (mm)".into(),
+        y_label: "Rd(r) (1/mm^2)".into(),
+        y_log: true,
+        y_range: (lo.is_finite() && top > lo).then_some((lo / 3.0, 2.0 * top)),
+        series,
+        ..Default::default()
+    }
 }
