@@ -159,19 +159,7 @@ impl Chart for LineChart {
         };
         // Reference-line labels: where they go (backend pixels), measured once.
         let label_font: TextStyle = ("sans-serif", 12).into();
-        let entries: Vec<(String, Sample)> = self
-            .series
-            .iter()
-            .filter(|s| !s.label.is_empty())
-            .map(|s| {
-                let sample = Sample {
-                    colour: colour(s.colour),
-                    mark: s.mark,
-                    error_bar: s.y_err.iter().any(|e| e.is_finite() && *e > 0.0),
-                };
-                (s.label.clone(), sample)
-            })
-            .collect();
+        let entries = self.legend_entries();
         let legend = Legend::measure(root, entries)?;
         let h_text = |chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>|
          -> anyhow::Result<Vec<Annotation>> {
@@ -212,17 +200,138 @@ impl Chart for LineChart {
             (true, _) => (body.clone(), None),
             (false, Some(r)) => (body.clone(), Some(r)),
             (false, None) => {
-                let (w, h) = legend.size();
-                let (bw, _) = body.dim_in_pixel();
-                let split = (bw as f64 - w - 10.0).max(0.5 * bw as f64) as i32;
-                let (left, _) = body.split_horizontally(split);
-                let (bx, _) = body.get_base_pixel();
-                let x = (bx + split) as f64;
-                let r = PixelRect { x0: x, y0: plot_px.y0, x1: x + w, y1: plot_px.y0 + h };
+                let (left, r) = legend_outside(&body, legend.size(), plot_px.y0);
                 (left, Some(r))
             }
         };
         let mut chart = build(&area)?;
+        let (xl, yl) = (self.x_log, self.y_log);
+        let (x_ticks, y_ticks) = self.draw_mesh(&mut chart, xr, yr)?;
+        let texts = h_text(&chart)?;
+        for (y, _) in &self.h_lines {
+            if let Some(ya) = to_axis(*y, yl).filter(|v| *v >= y0 && *v <= y1) {
+                let style = ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(1);
+                chart
+                    .draw_series(DashedLineSeries::new(vec![(x0, ya), (x1, ya)], 4, 4, style))
+                    .map_err(pe)?;
+            }
+        }
+        for (_, at, label) in &texts {
+            chart
+                .draw_series(std::iter::once(Text::new(label.clone(), *at, ("sans-serif", 12))))
+                .map_err(pe)?;
+        }
+        for s in &self.series {
+            draw_one_series(root, &mut chart, s, (xl, yl), (xr, yr))?;
+        }
+        let mut layout = self.obstacles(&chart, xr, yr);
+        layout.texts = texts.iter().map(|t| t.0).collect();
+        let (xs, ys) = chart.plotting_area().get_pixel_range();
+        layout.plot = prect((xs.start, ys.start), (xs.end, ys.end));
+        if let Some(r) = legend_rect {
+            legend.draw(root, r)?;
+            layout.legend = Some(r);
+        }
+        layout.kind = "line".into();
+        layout.x_ticks = x_ticks;
+        layout.y_ticks = y_ticks;
+        Ok(layout)
+    }
+}
+
+impl LineChart {
+    /// The legend's entries: every labelled series as drawn.
+    fn legend_entries(&self) -> Vec<(String, Sample)> {
+        self.series
+            .iter()
+            .filter(|s| !s.label.is_empty())
+            .map(|s| {
+                let sample = Sample {
+                    colour: colour(s.colour),
+                    mark: s.mark,
+                    error_bar: s.y_err.iter().any(|e| e.is_finite() && *e > 0.0),
+                };
+                (s.label.clone(), sample)
+            })
+            .collect()
+    }
+}
+
+/// The legend outside the plot, on the right of `body` (whose left part is
+/// returned for the chart) with its top at pixel `top`.
+fn legend_outside<DB: DrawingBackend>(
+    body: &DrawingArea<DB, Shift>,
+    size: (f64, f64),
+    top: f64,
+) -> (DrawingArea<DB, Shift>, PixelRect) {
+    let (w, h) = size;
+    let (bw, _) = body.dim_in_pixel();
+    let split = (bw as f64 - w - 10.0).max(0.5 * bw as f64) as i32;
+    let (left, _) = body.split_horizontally(split);
+    let (bx, _) = body.get_base_pixel();
+    let x = (bx + split) as f64;
+    let r = PixelRect { x0: x, y0: top, x1: x + w, y1: top + h };
+    (left, r)
+}
+
+/// One series: its line clipped to the axis ranges, its points and error
+/// bars inside them (caps drawn in pixels on `root`).
+fn draw_one_series<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    s: &Series,
+    (xl, yl): (bool, bool),
+    (xr, yr): ((f64, f64), (f64, f64)),
+) -> anyhow::Result<()> {
+    let c = colour(s.colour);
+    let pts = axis_points(&s.points, xl, yl);
+    let style = ShapeStyle::from(&c).stroke_width(2);
+    if matches!(s.mark, Mark::Line | Mark::Dashed | Mark::LinePoints) {
+        let flat: Vec<(f64, f64)> = pts.iter().map(|p| p.1).collect();
+        for run in clip_polyline(&flat, xr, yr) {
+            if s.mark == Mark::Dashed {
+                chart.draw_series(DashedLineSeries::new(run, 6, 4, style)).map_err(pe)?;
+            } else {
+                chart.draw_series(LineSeries::new(run, style)).map_err(pe)?;
+            }
+        }
+    }
+    let thin = ShapeStyle::from(&c).stroke_width(1);
+    for &(i, p) in &pts {
+        if !inside(p, xr, yr) {
+            continue;
+        }
+        if let Some((a, b, a_clip, b_clip)) = error_bar(s, i, p, yl, yr) {
+            chart.draw_series(std::iter::once(PathElement::new(vec![a, b], thin))).map_err(pe)?;
+            // Caps: 3 pixels either side, drawn in pixels on the root.
+            for (end, clipped) in [(a, a_clip), (b, b_clip)] {
+                if clipped {
+                    continue;
+                }
+                let q = chart.backend_coord(&end);
+                let (rx, ry) = root.get_base_pixel();
+                root.draw(&PathElement::new(
+                    vec![(q.0 - 3 - rx, q.1 - ry), (q.0 + 3 - rx, q.1 - ry)],
+                    thin,
+                ))
+                .map_err(pe)?;
+            }
+        }
+        if matches!(s.mark, Mark::Points | Mark::LinePoints) {
+            chart.draw_series(std::iter::once(Circle::new(p, 3, c.filled()))).map_err(pe)?;
+        }
+    }
+    Ok(())
+}
+
+impl LineChart {
+    /// The axes, labels and grid; returns the tick labels drawn on x and y.
+    fn draw_mesh<DB: DrawingBackend>(
+        &self,
+        chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+        (x0, x1): (f64, f64),
+        (y0, y1): (f64, f64),
+    ) -> anyhow::Result<(Vec<String>, Vec<String>)> {
         let x_ticks = RefCell::new(Vec::new());
         let y_ticks = RefCell::new(Vec::new());
         let (xl, yl) = (self.x_log, self.y_log);
@@ -251,75 +360,6 @@ impl Chart for LineChart {
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
             .map_err(pe)?;
-        let texts = h_text(&chart)?;
-        for (y, _) in &self.h_lines {
-            if let Some(ya) = to_axis(*y, yl).filter(|v| *v >= y0 && *v <= y1) {
-                let style = ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(1);
-                chart
-                    .draw_series(DashedLineSeries::new(vec![(x0, ya), (x1, ya)], 4, 4, style))
-                    .map_err(pe)?;
-            }
-        }
-        for (_, at, label) in &texts {
-            chart
-                .draw_series(std::iter::once(Text::new(label.clone(), *at, ("sans-serif", 12))))
-                .map_err(pe)?;
-        }
-        for s in &self.series {
-            let c = colour(s.colour);
-            let pts = axis_points(&s.points, xl, yl);
-            let style = ShapeStyle::from(&c).stroke_width(2);
-            if matches!(s.mark, Mark::Line | Mark::Dashed | Mark::LinePoints) {
-                let flat: Vec<(f64, f64)> = pts.iter().map(|p| p.1).collect();
-                for run in clip_polyline(&flat, xr, yr) {
-                    if s.mark == Mark::Dashed {
-                        chart.draw_series(DashedLineSeries::new(run, 6, 4, style)).map_err(pe)?;
-                    } else {
-                        chart.draw_series(LineSeries::new(run, style)).map_err(pe)?;
-                    }
-                }
-            }
-            let thin = ShapeStyle::from(&c).stroke_width(1);
-            for &(i, p) in &pts {
-                if !inside(p, xr, yr) {
-                    continue;
-                }
-                if let Some((a, b, a_clip, b_clip)) = error_bar(s, i, p, yl, yr) {
-                    chart
-                        .draw_series(std::iter::once(PathElement::new(vec![a, b], thin)))
-                        .map_err(pe)?;
-                    // Caps: 3 pixels either side, drawn in pixels on the root.
-                    for (end, clipped) in [(a, a_clip), (b, b_clip)] {
-                        if clipped {
-                            continue;
-                        }
-                        let q = chart.backend_coord(&end);
-                        let (rx, ry) = root.get_base_pixel();
-                        root.draw(&PathElement::new(
-                            vec![(q.0 - 3 - rx, q.1 - ry), (q.0 + 3 - rx, q.1 - ry)],
-                            thin,
-                        ))
-                        .map_err(pe)?;
-                    }
-                }
-                if matches!(s.mark, Mark::Points | Mark::LinePoints) {
-                    chart
-                        .draw_series(std::iter::once(Circle::new(p, 3, c.filled())))
-                        .map_err(pe)?;
-                }
-            }
-        }
-        let mut layout = self.obstacles(&chart, xr, yr);
-        layout.texts = texts.iter().map(|t| t.0).collect();
-        let (xs, ys) = chart.plotting_area().get_pixel_range();
-        layout.plot = prect((xs.start, ys.start), (xs.end, ys.end));
-        if let Some(r) = legend_rect {
-            legend.draw(root, r)?;
-            layout.legend = Some(r);
-        }
-        layout.kind = "line".into();
-        layout.x_ticks = x_ticks.into_inner();
-        layout.y_ticks = y_ticks.into_inner();
-        Ok(layout)
+        Ok((x_ticks.into_inner(), y_ticks.into_inner()))
     }
 }
