@@ -75,32 +75,8 @@ impl Chart for HeatMap {
         let (main, bar) = root.split_horizontally(w.saturating_sub(130));
         let nx = self.x.len().max(1);
         let ny = self.y.len().max(1);
-        let vals: Vec<f64> =
-            self.z.iter().flatten().filter_map(|&v| self.colour_value(v)).collect();
-        let (mut lo, mut hi) =
-            vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        if !lo.is_finite() {
-            lo = 0.0;
-            hi = 1.0;
-        }
-        // On a log scale with a floor, the scale starts at the floor (the
-        // method's rounding level): values at or below it share the darkest
-        // colour, so rounding noise cannot pass for structure.
-        if self.z_log && self.z_floor > 0.0 && self.z_floor.is_finite() {
-            lo = self.z_floor.log10();
-            hi = hi.max(lo + 1.0);
-        }
-        if hi - lo < 1e-12 {
-            hi = lo + 1.0;
-        }
-        let (bad, refused) = (self.invalid_cells(), self.refused_cells());
-        let mut title = self.title.clone();
-        if bad > 0 {
-            title += &format!(" [{bad} NaN: magenta]");
-        }
-        if refused > 0 {
-            title += &format!(" [{refused} refused: grey]");
-        }
+        let (lo, hi) = self.colour_range();
+        let title = self.full_title();
         let mut chart = ChartBuilder::on(&main)
             .caption(title, ("sans-serif", 18))
             .margin(10)
@@ -169,8 +145,65 @@ impl Chart for HeatMap {
             }
         }
         chart.draw_series(cells).map_err(pe)?;
+        self.draw_colour_bar(&bar, (lo, hi), &y_ticks)?;
+        let (xs, ys) = chart.plotting_area().get_pixel_range();
+        Ok(ChartLayout {
+            kind: "heat".into(),
+            plot: prect((xs.start, ys.start), (xs.end, ys.end)),
+            x_ticks: x_ticks.into_inner(),
+            y_ticks: y_ticks.into_inner(),
+            ..Default::default()
+        })
+    }
+}
+
+impl HeatMap {
+    /// The colour scale `(lo, hi)` over the cells' colour values (from the
+    /// floor on a floored log scale), at least a unit wide on a log scale.
+    fn colour_range(&self) -> (f64, f64) {
+        let vals: Vec<f64> =
+            self.z.iter().flatten().filter_map(|&v| self.colour_value(v)).collect();
+        let (mut lo, mut hi) =
+            vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        if !lo.is_finite() {
+            lo = 0.0;
+            hi = 1.0;
+        }
+        // On a log scale with a floor, the scale starts at the floor (the
+        // method's rounding level): values at or below it share the darkest
+        // colour, so rounding noise cannot pass for structure.
+        if self.z_log && self.z_floor > 0.0 && self.z_floor.is_finite() {
+            lo = self.z_floor.log10();
+            hi = hi.max(lo + 1.0);
+        }
+        if hi - lo < 1e-12 {
+            hi = lo + 1.0;
+        }
+        (lo, hi)
+    }
+
+    /// The title with the counts of NaN and refused cells.
+    fn full_title(&self) -> String {
+        let (bad, refused) = (self.invalid_cells(), self.refused_cells());
+        let mut title = self.title.clone();
+        if bad > 0 {
+            title += &format!(" [{bad} NaN: magenta]");
+        }
+        if refused > 0 {
+            title += &format!(" [{refused} refused: grey]");
+        }
+        title
+    }
+
+    /// The colour bar on `bar` over `(lo, hi)`; its tick labels go into `y_ticks`.
+    fn draw_colour_bar<DB: DrawingBackend>(
+        &self,
+        bar: &DrawingArea<DB, Shift>,
+        (lo, hi): (f64, f64),
+        y_ticks: &RefCell<Vec<String>>,
+    ) -> anyhow::Result<()> {
         // Colour bar.
-        let mut cb = ChartBuilder::on(&bar)
+        let mut cb = ChartBuilder::on(bar)
             .margin_top(40)
             .margin_bottom(55)
             .margin_right(10)
@@ -201,13 +234,6 @@ impl Chart for HeatMap {
             Rectangle::new([(0.0, a), (1.0, b)], viridis((k as f64 + 0.5) / steps as f64).filled())
         }))
         .map_err(pe)?;
-        let (xs, ys) = chart.plotting_area().get_pixel_range();
-        Ok(ChartLayout {
-            kind: "heat".into(),
-            plot: prect((xs.start, ys.start), (xs.end, ys.end)),
-            x_ticks: x_ticks.into_inner(),
-            y_ticks: y_ticks.into_inner(),
-            ..Default::default()
-        })
+        Ok(())
     }
 }
