@@ -522,30 +522,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 impl SolveArgs {
-    /// Default arguments for `method` (used by `km demo`).
+    /// The arguments of `km solve SCENE --method METHOD` with every other
+    /// flag at its default (`km demo`, `km sweep`): the defaults are the
+    /// flags' own, written once in the attributes above.
     fn defaults(method: Method) -> SolveArgs {
-        SolveArgs {
-            scene: PathBuf::from("examples/seed-three-layers.toml"),
-            set: Vec::new(),
-            method,
-            json: false,
-            format: None,
-            out: None,
-            tolerance: None,
-            all_effects: false,
-            km_mapping: KmMappingArg::Seed,
-            streams: None,
-            order: None,
-            samples: 1_000_000,
-            seed: 1,
-            threads: None,
-            estimator: EstimatorArg::Survival,
-            shard: None,
-            fdr: FdrArg::Exact,
-            dipole: DipoleArg::Jensen2001,
-            budget: 1.0,
-            repeat: 1,
-        }
+        let cmd = <SolveArgs as clap::Args>::augment_args(clap::Command::new("solve"));
+        let m = cmd.get_matches_from(["solve", "-", "--method", method.name()]);
+        SolveArgs::from_arg_matches(&m).unwrap_or_else(|e| e.exit())
     }
 
     /// The output format (`--json` is `--format json`).
