@@ -10,20 +10,20 @@
 //! ```
 //!
 //! The theory note `docs/two-flux.md` derives everything here, names the
-//! seed's misprints and numbers the equations; the `(eq. n)` tags below refer
-//! to the seed's numbering, `(eq. Kn)` to the note's additions.
+//! seed's misprints and numbers the equations; `seed eq. n` below is the
+//! seed's numbering, `eq. Kn` the note's additions.
 //!
 //! ## What is here
 //! * Single layer, closed form and scaled so nothing overflows
 //!   ([`layer_rt`], [`r_infinity`], [`profile`]): `a = (K + S)/S`,
-//!   `b = sqrt(a^2 - 1)`, `lambda = b S = sqrt(K (K + 2 S))` (eq. 4 corrected),
-//!   `R = sinh(bSz0) / (a sinh + b cosh)`, `T = b / (a sinh + b cosh)` (eq. 10),
+//!   `b = sqrt(a^2 - 1)`, `lambda = b S = sqrt(K (K + 2 S))` (seed eq. 4 corrected),
+//!   `R = sinh(bSz0) / (a sinh + b cosh)`, `T = b / (a sinh + b cosh)` (seed eq. 10),
 //!   `R_inf = a - b`.
-//! * The seed's eigen form itself ([`eigen`], [`eigen_profile`], eq. 3–8), with
+//! * The seed's eigen form itself ([`eigen`], [`eigen_profile`], seed eq. 3–8), with
 //!   its boundary matrix `F` written with decaying exponentials.
 //! * Concatenation of any number of layers: the adding form ([`add`],
-//!   [`stack_adding`], eq. 14 re-derived; the robust default) and the transfer
-//!   matrix form ([`Transfer`], eq. 11–13, scaled).
+//!   [`stack_adding`], seed eq. 14 re-derived; the robust default) and the transfer
+//!   matrix form ([`Transfer`], seed eq. 11–13, scaled).
 //! * Mappings from the scene's `(sigma_a, sigma_s, g)` to `(K, S)` ([`KmMapping`]),
 //!   Saunderson's interface correction ([`Slab::saunderson_top`]), Duncan's
 //!   pigment mixing ([`mix_pigments`]), and the scene-level solver [`solve`].
@@ -50,9 +50,9 @@ pub use stack::{Slab, StackFluxes, Transfer, add, stack_adding, stack_transfer};
 /// for diffuse flux incident on one face (`r + t + a = 1`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rt {
-    /// Reflectance `R` (eq. 10).
+    /// Reflectance `R` (seed eq. 10).
     pub r: f64,
-    /// Transmittance `T` (eq. 10).
+    /// Transmittance `T` (seed eq. 10).
     pub t: f64,
     /// Absorptance `A = 1 - R - T`, computed as a sum of non-negative terms (eq. K3).
     pub a: f64,
@@ -87,7 +87,7 @@ fn check_thickness(d: f64) -> Result<(), CoreError> {
     Ok(())
 }
 
-/// The eigenvalue `lambda = b S = sqrt(K (K + 2 S))` (eq. 4 corrected:
+/// The eigenvalue `lambda = b S = sqrt(K (K + 2 S))` (seed eq. 4 corrected:
 /// `lambda^2 = sigma_t^2 - sigma_s^2 = K (K + 2 S)`), computed without the
 /// cancellation of `sigma_t^2 - sigma_s^2` and without overflow of `K (K + 2 S)`.
 fn lambda_of(k: f64, s: f64) -> f64 {
@@ -205,7 +205,7 @@ pub fn layer_rt(k: f64, s: f64, thickness: f64) -> Result<Rt, CoreError> {
     Ok(Rt { r: p.r, t: p.t, a: p.a })
 }
 
-/// Reflectance of a half-space `R_inf = a - b` (seed §2, the limit of eq. 10).
+/// Reflectance of a half-space `R_inf = a - b` (seed §2, the limit of seed eq. 10).
 ///
 /// Evaluated as `R_inf = S / (K + S + sqrt(K (K + 2 S)))` (eq. K4, `a - b =
 /// 1/(a + b)`), exact for `S -> 0` where `a - b` cancels; 0 for `S = 0`.
@@ -335,16 +335,16 @@ pub fn profile_two_sided(
 }
 
 // ---------------------------------------------------------------------------
-// The seed's eigen form (eq. 3–8).
+// The seed's eigen form (seed eq. 3–8).
 
 /// Eigen-decomposition of `Q = [[-(K+S), S], [-S, K+S]]` (seed eq. 3–4, corrected).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Eigen {
     /// `lambda_1 = +lambda`, `lambda_2 = -lambda`, `lambda = sqrt((K+S)^2 - S^2)`
-    /// (eq. 4; the seed prints `+ S^2`).
+    /// (seed eq. 4; the seed prints `+ S^2`).
     pub lambda: [f64; 2],
     /// Columns of `V`: `v[j] = (v_j1, v_j2)`, proportional to `(1, a +- b)`,
-    /// normalised to unit length (eq. 4).
+    /// normalised to unit length (seed eq. 4).
     pub v: [[f64; 2]; 2],
 }
 
@@ -385,8 +385,8 @@ pub fn eigen(k: f64, s: f64) -> Result<Eigen, CoreError> {
     Ok(Eigen { lambda: [lambda, -lambda], v: [[1.0 / n1, plus / n1], [1.0 / n2, minus / n2]] })
 }
 
-/// The fluxes of eq. 8 for unit incidence, through the eigen form with the
-/// boundary matrix `F` of eq. 6, rescaled so every exponential decays.
+/// The fluxes of seed eq. 8 for unit incidence, through the eigen form with the
+/// boundary matrix `F` of seed eq. 6, rescaled so every exponential decays.
 ///
 /// The growing mode is anchored at the bottom, `i~_1(z) = c1' exp(lambda (z - z0))`,
 /// the decaying one at the top, `i~_2(z) = c2 exp(-lambda z)`, so the seed's
@@ -408,7 +408,7 @@ pub fn eigen_profile(k: f64, s: f64, thickness: f64, z: f64) -> Result<Fluxes, C
     let lambda = e.lambda[0];
     let [[v11, v12], [v21, v22]] = e.v;
     let big_e = if thickness.is_infinite() { 0.0 } else { (-lambda * thickness).exp() };
-    // Solve F' c = (1, 0) by Cramer's rule (eq. 7).
+    // Solve F' c = (1, 0) by Cramer's rule (seed eq. 7).
     let det = v11 * big_e * v22 * big_e - v21 * v12;
     let c1 = (v22 * big_e) / det;
     let c2 = -v12 / det;

@@ -11,7 +11,7 @@ use super::check_ks;
 /// How the scene's `(sigma_a, sigma_s, g)` become the two-flux `(K, S)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KmMapping {
-    /// `K = sigma_a`, `S = sigma_s`, as in the seed (eq. 1–2); `g` is ignored.
+    /// `K = sigma_a`, `S = sigma_s`, as in the seed (seed eq. 1–2); `g` is ignored.
     #[default]
     Seed,
     /// Star, Marijnissen & van Gemert (1988), from diffusion theory:

@@ -102,7 +102,7 @@ fn build(
     Ok(Built { slabs, layer_slab, r_specular, t_direct, open_bottom })
 }
 
-/// Solve one channel by the adding form (eq. 14).
+/// Solve one channel by the adding form (seed eq. 14).
 ///
 /// # Errors
 /// An invalid scene ([`MonoScene::validate`]) or a mapping that cannot treat a layer.

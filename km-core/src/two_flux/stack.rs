@@ -12,7 +12,7 @@ use super::{check_ks, check_thickness, layer_parts, layer_rt};
 /// above (`_top`, `_tb`) and from below (`_bottom`, `_bt`); `r + t + a = 1` on
 /// each side.
 ///
-/// In the seed's notation of eq. 11: `R11 = t_tb`, `R21 = r_top`,
+/// In the notation of seed eq. 11: `R11 = t_tb`, `R21 = r_top`,
 /// `R12 = r_bottom`, `R22 = t_bt`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Slab {
@@ -180,7 +180,7 @@ pub struct StackFluxes {
     pub up: Vec<f64>,
 }
 
-/// Any number of slabs, top first, by the adding form (eq. 14), with the
+/// Any number of slabs, top first, by the adding form (seed eq. 14), with the
 /// fluxes at every junction and the absorption in every slab.
 ///
 /// First the stacks below each junction are added from the bottom up
@@ -229,10 +229,10 @@ pub fn stack_adding(slabs: &[Slab]) -> StackFluxes {
 ///
 /// `A` maps the fluxes above a slab to those below,
 /// `(i+_below, i-_below) = A (i+_above, i-_above)`, so a stack is the product
-/// `A_n ... A_2 A_1` (eq. 11's concatenation). From a slab (eq. 12):
+/// `A_n ... A_2 A_1` (seed eq. 11's concatenation). From a slab (seed eq. 12):
 /// `A11 = t_tb - r_bottom r_top / t_bt`, `A12 = r_bottom / t_bt`,
 /// `A21 = -r_top / t_bt`, `A22 = 1 / t_bt`, and `det A = t_tb / t_bt`.
-/// Back to a slab (eq. 13), with the first line rewritten through the
+/// Back to a slab (seed eq. 13), with the first line rewritten through the
 /// determinant, `t_tb = A11 - A12 A21 / A22 = det A / A22`, which avoids the
 /// cancellation of the seed's form (relative error `eps exp(2 lambda z0)`).
 /// Opaque slabs (`t = 0`) have no transfer matrix: a ground enters as the
@@ -275,7 +275,7 @@ impl Transfer {
             .normalised())
     }
 
-    /// The transfer matrix of a slab (eq. 12).
+    /// The transfer matrix of a slab (seed eq. 12).
     ///
     /// # Errors
     /// A slab that does not transmit both ways (`t_tb = 0` or `t_bt = 0`).
@@ -304,7 +304,7 @@ impl Transfer {
         Transfer { m, log_scale: self.log_scale + big.ln(), ..self }
     }
 
-    /// This stack with `below` under it: `A = A_below A_self` (eq. 11).
+    /// This stack with `below` under it: `A = A_below A_self` (seed eq. 11).
     pub fn then(&self, below: &Transfer) -> Transfer {
         let (a, b) = (&below.m, &self.m);
         let m = [
@@ -319,7 +319,7 @@ impl Transfer {
         .normalised()
     }
 
-    /// Back to reflectances and transmittances (eq. 13, first line through `det A`).
+    /// Back to reflectances and transmittances (seed eq. 13, first line through `det A`).
     /// The absorptances are `1 - r - t`, clamped at 0 against rounding.
     pub fn to_slab(&self) -> Slab {
         let m = &self.m;
@@ -347,7 +347,7 @@ impl Transfer {
     }
 }
 
-/// Concatenate slabs (top first) by transfer matrices (eq. 11–13). An opaque
+/// Concatenate slabs (top first) by transfer matrices (seed eq. 11–13). An opaque
 /// last slab (a ground, or a half-space layer) enters as a boundary condition.
 /// Returns `(R, T)` of the stack.
 ///
