@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use km::bsdf::Bsdf;
 use km::bsdf::write::write_atomic;
-use km::bsdf::{Bsdf, gauss_angles};
-use km::bsdf_file::{BsdfFile, BsdfFormat, BsdfRequest, bsdf_file, default_phi};
+use km::bsdf_file::{AngleListError, BsdfFile, BsdfFormat, BsdfRequest, bsdf_file, default_phi};
 
 /// File format of `km bsdf`.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -55,54 +55,12 @@ pub struct BsdfArgs {
     pub plot: Option<PathBuf>,
 }
 
-/// Parse an angle list: `a,b,c`, `start:stop:step` (stop excluded) or `gauss:N`.
-pub fn parse_angles(name: &str, text: &str) -> anyhow::Result<Vec<f64>> {
-    let text = text.trim();
-    if let Some(n) = text.strip_prefix("gauss:") {
-        let n: usize = n.trim().parse().with_context(|| format!("--{name} {text}: N"))?;
-        if n == 0 || n > 1024 {
-            bail!("--{name} {text}: N must lie in 1..=1024");
-        }
-        return Ok(gauss_angles(n).0);
-    }
-    if text.contains(':') {
-        let parts: Vec<&str> = text.split(':').collect();
-        let [a, b, s] = parts[..] else {
-            bail!("--{name} {text}: a range is START:STOP:STEP");
-        };
-        let num = |x: &str| -> anyhow::Result<f64> {
-            let v: f64 = x.trim().parse().with_context(|| format!("--{name} {text}: `{x}`"))?;
-            if !v.is_finite() {
-                bail!("--{name} {text}: `{x}` is not finite");
-            }
-            Ok(v)
-        };
-        let (a, b, s) = (num(a)?, num(b)?, num(s)?);
-        if s <= 0.0 || b <= a {
-            bail!("--{name} {text}: needs STOP > START and STEP > 0");
-        }
-        let count = ((b - a) / s - 1e-9).ceil();
-        if count > 100_000.0 {
-            bail!("--{name} {text}: {count} values (at most 100000)");
-        }
-        return Ok((0..count as usize).map(|k| a + s * k as f64).collect());
-    }
-    let v: anyhow::Result<Vec<f64>> = text
-        .split(',')
-        .map(|x| {
-            let v: f64 =
-                x.trim().parse().with_context(|| format!("--{name}: `{x}` is not a number"))?;
-            if !v.is_finite() {
-                bail!("--{name}: `{x}` is not finite");
-            }
-            Ok(v)
-        })
-        .collect();
-    let v = v?;
-    if v.len() > 100_000 {
-        bail!("--{name}: {} values (at most 100000)", v.len());
-    }
-    Ok(v)
+/// An angle list of flag `--NAME` ([`km::bsdf_file::parse_angles`]).
+fn parse_angles(name: &str, text: &str) -> anyhow::Result<Vec<f64>> {
+    km::bsdf_file::parse_angles(text).map_err(|e| match e {
+        e @ AngleListError::Grid { .. } => anyhow::anyhow!("--{name} {e}"),
+        e @ AngleListError::List { .. } => anyhow::anyhow!("--{name}: {e}"),
+    })
 }
 
 /// The format: the flag, else the extension of `out`, else npz.

@@ -56,6 +56,95 @@ pub fn default_phi() -> Vec<f64> {
     (0..72).map(|k| 5.0 * k as f64).collect()
 }
 
+/// An angle list that [`parse_angles`] refuses: the list as given (trimmed)
+/// for the errors about a `gauss:N` or a range, and what is wrong.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum AngleListError {
+    /// A `gauss:N` or `START:STOP:STEP` that is not valid.
+    #[error("{text}: {reason}")]
+    Grid {
+        /// The list as given.
+        text: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A comma-separated list with a value that is not valid.
+    #[error("{reason}")]
+    List {
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// The most values one angle list gives.
+pub const MAX_ANGLES: usize = 100_000;
+
+/// Angles in degrees from a list `a,b,c`, a range `START:STOP:STEP` (STOP
+/// excluded: `START + k STEP < STOP`) or `gauss:N` (the arccosines of the
+/// `N` Gauss–Legendre nodes in `mu` on (0, 1), `1 <= N <= 1024`).
+///
+/// # Errors
+/// [`AngleListError`] for values that are not finite numbers, an empty or
+/// reversed range, `N` outside `1..=1024`, more than [`MAX_ANGLES`] values.
+///
+/// ```
+/// use km::bsdf_file::parse_angles;
+/// assert_eq!(parse_angles("0:90:30").unwrap(), vec![0.0, 30.0, 60.0]);
+/// assert_eq!(parse_angles("0, 45").unwrap(), vec![0.0, 45.0]);
+/// assert_eq!(parse_angles("gauss:4").unwrap().len(), 4);
+/// assert!(parse_angles("0:90").is_err());
+/// ```
+pub fn parse_angles(text: &str) -> Result<Vec<f64>, AngleListError> {
+    let text = text.trim();
+    let grid = |reason: String| AngleListError::Grid { text: text.into(), reason };
+    if let Some(n) = text.strip_prefix("gauss:") {
+        let n: usize = n.trim().parse().map_err(|e| grid(format!("N: {e}")))?;
+        if n == 0 || n > 1024 {
+            return Err(grid("N must lie in 1..=1024".into()));
+        }
+        return Ok(gauss_angles(n).0);
+    }
+    if text.contains(':') {
+        let parts: Vec<&str> = text.split(':').collect();
+        let [a, b, s] = parts[..] else {
+            return Err(grid("a range is START:STOP:STEP".into()));
+        };
+        let num = |x: &str| -> Result<f64, AngleListError> {
+            let v: f64 = x.trim().parse().map_err(|e| grid(format!("`{x}`: {e}")))?;
+            if !v.is_finite() {
+                return Err(grid(format!("`{x}` is not finite")));
+            }
+            Ok(v)
+        };
+        let (a, b, s) = (num(a)?, num(b)?, num(s)?);
+        if s <= 0.0 || b <= a {
+            return Err(grid("needs STOP > START and STEP > 0".into()));
+        }
+        // The count, less a relative 1e-9 so that STOP itself stays out.
+        let count = ((b - a) / s - 1e-9).ceil();
+        if count > MAX_ANGLES as f64 {
+            return Err(grid(format!("{count} values (at most {MAX_ANGLES})")));
+        }
+        return Ok((0..count as usize).map(|k| a + s * k as f64).collect());
+    }
+    let list = |reason: String| AngleListError::List { reason };
+    let v = text
+        .split(',')
+        .map(|x| {
+            let v: f64 =
+                x.trim().parse().map_err(|e| list(format!("`{x}` is not a number: {e}")))?;
+            if !v.is_finite() {
+                return Err(list(format!("`{x}` is not finite")));
+            }
+            Ok(v)
+        })
+        .collect::<Result<Vec<f64>, _>>()?;
+    if v.len() > MAX_ANGLES {
+        return Err(list(format!("{} values (at most {MAX_ANGLES})", v.len())));
+    }
+    Ok(v)
+}
+
 /// What a BSDF file is asked for.
 #[derive(Debug, Clone)]
 pub struct BsdfRequest {
