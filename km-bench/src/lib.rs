@@ -9,13 +9,17 @@
 //!   as SVG and PNG with an embedded font ([`font`]).
 //! * [`data`]: CSV files with the parameters and the seed in their header.
 //! * [`report`]: the Markdown report.
+//! * [`context`]: what every recipe gets (output directory, run size, seed).
 //! * [`methods`]: a method at a setting ([`methods::Setting`]) through the library's solver interface.
 //! * [`scenes`]: the scenes of the recipes (the seed's §4.4 example, study scenes).
+//! * [`seed`]: the seed's §4.4 example, loaded from `examples/seed-three-layers.toml`,
+//!   its three layers alone and combined, and its truncation study.
 //! * [`recipes`]: one function per figure of the seed's §4 and per study.
 #![deny(missing_docs)]
 
 pub mod bsdf_plot;
 pub mod chart;
+pub mod context;
 pub mod data;
 pub mod font;
 pub mod methods;
@@ -23,6 +27,7 @@ pub mod recipes;
 pub mod report;
 pub mod reproduce;
 pub mod scenes;
+pub mod seed;
 
 pub use reproduce::{
     Progress, ReproduceOptions, Size, Summary, SummaryRow, recipe_names, reproduce,

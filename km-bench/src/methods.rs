@@ -250,7 +250,7 @@ pub fn stderr_list(sol: &Solution, key: &str) -> Option<Vec<f64>> {
 }
 
 /// Streams of the converged reference of the studies.
-pub fn reference_streams(size: crate::reproduce::Size) -> usize {
+pub fn reference_streams(size: crate::context::Size) -> usize {
     size.pick(32, 64, 192)
 }
 
@@ -260,7 +260,7 @@ pub fn reference() -> Option<Method> {
 }
 
 /// The methods mapped by the stability study at this size.
-pub fn stability_methods(size: crate::reproduce::Size) -> Vec<Method> {
+pub fn stability_methods(size: crate::context::Size) -> Vec<Method> {
     vec![
         Method::TwoFlux,
         Method::Multiflux { streams: km_multiflux::DEFAULT_STREAMS },

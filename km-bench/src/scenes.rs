@@ -63,31 +63,21 @@ pub fn slab(
     })?)
 }
 
-/// The seed's §4.4 example (seed 000, §4.4 and fig. 8): a scattering
-/// material of index 1.3 with `sigma_a = 0.1`, `sigma_s = 0.4`, thickness
-/// `1 / (2 sigma_t)`, isotropic (the seed names no `g`), on a Lambertian
-/// surface of reflectance 0.8, lit at 45 degrees. `lambertian = false`
-/// gives the seed's two-layer system of fig. 10 (interface + slab, clear
-/// below, index matched so that the transmitted light is visible).
+/// The seed's §4.4 example (seed 000, §4.4 and fig. 8), as
+/// `examples/seed-three-layers.toml` gives it ([`crate::seed`]), with these
+/// output directions. `lambertian = false` gives the seed's two-layer system
+/// of fig. 10 (interface + slab, clear below, index matched so that the
+/// transmitted light is visible).
 ///
 /// # Errors
-/// Never for these constants (km-core's validation).
+/// Never for the scene file (km-core's validation).
 pub fn seed_three_layers(directions_deg: Vec<[f64; 2]>, lambertian: bool) -> anyhow::Result<Scene> {
-    let (sigma_a, sigma_s) = (0.1, 0.4);
-    let thickness = 1.0 / (2.0 * (sigma_a + sigma_s));
-    let layer = Layer::new(sigma_a, sigma_s, thickness, 0.0, 1.3)?;
-    let substrate = if lambertian {
-        Substrate::Lambertian { albedo: 0.8 }
-    } else {
-        Substrate::Transparent { n: 1.3 }
-    };
-    Ok(Scene::single(MonoScene {
-        light: Light::Collimated { theta_deg: 45.0 },
-        ambient_n: 1.0,
-        layers: vec![layer],
-        substrate,
-        directions_deg,
-    })?)
+    let mut mono = crate::seed::seed_scene();
+    if !lambertian {
+        mono.substrate = Substrate::Transparent { n: mono.layers[0].n };
+    }
+    mono.directions_deg = directions_deg;
+    Ok(Scene::single(mono)?)
 }
 
 /// A named scene of the accuracy-versus-time study.

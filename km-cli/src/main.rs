@@ -391,6 +391,63 @@ fn load(path: &std::path::Path, set: &[String]) -> anyhow::Result<km::Scene> {
     Ok(km::Scene::from_path_edited(path, &edits)?)
 }
 
+/// `km solve`: one run, or one shard of a Monte Carlo run written to `--out`.
+fn solve(args: &SolveArgs) -> anyhow::Result<()> {
+    let scene = load(&args.scene, &args.set)?;
+    if let Some(shard) = &args.shard {
+        let (i, n) = methods::parse_shard(shard)?;
+        if args.repeat > 1 {
+            bail!("--repeat does not combine with --shard (a shard is written once)");
+        }
+        if args.method != Method::Mc {
+            bail!("--shard applies to --method mc only");
+        }
+        let Some(out) = &args.out else {
+            bail!("--shard {shard} needs --out FILE for the partial tally");
+        };
+        let part = km::mc_shard(&scene, &methods::options(args)?, i, n)?;
+        write_json(out, &serde_json::to_value(&part)?, std::slice::from_ref(&args.scene))?;
+        eprintln!("wrote shard {i}/{n} to {}", out.display());
+        return Ok(());
+    }
+    let sol = methods::solve(&scene, args)?;
+    if let Some(out) = &args.out {
+        write_json(out, &sol.to_json(), std::slice::from_ref(&args.scene))?;
+    }
+    print_solution(&sol, Some(&scene), args.output_format())
+}
+
+/// `km sweep`: the fixed edits and the axes of `--set`, solved over the grid, printed.
+fn sweep(
+    scene: &std::path::Path,
+    set: &[String],
+    method: Method,
+    format: SweepFormat,
+) -> anyhow::Result<()> {
+    // Read as every scene file is read (regular file or `-`, size limit).
+    let text = km::read_scene_text(scene, km::SceneLimits::from_env().max_bytes)
+        .with_context(|| format!("{}", scene.display()))?;
+    let (mut edits, mut axes) = (Vec::new(), Vec::new());
+    for s in set {
+        if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {
+            axes.push(km::SweepAxis::parse(s)?);
+        } else {
+            edits.push(km::SetEdit::parse(s)?);
+        }
+    }
+    if axes.is_empty() {
+        bail!("km sweep needs at least one --set KEY=START:STOP:N");
+    }
+    let opts = methods::options(&SolveArgs::defaults(method))?;
+    let points = km::sweep(&text, &edits, &axes, &opts)?;
+    let format = match format {
+        SweepFormat::Table => km::SweepFormat::Table,
+        SweepFormat::Csv => km::SweepFormat::Csv,
+        SweepFormat::Jsonl => km::SweepFormat::Jsonl,
+    };
+    stdout::print(&km::sweep_text(&axes, &points, format))
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     let command = cli.command.unwrap_or(Command::Reproduce {
         out: PathBuf::from("out"),
@@ -414,46 +471,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Solve(args) => {
-            let scene = load(&args.scene, &args.set)?;
-            if let Some(shard) = &args.shard {
-                let (i, n) = methods::parse_shard(shard)?;
-                if args.repeat > 1 {
-                    bail!("--repeat does not combine with --shard (a shard is written once)");
-                }
-                if args.method != Method::Mc {
-                    bail!("--shard applies to --method mc only");
-                }
-                let Some(out) = &args.out else {
-                    bail!("--shard {shard} needs --out FILE for the partial tally");
-                };
-                let part = methods::mc_shard(&scene, &args, i, n)?;
-                write_json(out, &serde_json::to_value(&part)?, std::slice::from_ref(&args.scene))?;
-                eprintln!("wrote shard {i}/{n} to {}", out.display());
-                return Ok(());
-            }
-            let mut sol = methods::solve(&scene, &args)?;
-            if args.repeat > 1 {
-                // Warm calls after the first: the same answer, timed again.
-                let mut times = vec![sol.seconds];
-                for _ in 1..args.repeat {
-                    times.push(methods::solve(&scene, &args)?.seconds);
-                }
-                times.sort_by(f64::total_cmp);
-                let median = if times.len() % 2 == 1 {
-                    times[times.len() / 2]
-                } else {
-                    0.5 * (times[times.len() / 2 - 1] + times[times.len() / 2])
-                };
-                sol.extra.insert("repeat".into(), args.repeat.into());
-                sol.extra.insert("seconds_best".into(), times[0].into());
-                sol.extra.insert("seconds_median".into(), median.into());
-            }
-            if let Some(out) = &args.out {
-                write_json(out, &sol.to_json(), std::slice::from_ref(&args.scene))?;
-            }
-            print_solution(&sol, Some(&scene), args.output_format())
-        }
+        Command::Solve(args) => solve(&args),
         Command::Bsdf(args) => bsdf::main(&args),
         Command::Merge { parts, json, format, out } => {
             let sol = km_montecarlo::merge_files(&parts)?;
@@ -467,25 +485,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
             methods::profile(&s, &opts, output_format(json, format))
         }
-        Command::Sweep { scene, set, method, format } => {
-            // Read as every scene file is read (regular file or `-`, size limit).
-            let text = km::read_scene_text(&scene, km::SceneLimits::from_env().max_bytes)
-                .with_context(|| format!("{}", scene.display()))?;
-            let (mut edits, mut axes) = (Vec::new(), Vec::new());
-            for s in &set {
-                if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {
-                    axes.push(km::SweepAxis::parse(s)?);
-                } else {
-                    edits.push(km::SetEdit::parse(s)?);
-                }
-            }
-            if axes.is_empty() {
-                bail!("km sweep needs at least one --set KEY=START:STOP:N");
-            }
-            let opts = methods::options(&SolveArgs::defaults(method))?;
-            let points = km::sweep(&text, &edits, &axes, &opts)?;
-            methods::print_sweep(&axes, &points, format)
-        }
+        Command::Sweep { scene, set, method, format } => sweep(&scene, &set, method, format),
         Command::Plan { scene, set, method, json, all_effects } => {
             let s = load(&scene, &set)?;
             let plan = km::plan_for(&s, method, all_effects);
@@ -522,30 +522,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 impl SolveArgs {
-    /// Default arguments for `method` (used by `km demo`).
+    /// The arguments of `km solve SCENE --method METHOD` with every other
+    /// flag at its default (`km demo`, `km sweep`): the defaults are the
+    /// flags' own, written once in the attributes above.
     fn defaults(method: Method) -> SolveArgs {
-        SolveArgs {
-            scene: PathBuf::from("examples/seed-three-layers.toml"),
-            set: Vec::new(),
-            method,
-            json: false,
-            format: None,
-            out: None,
-            tolerance: None,
-            all_effects: false,
-            km_mapping: KmMappingArg::Seed,
-            streams: None,
-            order: None,
-            samples: 1_000_000,
-            seed: 1,
-            threads: None,
-            estimator: EstimatorArg::Survival,
-            shard: None,
-            fdr: FdrArg::Exact,
-            dipole: DipoleArg::Jensen2001,
-            budget: 1.0,
-            repeat: 1,
-        }
+        let cmd = <SolveArgs as clap::Args>::augment_args(clap::Command::new("solve"));
+        let m = cmd.get_matches_from(["solve", "-", "--method", method.name()]);
+        SolveArgs::from_arg_matches(&m).unwrap_or_else(|e| e.exit())
     }
 
     /// The output format (`--json` is `--format json`).

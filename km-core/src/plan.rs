@@ -193,163 +193,52 @@ impl Plan {
     /// assert!(p.skips(km_core::plan::Simplification::Azimuth));
     /// ```
     pub fn new(scene: &MonoScene, request: Request, all_effects: bool) -> Plan {
-        let mut effects = Vec::new();
-        let mut skipped: Vec<Simplification> = Vec::new();
-        let mut reasons = BTreeMap::new();
-        let mut layers = Vec::with_capacity(scene.layers.len());
-        let mut skip = |name: Simplification, reason: String, skipped: &mut Vec<Simplification>| {
-            if !skipped.contains(&name) {
-                skipped.push(name);
-            }
-            reasons.entry(name).or_insert(reason);
-        };
-
-        // Interfaces: wherever the index changes, top to bottom.
-        let mut n_above = scene.ambient_n;
-        let mut any_interface = false;
-        let mut tir = false;
-        let mut matched = Vec::new();
-        for (i, l) in scene.layers.iter().enumerate() {
-            let iface = l.n != n_above || all_effects;
-            if l.n != n_above {
-                any_interface = true;
-                // Light inside the denser medium can be totally reflected.
-                tir |= l.n > scene.ambient_n || l.n > n_above;
-            } else {
-                matched.push(format!("top of layer {}", i + 1));
-            }
-            layers.push(LayerPlan {
-                interface_above: iface,
-                scatters: l.sigma_s > 0.0 || all_effects,
-                half_space: l.is_half_space(),
-                cutoff_bound: None,
-            });
-            n_above = l.n;
-        }
-        if let Substrate::Transparent { n } = scene.substrate {
-            if n != n_above {
-                any_interface = true;
-                tir |= n_above > n;
-            } else {
-                matched.push("bottom of the stack".to_string());
-            }
-        }
-        if any_interface {
-            effects.push("interface".to_string());
-        }
-        if tir {
-            effects.push("total-internal-reflection".to_string());
-        }
-        if !matched.is_empty() && !all_effects {
-            skip(
-                Simplification::Interface,
-                format!("indices match at: {}", matched.join(", ")),
-                &mut skipped,
-            );
-        }
-
-        // Scattering and anisotropy.
-        let scattering: Vec<usize> =
-            (0..scene.layers.len()).filter(|&i| scene.layers[i].sigma_s > 0.0).collect();
-        if !scattering.is_empty() {
-            effects.push("scattering".to_string());
-        }
-        if scene.layers.iter().any(|l| l.sigma_s > 0.0 && l.g() != 0.0) {
-            effects.push("anisotropy".to_string());
-        }
-        let absorbers: Vec<String> = (0..scene.layers.len())
-            .filter(|&i| scene.layers[i].sigma_s == 0.0)
-            .map(|i| format!("layer {}", i + 1))
-            .collect();
-        if !absorbers.is_empty() && !all_effects {
-            skip(
-                Simplification::Scattering,
-                format!("{} only absorb: attenuation in closed form", absorbers.join(", ")),
-                &mut skipped,
-            );
-        }
-
-        // Thick layers: the transmission rule (eq. PL1), top down; nothing
-        // below a half-space takes part.
-        let mut active = scene.layers.len();
-        for (i, l) in scene.layers.iter().enumerate() {
-            if l.is_half_space() {
-                active = i + 1;
-                break;
-            }
-            if all_effects {
-                continue;
-            }
-            let omega = l.albedo();
-            let k_d = (3.0 * (1.0 - omega) * (1.0 - omega * l.g())).max(0.0).sqrt();
-            let k_s = 0.5 * k_d.min(1.0);
-            let bound = (-2.0 * k_s * l.tau()).exp();
-            if k_s > 0.0 && bound < TRANSMISSION_CUTOFF {
-                layers[i].half_space = true;
-                layers[i].cutoff_bound = Some(bound);
-                active = i + 1;
-                skip(
-                    Simplification::Transmission,
-                    format!(
-                        "layer {} (tau = {:.4e}, albedo = {:.6}) is treated as a half-space: \
-                         light returning from below is < {:.1e} of the incident",
-                        i + 1,
-                        l.tau(),
-                        omega,
-                        bound
-                    ),
-                    &mut skipped,
-                );
-                break;
-            }
-        }
+        let mut d = Draft::default();
+        let mut layers = interfaces(&mut d, scene, all_effects);
+        let scattering = scattering(&mut d, scene, all_effects);
+        let active = thick_layers(&mut d, scene, &mut layers, all_effects);
         layers.truncate(active);
         let substrate_reached =
             active == scene.layers.len() && layers.last().is_none_or(|l| !l.half_space);
         match scene.substrate {
             Substrate::Lambertian { .. } if substrate_reached => {
-                effects.push("lambertian-substrate".to_string())
+                d.effects.push("lambertian-substrate".to_string())
             }
-            Substrate::Black if substrate_reached => effects.push("black-substrate".to_string()),
+            Substrate::Black if substrate_reached => d.effects.push("black-substrate".to_string()),
             _ => {}
         }
         if !substrate_reached {
-            skip(
-                Simplification::Substrate,
-                format!("no light reaches below layer {active}"),
-                &mut skipped,
-            );
+            d.skip(Simplification::Substrate, format!("no light reaches below layer {active}"));
         }
 
         // Azimuth: isotropic phase functions, diffuse light or totals only need m = 0.
         let isotropic = scene.layers[..active].iter().all(|l| l.g() == 0.0 || l.sigma_s == 0.0);
         let diffuse = scene.light == Light::Diffuse;
         let azimuth_independent =
-            !all_effects && (!request.directions || isotropic || diffuse || scattering.is_empty());
+            !all_effects && (!request.directions || isotropic || diffuse || !scattering);
         if azimuth_independent {
             let why = if !request.directions {
                 "only totals are asked: the azimuth-independent Fourier order gives them exactly"
-            } else if scattering.is_empty() {
+            } else if !scattering {
                 "nothing scatters: no azimuthal structure"
             } else if diffuse {
                 "diffuse light has no azimuth: only order m = 0 is excited"
             } else {
                 "isotropic scattering: the phase function has no azimuthal Fourier orders m > 0"
             };
-            skip(Simplification::Azimuth, why.to_string(), &mut skipped);
+            d.skip(Simplification::Azimuth, why.to_string());
         }
         let angular_tallies = all_effects || request.directions;
         if !angular_tallies {
-            skip(
+            d.skip(
                 Simplification::AngularTallies,
                 "no [output] directions: Monte Carlo tallies totals only".to_string(),
-                &mut skipped,
             );
         }
         Plan {
-            effects,
-            skipped,
-            reasons,
+            effects: d.effects,
+            skipped: d.skipped,
+            reasons: d.reasons,
             layers,
             active_layers: active,
             substrate_reached,
@@ -534,4 +423,134 @@ impl MonoScene {
             directions_deg: Vec::new(),
         }
     }
+}
+
+/// What a plan collects while it is drawn up: the effects present, the
+/// work skipped and why (the first reason given for each).
+#[derive(Default)]
+struct Draft {
+    effects: Vec<String>,
+    skipped: Vec<Simplification>,
+    reasons: BTreeMap<Simplification, String>,
+}
+
+impl Draft {
+    fn skip(&mut self, name: Simplification, reason: String) {
+        if !self.skipped.contains(&name) {
+            self.skipped.push(name);
+        }
+        self.reasons.entry(name).or_insert(reason);
+    }
+}
+
+/// Interfaces wherever the index changes, top to bottom (and total internal
+/// reflection where light can meet a less dense medium): one [`LayerPlan`]
+/// per layer.
+fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerPlan> {
+    let mut layers = Vec::with_capacity(scene.layers.len());
+    let mut n_above = scene.ambient_n;
+    let mut any_interface = false;
+    let mut tir = false;
+    let mut matched = Vec::new();
+    for (i, l) in scene.layers.iter().enumerate() {
+        let iface = l.n != n_above || all_effects;
+        if l.n != n_above {
+            any_interface = true;
+            // Light inside the denser medium can be totally reflected.
+            tir |= l.n > scene.ambient_n || l.n > n_above;
+        } else {
+            matched.push(format!("top of layer {}", i + 1));
+        }
+        layers.push(LayerPlan {
+            interface_above: iface,
+            scatters: l.sigma_s > 0.0 || all_effects,
+            half_space: l.is_half_space(),
+            cutoff_bound: None,
+        });
+        n_above = l.n;
+    }
+    if let Substrate::Transparent { n } = scene.substrate {
+        if n != n_above {
+            any_interface = true;
+            tir |= n_above > n;
+        } else {
+            matched.push("bottom of the stack".to_string());
+        }
+    }
+    if any_interface {
+        d.effects.push("interface".to_string());
+    }
+    if tir {
+        d.effects.push("total-internal-reflection".to_string());
+    }
+    if !matched.is_empty() && !all_effects {
+        d.skip(Simplification::Interface, format!("indices match at: {}", matched.join(", ")));
+    }
+    layers
+}
+
+/// Scattering and anisotropy; layers that only absorb are attenuated in
+/// closed form. Returns whether any layer scatters.
+fn scattering(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> bool {
+    let scattering: Vec<usize> =
+        (0..scene.layers.len()).filter(|&i| scene.layers[i].sigma_s > 0.0).collect();
+    if !scattering.is_empty() {
+        d.effects.push("scattering".to_string());
+    }
+    if scene.layers.iter().any(|l| l.sigma_s > 0.0 && l.g() != 0.0) {
+        d.effects.push("anisotropy".to_string());
+    }
+    let absorbers: Vec<String> = (0..scene.layers.len())
+        .filter(|&i| scene.layers[i].sigma_s == 0.0)
+        .map(|i| format!("layer {}", i + 1))
+        .collect();
+    if !absorbers.is_empty() && !all_effects {
+        d.skip(
+            Simplification::Scattering,
+            format!("{} only absorb: attenuation in closed form", absorbers.join(", ")),
+        );
+    }
+    !scattering.is_empty()
+}
+
+/// Thick layers: the transmission rule (eq. PL1), top down; nothing below a
+/// half-space takes part. Returns the number of layers that do.
+fn thick_layers(
+    d: &mut Draft,
+    scene: &MonoScene,
+    layers: &mut [LayerPlan],
+    all_effects: bool,
+) -> usize {
+    let mut active = scene.layers.len();
+    for (i, l) in scene.layers.iter().enumerate() {
+        if l.is_half_space() {
+            active = i + 1;
+            break;
+        }
+        if all_effects {
+            continue;
+        }
+        let omega = l.albedo();
+        let k_d = (3.0 * (1.0 - omega) * (1.0 - omega * l.g())).max(0.0).sqrt();
+        let k_s = 0.5 * k_d.min(1.0);
+        let bound = (-2.0 * k_s * l.tau()).exp();
+        if k_s > 0.0 && bound < TRANSMISSION_CUTOFF {
+            layers[i].half_space = true;
+            layers[i].cutoff_bound = Some(bound);
+            active = i + 1;
+            d.skip(
+                Simplification::Transmission,
+                format!(
+                    "layer {} (tau = {:.4e}, albedo = {:.6}) is treated as a half-space: \
+                     light returning from below is < {:.1e} of the incident",
+                    i + 1,
+                    l.tau(),
+                    omega,
+                    bound
+                ),
+            );
+            break;
+        }
+    }
+    active
 }

@@ -12,7 +12,12 @@
 //!   target ([`accuracy`]), and attaches the plan to the [`Solution`].
 //! * [`profile()`]: the radially resolved reflectance `Rd(r)`.
 //! * [`KmError`]: every refusal, in the library's own words.
-//! * [`text`]: a solution, a scene and a plan as text for people.
+//! * [`text`]: a solution, a scene and a plan as text for people;
+//!   [`sweep_text`], [`Profile::table`] and [`Profile::csv`] likewise.
+//! * [`solve_repeated`], [`Options::with_budget`], [`mc_shard`],
+//!   [`METHOD_SETTINGS`]: repeated timing, work budgets, Monte Carlo
+//!   shards, the settings that apply to some methods only.
+//! * [`bsdf_file`]: the whole BSDF as an npz, CSV or Fourier BSDF file.
 //!
 //! The crates below: `km-core` (scene, layers, Fresnel, planner, two-flux,
 //! [`Solution`]), `km-multiflux`, `km-montecarlo`, `km-dipole`; see
@@ -30,9 +35,11 @@
 #![deny(missing_docs)]
 
 pub mod accuracy;
+pub mod bsdf_file;
 mod error;
 mod method;
 mod profile;
+mod run;
 mod solver;
 mod sweep;
 pub mod text;
@@ -58,8 +65,9 @@ pub use km_multiflux::bsdf;
 pub use km_multiflux::budget as multiflux_budget;
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
+pub use run::{METHOD_SETTINGS, MethodSetting, mc_shard, solve_repeated};
 pub use solver::{MethodOptions, Options, Solver};
-pub use sweep::{SweepAxis, SweepPoint, sweep};
+pub use sweep::{SweepAxis, SweepFormat, SweepPoint, sweep, sweep_text};
 
 /// The README's examples, compiled and run as doctests.
 #[doc = include_str!("../../README.md")]

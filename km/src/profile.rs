@@ -2,6 +2,8 @@
 //! normal incidence, by the dipole (closed form, docs/diffusion.md eq. D11)
 //! or by Monte Carlo (annuli, docs/montecarlo.md eq. R1).
 
+use std::fmt::Write;
+
 use km_core::Scene;
 use serde_json::{Value, json};
 
@@ -62,6 +64,52 @@ impl Profile {
             "stderr": self.stderr.as_ref().map(pick),
             "channels": self.labels,
         })
+    }
+
+    /// The CSV of `km profile --format csv`: a header, then one row per
+    /// radius: `r`, then `Rd` (and its standard error) per channel.
+    pub fn csv(&self) -> String {
+        let one = self.labels.len() == 1;
+        let name = |base: &str, l: &str| if one { base.to_string() } else { format!("{base}_{l}") };
+        let mut cols = vec!["r".to_string()];
+        for l in &self.labels {
+            cols.push(name("rd", l));
+            if self.stderr.is_some() {
+                cols.push(name("stderr_rd", l));
+            }
+        }
+        let mut t = cols.join(",") + "\n";
+        for (i, ri) in self.r.iter().enumerate() {
+            let _ = write!(t, "{ri:e}");
+            for (c, rd) in self.rd.iter().enumerate() {
+                let _ = write!(t, ",{:e}", rd[i]);
+                if let Some(se) = &self.stderr {
+                    let _ = write!(t, ",{:e}", se[c][i]);
+                }
+            }
+            t.push('\n');
+        }
+        t
+    }
+
+    /// The text table of `km profile`: `r` in the scene's length unit,
+    /// `Rd(r)` per unit area (1/length^2), one column per channel.
+    pub fn table(&self) -> String {
+        let mut t = format!("{:>12}", "r [L]");
+        for l in &self.labels {
+            let name = if self.labels.len() == 1 { "Rd".to_string() } else { format!("Rd {l}") };
+            let _ = write!(t, "{:>16}", format!("{name} [1/L^2]"));
+        }
+        t.push('\n');
+        for (i, ri) in self.r.iter().enumerate() {
+            let _ = write!(t, "{ri:>12.5}");
+            for c in &self.rd {
+                let _ = write!(t, "{:>16.6e}", c[i]);
+            }
+            t.push('\n');
+        }
+        t.push_str("L: the scene's length unit (that of 1/sigma_t)\n");
+        t
     }
 }
 

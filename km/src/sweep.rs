@@ -132,3 +132,83 @@ pub fn sweep(
         .collect();
     results.into_iter().collect()
 }
+
+/// How [`sweep_text`] lays out the rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SweepFormat {
+    /// Aligned columns (22 characters each).
+    Table,
+    /// Comma-separated values with a header.
+    Csv,
+    /// One JSON object per line.
+    Jsonl,
+}
+
+/// The five totals of a sweep row, by name.
+const SWEEP_QUANTITIES: [&str; 5] =
+    ["reflectance", "reflectance_specular", "transmittance", "transmittance_direct", "absorptance"];
+
+/// The rows of `km sweep` (docs/cli.md): the swept values, the channel (for
+/// spectral scenes), then the five totals, one row per point and channel in
+/// grid order, with a header for the table and CSV.
+///
+/// ```
+/// let text = "[[layer]]\ntau = 1\nalbedo = 0.9\n";
+/// let axes = [km::SweepAxis::parse("layer[1].g=0:0.5:2").unwrap()];
+/// let pts = km::sweep(text, &[], &axes, &km::Options::new(km::Method::Km)).unwrap();
+/// let csv = km::sweep_text(&axes, &pts, km::SweepFormat::Csv);
+/// assert_eq!(csv.lines().count(), 3);
+/// assert!(csv.starts_with("layer[1].g,reflectance,"));
+/// ```
+pub fn sweep_text(axes: &[SweepAxis], points: &[SweepPoint], format: SweepFormat) -> String {
+    let mut out = String::new();
+    let mut line = |l: String| {
+        out.push_str(&l);
+        out.push('\n');
+    };
+    let spectral = points.first().is_some_and(|p| p.solution.channels.len() > 1);
+    let mut header: Vec<String> = axes.iter().map(|a| a.key.clone()).collect();
+    if spectral {
+        header.push("channel".into());
+    }
+    header.extend(SWEEP_QUANTITIES.iter().map(|q| q.to_string()));
+    let column = |cells: &[String]| cells.iter().map(|c| format!("{c:>22}")).collect::<String>();
+    match format {
+        SweepFormat::Csv => line(header.join(",")),
+        SweepFormat::Table => line(column(&header)),
+        SweepFormat::Jsonl => {}
+    }
+    for p in points {
+        for (c, ch) in p.solution.channels.iter().enumerate() {
+            let nums = [
+                ch.reflectance,
+                ch.reflectance_specular,
+                ch.transmittance,
+                ch.transmittance_direct,
+                ch.absorptance,
+            ];
+            let label = p.solution.labels.get(c).cloned().unwrap_or_default();
+            if format == SweepFormat::Jsonl {
+                let mut o = serde_json::Map::new();
+                for (a, v) in axes.iter().zip(&p.values) {
+                    o.insert(a.key.clone(), (*v).into());
+                }
+                if spectral {
+                    o.insert("channel".into(), label.into());
+                }
+                for (q, v) in SWEEP_QUANTITIES.iter().zip(nums) {
+                    o.insert((*q).into(), v.into());
+                }
+                line(serde_json::Value::Object(o).to_string());
+                continue;
+            }
+            let mut cells: Vec<String> = p.values.iter().map(|v| v.to_string()).collect();
+            if spectral {
+                cells.push(label);
+            }
+            cells.extend(nums.iter().map(|v| v.to_string()));
+            line(if format == SweepFormat::Csv { cells.join(",") } else { column(&cells) });
+        }
+    }
+    out
+}

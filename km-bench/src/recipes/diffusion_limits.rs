@@ -16,11 +16,15 @@ use km_core::fresnel::{critical_cos, integrate_gl, reflectance};
 use km_core::{Scene, Substrate};
 
 use crate::chart::{LineChart, Mark, Series, format_number};
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods;
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 use crate::scenes::slab;
+
+mod profiles;
+
+use profiles::profiles;
 
 /// Relative error above which the dipole is called "off".
 const THRESHOLD: f64 = 0.10;
@@ -136,251 +140,19 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
 /// Part 1: total diffuse reflectance over albedo.
 fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     let albedos: Vec<f64> = match ctx.size {
-        crate::reproduce::Size::Tiny => vec![0.1, 0.5, 0.9, 0.99, 0.999],
+        crate::context::Size::Tiny => vec![0.1, 0.5, 0.9, 0.99, 0.999],
         _ => vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 0.999, 0.9999],
     };
     let gs = [0.0, 0.9];
     let etas = [1.0, 1.3];
     let samples = ctx.size.pick(2_000u64, 15_000, 400_000);
     let streams = methods::reference_streams(ctx.size);
-    let (mut t_dip, mut t_mf, mut t_mc) = (0.0, 0.0, 0.0);
-    let mut pts = Vec::new();
-    let mut k = 0u64;
-    for &eta in &etas {
-        for &g in &gs {
-            for &albedo in &albedos {
-                let scene = half_space(albedo, g, eta)?;
-                let t = Instant::now();
-                let dipole = km_dipole::compare::diffuse_reflectance_collimated(
-                    albedo,
-                    g,
-                    eta,
-                    1.0,
-                    Default::default(),
-                )?;
-                t_dip += t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let mf = multiflux_diffuse(&scene, streams)?;
-                let mf_half = multiflux_diffuse(&scene, streams / 2)?;
-                t_mf += t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let opts = methods::mc_options(samples, ctx.seed.wrapping_add(1000 + k));
-                k += 1;
-                let mc = km_montecarlo::solve(&scene, &opts)?;
-                t_mc += t.elapsed().as_secs_f64();
-                let c = &mc.channels[0];
-                pts.push(Point {
-                    eta,
-                    g,
-                    albedo,
-                    dipole,
-                    mf,
-                    mf_half,
-                    single: single_scattering_reflectance(albedo, g, eta),
-                    mc: c.reflectance - c.reflectance_specular,
-                    mc_se: methods::stderr_of(&mc, "reflectance").unwrap_or(f64::NAN),
-                });
-            }
-        }
-    }
-    // CSV of every point.
-    let mut csv = Csv::new(&[
-        "eta",
-        "g",
-        "albedo",
-        "one_minus_albedo",
-        "dipole",
-        "multiflux",
-        "multiflux_half_streams",
-        "single_scattering",
-        "multiflux_minus_single",
-        "montecarlo",
-        "montecarlo_stderr",
-        "rel_err_dipole_vs_total",
-        "rel_err_dipole_vs_multiple",
-    ]);
-    csv.comment(format!(
-        "Half-space, sigma_t = 1, HG phase, ambient index 1, collimated beam at normal incidence. \
-         Diffuse reflectance = R - R_specular per unit incident power. dipole: (1 - F(1)) Rd \
-         (Jensen et al. 2001, classical, exact F_dr), multiple scattering only. multiflux: \
-         Fourier-Gauss, {streams} streams (and {} for the convergence check), all orders. \
-         single_scattering: exact first order (eq. D23 of docs/diffusion.md). montecarlo: {samples} \
-         photons per point, survival biasing, seeds base+1000+k, all orders.",
-        streams / 2
-    ));
-    for p in &pts {
-        csv.push_nums(&[
-            p.eta,
-            p.g,
-            p.albedo,
-            1.0 - p.albedo,
-            p.dipole,
-            p.mf,
-            p.mf_half,
-            p.single,
-            p.mf - p.single,
-            p.mc,
-            p.mc_se,
-            p.err_total(),
-            p.err_multiple(),
-        ]);
-    }
-    ctx.csv("diffusion-limits-total", &mut csv)?;
-    // Charts: reflectance against 1 - albedo, one per g.
-    let case_pts = |eta: f64, g: f64| pts.iter().filter(move |p| p.eta == eta && p.g == g);
-    for (gi, &g) in gs.iter().enumerate() {
-        let mut series = Vec::new();
-        for (ei, &eta) in etas.iter().enumerate() {
-            let c = 4 * ei;
-            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
-                case_pts(eta, g).map(|p| (1.0 - p.albedo, f(p))).collect()
-            };
-            series.push(Series::new(
-                format!("dipole, eta {eta}"),
-                xy(&|p| p.dipole),
-                Mark::Line,
-                c,
-            ));
-            series.push(Series::new(
-                format!("multi-flux {streams} (all orders), eta {eta}"),
-                xy(&|p| p.mf),
-                Mark::LinePoints,
-                c + 1,
-            ));
-            series.push(Series::new(
-                format!("multi-flux minus single scattering, eta {eta}"),
-                xy(&|p| p.mf - p.single),
-                Mark::Dashed,
-                c + 2,
-            ));
-            series.push(
-                Series::new(
-                    format!("Monte Carlo {samples:.1e} (± 1 s.e.), eta {eta}"),
-                    xy(&|p| p.mc),
-                    Mark::Points,
-                    c + 3,
-                )
-                .with_y_err(case_pts(eta, g).map(|p| p.mc_se).collect()),
-            );
-        }
-        let stem = format!("diffusion-limits-total-g{}", if gi == 0 { "0" } else { "09" });
-        let chart = LineChart {
-            title: format!("Half-space diffuse reflectance, g = {g}, normal incidence"),
-            x_label: "1 - albedo".into(),
-            y_label: "R - R_specular".into(),
-            x_log: true,
-            y_log: true,
-            series,
-            ..Default::default()
-        };
-        ctx.chart(&stem, &chart)?;
-    }
-    // Chart: |relative error| of the dipole against 1 - albedo.
-    let mut series = Vec::new();
-    for (ei, &eta) in etas.iter().enumerate() {
-        for (gi, &g) in gs.iter().enumerate() {
-            let c = 2 * ei + gi;
-            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
-                case_pts(eta, g).map(|p| (1.0 / (1.0 - p.albedo), f(p).abs())).collect()
-            };
-            series.push(Series::new(
-                format!("vs total, g {g}, eta {eta}"),
-                xy(&|p| p.err_total()),
-                Mark::LinePoints,
-                c,
-            ));
-            series.push(Series::new(
-                format!("vs multiple scattering, g {g}, eta {eta}"),
-                xy(&|p| p.err_multiple()),
-                Mark::Dashed,
-                c,
-            ));
-        }
-    }
-    let chart = LineChart {
-        title: "Dipole: |relative error| against multi-flux".into(),
-        x_label: "1 / (1 - albedo)".into(),
-        y_label: "|dipole / reference - 1|".into(),
-        x_log: true,
-        y_log: true,
-        series,
-        h_lines: vec![(THRESHOLD, "10 %".into())],
-        ..Default::default()
-    };
-    ctx.chart("diffusion-limits-error", &chart)?;
-    // Tables: thresholds, then every point.
-    let mut tt = Table::new(&[
-        "eta",
-        "g",
-        "albedo below which |dipole/total - 1| > 10 %",
-        "same vs multiple scattering",
-        "worst |error| vs total (albedo)",
-        "error vs total at albedo 0.99",
-        "multi-flux convergence max |R(N) - R(N/2)|",
-        "max |MC - multi-flux| / MC s.e.",
-    ]);
-    let mut headline = Vec::new();
-    for &eta in &etas {
-        for &g in &gs {
-            let c: Vec<&Point> = case_pts(eta, g).collect();
-            let a: Vec<f64> = c.iter().map(|p| p.albedo).collect();
-            let et: Vec<f64> = c.iter().map(|p| p.err_total()).collect();
-            let em: Vec<f64> = c.iter().map(|p| p.err_multiple()).collect();
-            let tt_total = threshold_albedo(&a, &et);
-            let worst = c
-                .iter()
-                .max_by(|x, y| x.err_total().abs().total_cmp(&y.err_total().abs()))
-                .map(|p| format!("{:+.1} % ({})", 100.0 * p.err_total(), p.albedo))
-                .unwrap_or_default();
-            let at99 = c
-                .iter()
-                .find(|p| p.albedo == 0.99)
-                .map(|p| format!("{:+.1} %", 100.0 * p.err_total()))
-                .unwrap_or_else(|| "-".into());
-            let conv = c.iter().map(|p| (p.mf - p.mf_half).abs()).fold(0.0, f64::max);
-            let z = c.iter().map(|p| (p.mc - p.mf).abs() / p.mc_se).fold(0.0, f64::max);
-            if eta == 1.0 {
-                headline.push(format!(
-                    "eta 1, g {g}: off > 10 % below albedo {}",
-                    threshold_words(tt_total)
-                ));
-            }
-            tt.push(vec![
-                format!("{eta}"),
-                format!("{g}"),
-                threshold_words(tt_total),
-                threshold_words(threshold_albedo(&a, &em)),
-                worst,
-                at99,
-                format!("{conv:.1e}"),
-                format!("{z:.1}"),
-            ]);
-        }
-    }
-    let mut tp = Table::new(&[
-        "eta",
-        "g",
-        "albedo",
-        "dipole",
-        "multi-flux (all orders)",
-        "single scattering",
-        "Monte Carlo",
-        "dipole vs total",
-        "dipole vs multiple",
-    ]);
-    for p in &pts {
-        tp.push(vec![
-            format!("{}", p.eta),
-            format!("{}", p.g),
-            format!("{}", p.albedo),
-            format!("{:.4}", p.dipole),
-            format!("{:.4}", p.mf),
-            format!("{:.4}", p.single),
-            format!("{:.4} ± {:.4}", p.mc, p.mc_se),
-            format!("{:+.1} %", 100.0 * p.err_total()),
-            format!("{:+.1} %", 100.0 * p.err_multiple()),
-        ]);
-    }
+    let grid = Grid { albedos: &albedos, gs: &gs, etas: &etas, samples, streams };
+    let (pts, (t_dip, t_mf, t_mc)) = total_points(ctx, &grid)?;
+    totals_csv(ctx, &pts, &grid)?;
+    totals_charts(ctx, &pts, &grid)?;
+    let (tt, headline) = threshold_table(&pts, &grid);
+    let tp = points_table(&pts);
     sec.text(format!(
         "A half-space of unit extinction (Henyey–Greenstein `g`, relative index `eta` against \
          air, no other boundary) lit by a collimated beam at normal incidence, at {} albedos \
@@ -430,192 +202,288 @@ fn totals(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
     Ok(headline.join(", "))
 }
 
-/// Seconds, compactly.
-fn secs(s: f64) -> String {
-    format!("{} s", format_number(s))
+/// The grid of part 1: albedos, `g`, relative indices, and the work per point.
+struct Grid<'a> {
+    albedos: &'a [f64],
+    gs: &'a [f64],
+    etas: &'a [f64],
+    samples: u64,
+    streams: usize,
 }
 
-/// Part 2: `Rd(r)` of measured materials, dipole against Monte Carlo.
-fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {
-    // (name, grid radius in mm, photon factor): the less a material
-    // scatters, the cheaper a photon and the fewer photons reach large r.
-    let presets = [("marble", 10.0, 1u64), ("skin1", 10.0, 5), ("ketchup", 20.0, 10)];
-    let base = ctx.size.pick(1_000u64, 20_000, 1_000_000);
-    // Annuli: `count` of them over `r_max` mm (the preset's scale).
-    let count = ctx.size.pick(20usize, 100, 200);
-    let mut table = Table::new(&[
-        "preset",
-        "channel",
-        "alpha'",
-        "1/sigma_t' (mm)",
-        "dipole/MC, first annulus",
-        "dipole/MC, power at r < 1/sigma_t'",
-        "dipole/MC, power at r >= 1/sigma_t' (to the grid's end)",
-        "median |dipole/MC - 1| per annulus, r >= 1/sigma_t' (MC s.e. < 10 %)",
-        "total diffuse R: dipole / MC",
-    ]);
-    let mut worst = Vec::new();
-    for (pi, &(name, r_max, factor)) in presets.iter().enumerate() {
-        let samples = base * factor;
-        let bins = km_montecarlo::RadialBins { dr: r_max / count as f64, count };
-        let scene = Scene::from_toml_str(&format!("[[layer]]\npreset = \"{name}\"\n"))?;
-        let preset = km_core::presets::lookup(name)
-            .ok_or_else(|| anyhow::anyhow!("unknown preset {name}"))?;
-        let t = Instant::now();
-        let opts = methods::mc_options(samples, ctx.seed.wrapping_add(5000 + pi as u64));
-        let mc = km_montecarlo::radial_profile(&scene, &opts, bins)?;
-        let t_mc = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        // Per unit power entering; the tracer's Rd(r) is per incident photon.
-        let entering = 1.0 - reflectance(1.0, 1.0, preset.eta);
-        let dip: Vec<Vec<f64>> = km_dipole::profile(&scene, &mc.r, &Default::default())?
-            .into_iter()
-            .map(|v| v.into_iter().map(|x| x * entering).collect())
-            .collect();
-        let dip_tot = km_dipole::compare::preset_rd_total(name, Default::default())?;
-        let t_dip = t.elapsed().as_secs_f64();
-        let mut csv = Csv::new(&[
-            "r_mm",
-            "rd_mc_r",
-            "rd_mc_r_stderr",
-            "rd_dipole_r",
-            "rd_mc_g",
-            "rd_mc_g_stderr",
-            "rd_dipole_g",
-            "rd_mc_b",
-            "rd_mc_b_stderr",
-            "rd_dipole_b",
-        ]);
-        csv.comment(format!(
-            "Rd(r) (1/mm^2, per unit incident power) of the preset \"{name}\" (Jensen et al. 2001; \
-             sigma_s' in 1/mm, g = 0, eta = {}), half-space, pencil beam at normal incidence. \
-             Monte Carlo {samples} photons per channel, seed {}, annuli dr = {} mm (r = annulus \
-             centre); dipole (1 - F(1)) Rd(r), multiple scattering only. MC {t_mc:.2} s, dipole \
-             {t_dip:.1e} s.",
-            preset.eta, opts.seed, bins.dr
-        ));
-        for (i, &r) in mc.r.iter().enumerate() {
-            let mut row = vec![r];
-            for ((rd, se), d) in mc.rd.iter().zip(&mc.stderr).zip(&dip) {
-                row.extend([rd[i], se[i], d[i]]);
+/// The points of one (`eta`, `g`) case, in albedo order.
+fn case_pts(pts: &[Point], eta: f64, g: f64) -> impl Iterator<Item = &Point> {
+    pts.iter().filter(move |p| p.eta == eta && p.g == g)
+}
+
+/// Every point of the grid by the dipole, multi-flux (two stream counts)
+/// and Monte Carlo, with the wall times of the three (seconds).
+fn total_points(ctx: &Ctx, grid: &Grid) -> anyhow::Result<(Vec<Point>, (f64, f64, f64))> {
+    let Grid { albedos, gs, etas, samples, streams } = *grid;
+    let (mut t_dip, mut t_mf, mut t_mc) = (0.0, 0.0, 0.0);
+    let mut pts = Vec::new();
+    let mut k = 0u64;
+    for &eta in etas {
+        for &g in gs {
+            for &albedo in albedos {
+                let scene = half_space(albedo, g, eta)?;
+                let t = Instant::now();
+                let dipole = km_dipole::compare::diffuse_reflectance_collimated(
+                    albedo,
+                    g,
+                    eta,
+                    1.0,
+                    Default::default(),
+                )?;
+                t_dip += t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let mf = multiflux_diffuse(&scene, streams)?;
+                let mf_half = multiflux_diffuse(&scene, streams / 2)?;
+                t_mf += t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let opts = methods::mc_options(samples, ctx.seed.wrapping_add(1000 + k));
+                k += 1;
+                let mc = km_montecarlo::solve(&scene, &opts)?;
+                t_mc += t.elapsed().as_secs_f64();
+                let c = &mc.channels[0];
+                pts.push(Point {
+                    eta,
+                    g,
+                    albedo,
+                    dipole,
+                    mf,
+                    mf_half,
+                    single: single_scattering_reflectance(albedo, g, eta),
+                    mc: c.reflectance - c.reflectance_specular,
+                    mc_se: methods::stderr_of(&mc, "reflectance").unwrap_or(f64::NAN),
+                });
             }
-            csv.push_nums(&row);
         }
-        let stem = format!("diffusion-limits-rd-{name}");
-        ctx.csv(&stem, &mut csv)?;
+    }
+    Ok((pts, (t_dip, t_mf, t_mc)))
+}
+
+/// `diffusion-limits-total.csv`: every point.
+fn totals_csv(ctx: &Ctx, pts: &[Point], grid: &Grid) -> anyhow::Result<()> {
+    let (samples, streams) = (grid.samples, grid.streams);
+    // CSV of every point.
+    let mut csv = Csv::new(&[
+        "eta",
+        "g",
+        "albedo",
+        "one_minus_albedo",
+        "dipole",
+        "multiflux",
+        "multiflux_half_streams",
+        "single_scattering",
+        "multiflux_minus_single",
+        "montecarlo",
+        "montecarlo_stderr",
+        "rel_err_dipole_vs_total",
+        "rel_err_dipole_vs_multiple",
+    ]);
+    csv.comment(format!(
+        "Half-space, sigma_t = 1, HG phase, ambient index 1, collimated beam at normal incidence. \
+         Diffuse reflectance = R - R_specular per unit incident power. dipole: (1 - F(1)) Rd \
+         (Jensen et al. 2001, classical, exact F_dr), multiple scattering only. multiflux: \
+         Fourier-Gauss, {streams} streams (and {} for the convergence check), all orders. \
+         single_scattering: exact first order (eq. D23 of docs/diffusion.md). montecarlo: {samples} \
+         photons per point, survival biasing, seeds base+1000+k, all orders.",
+        streams / 2
+    ));
+    for p in pts {
+        csv.push_nums(&[
+            p.eta,
+            p.g,
+            p.albedo,
+            1.0 - p.albedo,
+            p.dipole,
+            p.mf,
+            p.mf_half,
+            p.single,
+            p.mf - p.single,
+            p.mc,
+            p.mc_se,
+            p.err_total(),
+            p.err_multiple(),
+        ]);
+    }
+    ctx.csv("diffusion-limits-total", &mut csv)
+}
+
+/// The charts: reflectance against `1 - albedo` (one per `g`), and the
+/// dipole's relative error.
+fn totals_charts(ctx: &Ctx, pts: &[Point], grid: &Grid) -> anyhow::Result<()> {
+    let Grid { gs, etas, samples, streams, .. } = *grid;
+    // Charts: reflectance against 1 - albedo, one per g.
+    for (gi, &g) in gs.iter().enumerate() {
         let mut series = Vec::new();
-        let colours = [3, 2, 0];
-        for (c, ch) in ["R", "G", "B"].iter().enumerate() {
-            let col = colours[c];
-            let xy = |v: &[f64]| -> Vec<(f64, f64)> {
-                mc.r.iter().copied().zip(v.iter().copied()).collect()
+        for (ei, &eta) in etas.iter().enumerate() {
+            let c = 4 * ei;
+            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
+                case_pts(pts, eta, g).map(|p| (1.0 - p.albedo, f(p))).collect()
             };
-            series.push(Series::new(format!("dipole {ch}"), xy(&dip[c]), Mark::Line, col));
+            series.push(Series::new(
+                format!("dipole, eta {eta}"),
+                xy(&|p| p.dipole),
+                Mark::Line,
+                c,
+            ));
+            series.push(Series::new(
+                format!("multi-flux {streams} (all orders), eta {eta}"),
+                xy(&|p| p.mf),
+                Mark::LinePoints,
+                c + 1,
+            ));
+            series.push(Series::new(
+                format!("multi-flux minus single scattering, eta {eta}"),
+                xy(&|p| p.mf - p.single),
+                Mark::Dashed,
+                c + 2,
+            ));
             series.push(
                 Series::new(
-                    format!("Monte Carlo {ch} (± 1 s.e.)"),
-                    xy(&mc.rd[c]),
+                    format!("Monte Carlo {samples:.1e} (± 1 s.e.), eta {eta}"),
+                    xy(&|p| p.mc),
                     Mark::Points,
-                    col,
+                    c + 3,
                 )
-                .with_y_err(mc.stderr[c].clone()),
+                .with_y_err(case_pts(pts, eta, g).map(|p| p.mc_se).collect()),
             );
-            // Table row.
-            let sp = preset.sigma_s_prime[c];
-            let st = sp + preset.sigma_a[c];
-            let mfp = 1.0 / st;
-            let ratio0 = dip[c][0] / mc.rd[c][0];
-            let mut rel: Vec<f64> = (0..mc.r.len())
-                .filter(|&i| mc.r[i] >= mfp && mc.rd[c][i] > 0.0)
-                .filter(|&i| mc.stderr[c][i] < 0.1 * mc.rd[c][i])
-                .map(|i| (dip[c][i] / mc.rd[c][i] - 1.0).abs())
-                .collect();
-            rel.sort_by(f64::total_cmp);
-            let median = rel.get(rel.len() / 2).copied().unwrap_or(f64::NAN);
-            // Power escaping inside and beyond one transport mean free path,
-            // sum of 2 pi r_i dr Rd(r_i) over the annuli (MC s.e. added in
-            // quadrature, annuli taken as independent).
-            let ring = |i: usize| 2.0 * std::f64::consts::PI * mc.r[i] * bins.dr;
-            let band = |near: bool| {
-                let idx = (0..mc.r.len()).filter(|&i| (mc.r[i] < mfp) == near);
-                let (mut d, mut m, mut v) = (0.0, 0.0, 0.0);
-                for i in idx {
-                    d += ring(i) * dip[c][i];
-                    m += ring(i) * mc.rd[c][i];
-                    v += (ring(i) * mc.stderr[c][i]).powi(2);
-                }
-                if m > 0.0 {
-                    format!("{:.3} ± {:.3}", d / m, d / m * v.sqrt() / m)
-                } else {
-                    "-".into()
-                }
-            };
-            let mcc = &mc.solution.channels[c];
-            let mc_tot = mcc.reflectance - mcc.reflectance_specular;
-            if median.is_finite() {
-                worst.push((median, format!("{name} {ch}")));
-            }
-            table.push(vec![
-                name.to_string(),
-                ch.to_string(),
-                format!("{:.4}", sp / st),
-                format!("{mfp:.2}"),
-                format!("{ratio0:.3}"),
-                band(true),
-                band(false),
-                if median.is_finite() {
-                    format!("{:.1} % ({} annuli)", 100.0 * median, rel.len())
-                } else {
-                    "- (no annulus with s.e. < 10 %)".into()
-                },
-                format!("{:.3}", entering * dip_tot[c] / mc_tot),
-            ]);
         }
-        // The y axis spans the Monte Carlo points (down to a third of the
-        // smallest): the dipole goes on decaying far below what the tracer
-        // resolves, and its lines are cut at the axis.
-        let mc_pos = mc.rd.iter().flatten().copied().filter(|v| v.is_finite() && *v > 0.0);
-        let (lo, hi) = mc_pos.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
-        let top = dip.iter().flatten().copied().filter(|v| v.is_finite()).fold(hi, f64::max);
+        let stem = format!("diffusion-limits-total-g{}", if gi == 0 { "0" } else { "09" });
         let chart = LineChart {
-            title: format!("Rd(r) of {name}: dipole vs Monte Carlo (R, G, B)"),
-            x_label: "r (mm)".into(),
-            y_label: "Rd(r) (1/mm^2)".into(),
+            title: format!("Half-space diffuse reflectance, g = {g}, normal incidence"),
+            x_label: "1 - albedo".into(),
+            y_label: "R - R_specular".into(),
+            x_log: true,
             y_log: true,
-            y_range: (lo.is_finite() && top > lo).then_some((lo / 3.0, 2.0 * top)),
             series,
             ..Default::default()
         };
         ctx.chart(&stem, &chart)?;
-        sec.figure(
-            &stem,
-            format!(
-                "Rd(r) of {name}: dipole (lines) against Monte Carlo ({samples:.1e} photons per \
-                 channel, points with ± 1 standard error, a bar reaching zero cut at the axis; the axis spans the Monte Carlo points, the dipole lines are cut at its bottom); MC \
-                 {t_mc:.1} s"
-            ),
-        );
     }
-    sec.text(format!(
-        "`Rd(r)` of measured materials (Jensen et al. 2001 presets, lengths in mm, `g = 0` with \
-         `sigma_s = sigma_s'`, the preset's index) under a pencil beam at normal incidence: the \
-         dipole `(1 - F(1)) Rd(r)` (per unit incident power, multiple scattering only) against \
-         the Monte Carlo radial profile (all orders, {count} annuli over 10 mm, 20 mm for \
-         ketchup). The Monte Carlo profile has a single-scattering peak near `r = 0` that the \
-         dipole lacks (first-annulus column). The power columns compare `sum 2 pi r dr Rd(r)` \
-         inside and beyond one transport mean free path `1/sigma_t'` (Monte Carlo standard error \
-         propagated); the median is over the annuli beyond `1/sigma_t'` whose Monte Carlo \
-         standard error is below 10 %. `alpha'` is the reduced albedo of the channel: the \
-         lower it is, the worse diffusion."
-    ))
-    .table(table);
-    worst.sort_by(|a, b| b.0.total_cmp(&a.0));
-    Ok(match worst.first() {
-        Some((m, w)) if m.is_finite() => {
-            format!("Rd(r) worst median error {:.0} % ({w})", 100.0 * m)
+    // Chart: |relative error| of the dipole against 1 - albedo.
+    let mut series = Vec::new();
+    for (ei, &eta) in etas.iter().enumerate() {
+        for (gi, &g) in gs.iter().enumerate() {
+            let c = 2 * ei + gi;
+            let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
+                case_pts(pts, eta, g).map(|p| (1.0 / (1.0 - p.albedo), f(p).abs())).collect()
+            };
+            series.push(Series::new(
+                format!("vs total, g {g}, eta {eta}"),
+                xy(&|p| p.err_total()),
+                Mark::LinePoints,
+                c,
+            ));
+            series.push(Series::new(
+                format!("vs multiple scattering, g {g}, eta {eta}"),
+                xy(&|p| p.err_multiple()),
+                Mark::Dashed,
+                c,
+            ));
         }
-        _ => "Rd(r) computed".into(),
-    })
+    }
+    let chart = LineChart {
+        title: "Dipole: |relative error| against multi-flux".into(),
+        x_label: "1 / (1 - albedo)".into(),
+        y_label: "|dipole / reference - 1|".into(),
+        x_log: true,
+        y_log: true,
+        series,
+        h_lines: vec![(THRESHOLD, "10 %".into())],
+        ..Default::default()
+    };
+    ctx.chart("diffusion-limits-error", &chart)
+}
+
+/// The thresholds table (per `eta`, `g`) and the headline's words.
+fn threshold_table(pts: &[Point], grid: &Grid) -> (Table, Vec<String>) {
+    let Grid { gs, etas, .. } = *grid;
+    let mut tt = Table::new(&[
+        "eta",
+        "g",
+        "albedo below which |dipole/total - 1| > 10 %",
+        "same vs multiple scattering",
+        "worst |error| vs total (albedo)",
+        "error vs total at albedo 0.99",
+        "multi-flux convergence max |R(N) - R(N/2)|",
+        "max |MC - multi-flux| / MC s.e.",
+    ]);
+    let mut headline = Vec::new();
+    for &eta in etas {
+        for &g in gs {
+            let c: Vec<&Point> = case_pts(pts, eta, g).collect();
+            let a: Vec<f64> = c.iter().map(|p| p.albedo).collect();
+            let et: Vec<f64> = c.iter().map(|p| p.err_total()).collect();
+            let em: Vec<f64> = c.iter().map(|p| p.err_multiple()).collect();
+            let tt_total = threshold_albedo(&a, &et);
+            let worst = c
+                .iter()
+                .max_by(|x, y| x.err_total().abs().total_cmp(&y.err_total().abs()))
+                .map(|p| format!("{:+.1} % ({})", 100.0 * p.err_total(), p.albedo))
+                .unwrap_or_default();
+            let at99 = c
+                .iter()
+                .find(|p| p.albedo == 0.99)
+                .map(|p| format!("{:+.1} %", 100.0 * p.err_total()))
+                .unwrap_or_else(|| "-".into());
+            let conv = c.iter().map(|p| (p.mf - p.mf_half).abs()).fold(0.0, f64::max);
+            let z = c.iter().map(|p| (p.mc - p.mf).abs() / p.mc_se).fold(0.0, f64::max);
+            if eta == 1.0 {
+                headline.push(format!(
+                    "eta 1, g {g}: off > 10 % below albedo {}",
+                    threshold_words(tt_total)
+                ));
+            }
+            tt.push(vec![
+                format!("{eta}"),
+                format!("{g}"),
+                threshold_words(tt_total),
+                threshold_words(threshold_albedo(&a, &em)),
+                worst,
+                at99,
+                format!("{conv:.1e}"),
+                format!("{z:.1}"),
+            ]);
+        }
+    }
+    (tt, headline)
+}
+
+/// The table of every point.
+fn points_table(pts: &[Point]) -> Table {
+    let mut tp = Table::new(&[
+        "eta",
+        "g",
+        "albedo",
+        "dipole",
+        "multi-flux (all orders)",
+        "single scattering",
+        "Monte Carlo",
+        "dipole vs total",
+        "dipole vs multiple",
+    ]);
+    for p in pts {
+        tp.push(vec![
+            format!("{}", p.eta),
+            format!("{}", p.g),
+            format!("{}", p.albedo),
+            format!("{:.4}", p.dipole),
+            format!("{:.4}", p.mf),
+            format!("{:.4}", p.single),
+            format!("{:.4} ± {:.4}", p.mc, p.mc_se),
+            format!("{:+.1} %", 100.0 * p.err_total()),
+            format!("{:+.1} %", 100.0 * p.err_multiple()),
+        ]);
+    }
+    tp
+}
+
+/// Seconds, compactly.
+fn secs(s: f64) -> String {
+    format!("{} s", format_number(s))
 }
 
 #[cfg(test)]

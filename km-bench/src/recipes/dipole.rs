@@ -6,10 +6,10 @@
 use km_core::Substrate;
 
 use crate::chart::{LineChart, Mark, Series, format_number};
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods::{self, Method};
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 use crate::scenes::slab;
 
 /// `Rd(r)`: dipole against Monte Carlo, and totals against multi-flux.

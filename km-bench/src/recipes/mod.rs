@@ -12,7 +12,7 @@ pub mod savings;
 pub mod speed;
 pub mod stability;
 
-use crate::reproduce::Recipe;
+use crate::context::Recipe;
 
 /// Every recipe, in report order.
 pub fn all() -> Vec<Recipe> {

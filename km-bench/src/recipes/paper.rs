@@ -11,11 +11,11 @@ use km_multiflux::direction_set::{self, Combine, StackResponse};
 use km_multiflux::flatland;
 
 use crate::chart::{LineChart, Mark, PolarChart, PolarCurve, PolarSpike, Series, format_number};
+use crate::context::Ctx;
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::recipes::common::{response_chart, response_csv, response_csv_new};
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 use crate::scenes::slab;
 
 /// Directions of the direction-set solver: the seed's 303 (§4.2) except at the tiny size.
@@ -208,24 +208,18 @@ fn fig67_scene(albedo: f64, g: f64, dirs: Vec<[f64; 2]>) -> anyhow::Result<km_co
     slab(1.0, albedo, g, 1.0, 45.0, Substrate::Transparent { n: 1.0 }, dirs)
 }
 
-/// Fig. 6 and 7 share this: polar charts of a parameter sweep, and R, T against the parameter.
-fn sweep(
-    ctx: &mut Ctx,
+/// The distributions of a sweep: the polar chart (one colour per value, R
+/// solid, T dashed) and their CSV.
+fn sweep_distributions(
+    ctx: &Ctx,
     stem: &str,
     title: &str,
-    param: &str,
-    values: &[f64],
-    scene_of: impl Fn(f64) -> anyhow::Result<km_core::Scene>,
-) -> anyhow::Result<(Section, Table)> {
-    let nd = n_directions(ctx);
-    let mut responses: Vec<(f64, StackResponse)> = Vec::new();
-    for &v in values {
-        let s = scene_of(v)?;
-        responses.push((v, direction_set::brdf_for_incidence(&s.channels[0], nd, Combine::Exact)?));
-    }
-    let labels: Vec<String> = responses.iter().map(|(v, _)| format!("{param} = {v}")).collect();
+    nd: usize,
+    responses: &[(f64, StackResponse)],
+    labels: &[String],
+) -> anyhow::Result<()> {
     let curves: Vec<(&str, &StackResponse, bool)> =
-        responses.iter().zip(&labels).map(|((_, r), l)| (l.as_str(), r, false)).collect();
+        responses.iter().zip(labels).map(|((_, r), l)| (l.as_str(), r, false)).collect();
     let mut polar = response_chart(title, 45.0, &curves);
     // One colour per parameter value, R solid and T dashed.
     for (i, c) in polar.curves.iter_mut().enumerate() {
@@ -242,10 +236,29 @@ fn sweep(
     csv.comment(format!(
         "{title}: direction set of about {nd} directions, tau = 1, index-matched, 45 deg"
     ));
-    for ((_, r), l) in responses.iter().zip(&labels) {
+    for ((_, r), l) in responses.iter().zip(labels) {
         response_csv(&mut csv, l, r);
     }
-    ctx.csv(stem, &mut csv)?;
+    ctx.csv(stem, &mut csv)
+}
+
+/// Fig. 6 and 7 share this: polar charts of a parameter sweep, and R, T against the parameter.
+fn sweep(
+    ctx: &mut Ctx,
+    stem: &str,
+    title: &str,
+    param: &str,
+    values: &[f64],
+    scene_of: impl Fn(f64) -> anyhow::Result<km_core::Scene>,
+) -> anyhow::Result<(Section, Table)> {
+    let nd = n_directions(ctx);
+    let mut responses: Vec<(f64, StackResponse)> = Vec::new();
+    for &v in values {
+        let s = scene_of(v)?;
+        responses.push((v, direction_set::brdf_for_incidence(&s.channels[0], nd, Combine::Exact)?));
+    }
+    let labels: Vec<String> = responses.iter().map(|(v, _)| format!("{param} = {v}")).collect();
+    sweep_distributions(ctx, stem, title, nd, &responses, &labels)?;
     // Totals against the parameter: direction set and the other methods available.
     let mut totals = Csv::new(&[param, "method", "R", "T", "seconds"]);
     totals.comment(format!("{title}: totals, tau = 1, index-matched, 45 deg"));
@@ -374,7 +387,7 @@ pub fn fig7(ctx: &mut Ctx) -> anyhow::Result<Section> {
 /// Solver, drawing or file errors.
 pub fn fig9(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let nd = n_directions(ctx);
-    let ex = direction_set::seed_example_3_layers(nd)?;
+    let ex = crate::seed::seed_example_3_layers(nd)?;
     let panels: [(&str, &str, &StackResponse); 4] = [
         ("fig9a", "(a) interface n = 1 -> 1.3", &ex.interface),
         ("fig9b", "(b) coating alone (index-matched)", &ex.layer),
@@ -421,7 +434,7 @@ pub fn fig9(ctx: &mut Ctx) -> anyhow::Result<Section> {
 /// Solver, drawing or file errors.
 pub fn fig10(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let nd = n_directions(ctx);
-    let st = direction_set::seed_truncation_study(nd)?;
+    let st = crate::seed::seed_truncation_study(nd)?;
     let chart = response_chart(
         "Fig. 10: exact adding (solid) and 0th-order truncation (dashed)",
         45.0,

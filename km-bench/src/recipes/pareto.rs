@@ -3,13 +3,15 @@
 //! solver's wall time, for every method over its range of settings; and the
 //! time each method needs to reach 1 %, 0.1 % and 0.01 %.
 
+use km_core::Scene;
+
 use crate::chart::{LineChart, Mark, Series, format_number};
+use crate::context::{Ctx, Size};
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::recipes::accuracy::{rel, rel_rms, rel_rms_noise};
 use crate::report::{Section, Table};
-use crate::reproduce::{Ctx, Size};
-use crate::scenes::study_scenes;
+use crate::scenes::{StudyScene, study_scenes};
 
 /// One method at one setting on one scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -142,126 +144,11 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         let reference = methods::solve(Method::Multiflux { streams: ref_streams }, &sc.scene)?;
         let rc = reference.channels.first().ok_or_else(|| anyhow::anyhow!("empty reference"))?;
         let (r_ref, b_ref) = (rc.reflectance, rc.brdf.clone());
-        let mut points: Vec<Point> = ladder(ctx.size)
-            .into_iter()
-            .filter_map(|m| point(m, &sc.scene, r_ref, &b_ref))
-            .collect();
-        let mut samples = 1_000u64;
-        while samples <= mc_cap {
-            let Some(p) =
-                point(Method::MonteCarlo { samples, seed: ctx.seed }, &sc.scene, r_ref, &b_ref)
-            else {
-                break;
-            };
-            let t = p.seconds;
-            points.push(p);
-            if t * 10.0 > mc_budget {
-                break;
-            }
-            samples *= 10;
-        }
-        // CSV.
-        let mut csv = Csv::new(&[
-            "family",
-            "method",
-            "setting",
-            "seconds",
-            "rel_err_R",
-            "rel_rms_err_BRDF",
-            "R",
-        ]);
-        csv.comment(format!("accuracy vs time, scene {}: {}", sc.name, sc.description));
-        csv.comment(format!("reference: multi-flux {ref_streams} streams, R = {r_ref:e}"));
-        for p in &points {
-            csv.push(vec![
-                p.method.family().into(),
-                p.method.to_string(),
-                num(p.method.setting()),
-                num(p.seconds),
-                num(p.err_r),
-                num(p.err_brdf),
-                num(p.r),
-            ]);
-        }
+        let points = scene_points(ctx, &sc.scene, r_ref, &b_ref, (mc_cap, mc_budget));
         let stem = format!("pareto-{}", sc.name);
-        ctx.csv(&stem, &mut csv)?;
-        // Charts: one per error measure.
-        let families = ["km", "multiflux", "neumann", "direction-set", "montecarlo", "dipole"];
-        type Get = fn(&Point) -> f64;
-        for (suffix, measure, get, get_se) in [
-            ("R", "relative error of R", (|p: &Point| p.err_r) as Get, (|p: &Point| p.se_r) as Get),
-            (
-                "brdf",
-                "relative RMS error of the BRDF",
-                |p: &Point| p.err_brdf,
-                |p: &Point| p.se_brdf,
-            ),
-        ] {
-            let mut chart = LineChart {
-                title: format!("{}: {measure} against time", sc.name),
-                x_label: "solver wall time (s)".into(),
-                y_label: measure.into(),
-                x_log: true,
-                y_log: true,
-                h_lines: vec![
-                    (1e-2, "1 %".into()),
-                    (1e-3, "0.1 %".into()),
-                    (1e-4, "0.01 %".into()),
-                ],
-                ..Default::default()
-            };
-            for (k, fam) in families.iter().enumerate() {
-                let mut pts: Vec<(f64, f64, f64)> = points
-                    .iter()
-                    .filter(|p| p.method.family() == *fam && get(p).is_finite())
-                    .map(|p| (p.seconds.max(1e-9), get(p).max(ERR_FLOOR), get_se(p)))
-                    .collect();
-                if pts.is_empty() {
-                    continue;
-                }
-                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1)).collect();
-                // Monte Carlo: points with their ± 1 standard error (a line
-                // through noisy errors would suggest a trend that is noise).
-                let series = if *fam == "montecarlo" {
-                    Series::new("Monte Carlo (± 1 s.e.)", xy, Mark::Points, k)
-                        .with_y_err(pts.iter().map(|p| p.2).collect())
-                } else {
-                    Series::new(*fam, xy, Mark::LinePoints, k)
-                };
-                chart.series.push(series);
-            }
-            ctx.chart(&format!("{stem}-{suffix}"), &chart)?;
-            sec.figure_data(
-                format!("{stem}-{suffix}"),
-                format!("{}: {measure} against wall time", sc.description),
-                &stem,
-            );
-        }
-        // Time to reach each threshold, per family.
-        for fam in families {
-            let fam_points: Vec<&Point> =
-                points.iter().filter(|p| p.method.family() == fam).collect();
-            if fam_points.is_empty() {
-                continue;
-            }
-            let time_to = |thr: f64, get: fn(&Point) -> f64| -> String {
-                fam_points
-                    .iter()
-                    .filter(|p| get(p) <= thr)
-                    .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
-                    .map(|p| format!("{} s ({})", format_number(p.seconds), p.method))
-                    .unwrap_or_else(|| "not reached".into())
-            };
-            let mut row = vec![sc.name.to_string(), fam.to_string()];
-            for thr in THRESHOLDS {
-                row.push(time_to(thr, |p| p.bound_r));
-            }
-            for thr in THRESHOLDS {
-                row.push(time_to(thr, |p| p.bound_brdf));
-            }
-            reach.push(row);
-        }
+        pareto_csv(ctx, &stem, sc, ref_streams, r_ref, &points)?;
+        pareto_charts(ctx, &mut sec, sc, &stem, &points)?;
+        reach_rows(&mut reach, sc.name, &points);
         if let Some(p) = points
             .iter()
             .filter(|p| p.bound_r <= 1e-3)
@@ -279,4 +166,135 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
     .table(reach);
     ctx.headline = format!("fastest to 0.1 % in R: {}", best_summary.join("; "));
     Ok(sec)
+}
+
+/// The method families of the charts and the table, in legend order.
+const FAMILIES: [&str; 6] = ["km", "multiflux", "neumann", "direction-set", "montecarlo", "dipole"];
+
+/// Every setting of the ladder on `scene`, then Monte Carlo at x10 photons
+/// per step while the next step fits `mc = (photon cap, seconds budget)`.
+fn scene_points(ctx: &Ctx, scene: &Scene, r_ref: f64, b_ref: &[f64], mc: (u64, f64)) -> Vec<Point> {
+    let (mc_cap, mc_budget) = mc;
+    let mut points: Vec<Point> =
+        ladder(ctx.size).into_iter().filter_map(|m| point(m, scene, r_ref, b_ref)).collect();
+    let mut samples = 1_000u64;
+    while samples <= mc_cap {
+        let Some(p) = point(Method::MonteCarlo { samples, seed: ctx.seed }, scene, r_ref, b_ref)
+        else {
+            break;
+        };
+        let t = p.seconds;
+        points.push(p);
+        if t * 10.0 > mc_budget {
+            break;
+        }
+        samples *= 10;
+    }
+    points
+}
+
+/// `pareto-SCENE.csv`: every point of one scene.
+fn pareto_csv(
+    ctx: &Ctx,
+    stem: &str,
+    sc: &StudyScene,
+    ref_streams: usize,
+    r_ref: f64,
+    points: &[Point],
+) -> anyhow::Result<()> {
+    let mut csv =
+        Csv::new(&["family", "method", "setting", "seconds", "rel_err_R", "rel_rms_err_BRDF", "R"]);
+    csv.comment(format!("accuracy vs time, scene {}: {}", sc.name, sc.description));
+    csv.comment(format!("reference: multi-flux {ref_streams} streams, R = {r_ref:e}"));
+    for p in points {
+        csv.push(vec![
+            p.method.family().into(),
+            p.method.to_string(),
+            num(p.method.setting()),
+            num(p.seconds),
+            num(p.err_r),
+            num(p.err_brdf),
+            num(p.r),
+        ]);
+    }
+    ctx.csv(stem, &mut csv)
+}
+
+/// The charts of one scene, one per error measure (R, BRDF), against time.
+fn pareto_charts(
+    ctx: &Ctx,
+    sec: &mut Section,
+    sc: &StudyScene,
+    stem: &str,
+    points: &[Point],
+) -> anyhow::Result<()> {
+    type Get = fn(&Point) -> f64;
+    for (suffix, measure, get, get_se) in [
+        ("R", "relative error of R", (|p: &Point| p.err_r) as Get, (|p: &Point| p.se_r) as Get),
+        ("brdf", "relative RMS error of the BRDF", |p: &Point| p.err_brdf, |p: &Point| p.se_brdf),
+    ] {
+        let mut chart = LineChart {
+            title: format!("{}: {measure} against time", sc.name),
+            x_label: "solver wall time (s)".into(),
+            y_label: measure.into(),
+            x_log: true,
+            y_log: true,
+            h_lines: vec![(1e-2, "1 %".into()), (1e-3, "0.1 %".into()), (1e-4, "0.01 %".into())],
+            ..Default::default()
+        };
+        for (k, fam) in FAMILIES.iter().enumerate() {
+            let mut pts: Vec<(f64, f64, f64)> = points
+                .iter()
+                .filter(|p| p.method.family() == *fam && get(p).is_finite())
+                .map(|p| (p.seconds.max(1e-9), get(p).max(ERR_FLOOR), get_se(p)))
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1)).collect();
+            // Monte Carlo: points with their ± 1 standard error (a line
+            // through noisy errors would suggest a trend that is noise).
+            let series = if *fam == "montecarlo" {
+                Series::new("Monte Carlo (± 1 s.e.)", xy, Mark::Points, k)
+                    .with_y_err(pts.iter().map(|p| p.2).collect())
+            } else {
+                Series::new(*fam, xy, Mark::LinePoints, k)
+            };
+            chart.series.push(series);
+        }
+        ctx.chart(&format!("{stem}-{suffix}"), &chart)?;
+        sec.figure_data(
+            format!("{stem}-{suffix}"),
+            format!("{}: {measure} against wall time", sc.description),
+            stem,
+        );
+    }
+    Ok(())
+}
+
+/// Rows of the table: per family, the time to reach each threshold.
+fn reach_rows(reach: &mut Table, name: &str, points: &[Point]) {
+    for fam in FAMILIES {
+        let fam_points: Vec<&Point> = points.iter().filter(|p| p.method.family() == fam).collect();
+        if fam_points.is_empty() {
+            continue;
+        }
+        let time_to = |thr: f64, get: fn(&Point) -> f64| -> String {
+            fam_points
+                .iter()
+                .filter(|p| get(p) <= thr)
+                .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
+                .map(|p| format!("{} s ({})", format_number(p.seconds), p.method))
+                .unwrap_or_else(|| "not reached".into())
+        };
+        let mut row = vec![name.to_string(), fam.to_string()];
+        for thr in THRESHOLDS {
+            row.push(time_to(thr, |p| p.bound_r));
+        }
+        for thr in THRESHOLDS {
+            row.push(time_to(thr, |p| p.bound_brdf));
+        }
+        reach.push(row);
+    }
 }

@@ -7,10 +7,10 @@
 use km::{McOptions, Method, MultifluxOptions, Options, Scene};
 
 use crate::chart::format_number;
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::recipes::common::{Spread, ratio_text};
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 
 /// Multi-flux agreement where the skipped work is exact (an identity
 /// interface, a zero scattering term, an order that is not excited): rounding only.
@@ -182,6 +182,65 @@ fn mc_sigmas(a: &km_core::Solution, b: &km_core::Solution) -> (f64, f64) {
     (worst, se_r)
 }
 
+/// The CSV of the savings table, with its header comment.
+fn savings_csv(k: usize, k_mc: usize, samples: u64, seed: u64) -> Csv {
+    let mut csv = Csv::new(&[
+        "scene",
+        "method",
+        "skipped",
+        "planned_s_median",
+        "planned_s_min",
+        "planned_s_max",
+        "all_effects_s_median",
+        "all_effects_s_min",
+        "all_effects_s_max",
+        "speedup_median_ratio",
+        "speedup_min",
+        "speedup_max",
+        "max_diff",
+        "tolerance",
+        "equal",
+    ]);
+    csv.comment(format!(
+    "solver time: median, min and max of {k} runs (multi-flux, default streams) or of {k_mc} (Monte Carlo, \
+     {samples} photons, one thread, seed {}); tolerance: multi-flux {MF_TOL:e} (+ the transmission \
+     cut-off bound), Monte Carlo 4 combined standard errors",
+    seed
+));
+    csv
+}
+
+/// The planned and the full solution compared: (difference, tolerance,
+/// both in words). Monte Carlo: in combined standard errors, within 4;
+/// multi-flux: the largest absolute difference, within rounding plus the
+/// bound of a transmission cut-off.
+fn difference(
+    method: &str,
+    planned: &km_core::Solution,
+    full: &km_core::Solution,
+) -> (f64, f64, String, String) {
+    if method == "mc" {
+        let (sig, se) = mc_sigmas(planned, full);
+        let d = max_diff(planned, full);
+        (
+            sig,
+            4.0,
+            format!("{} ({:.2} se)", format_number(d), sig),
+            format!("4 se = {}", format_number(4.0 * se)),
+        )
+    } else {
+        let bound = planned.extra.get("cutoff_bound").and_then(|v| v.as_f64()).unwrap_or(0.0);
+        let tol = MF_TOL + bound;
+        let d = max_diff(planned, full);
+        let tt = if bound > 0.0 {
+            format!("{MF_TOL:.0e} + cut-off {}", format_number(bound))
+        } else {
+            format!("{MF_TOL:.0e}")
+        };
+        (d, tol, format_number(d), tt)
+    }
+}
+
 /// The savings table: time with the plan vs everything on.
 ///
 /// # Errors
@@ -201,29 +260,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         "tolerance",
         "equal",
     ]);
-    let mut csv = Csv::new(&[
-        "scene",
-        "method",
-        "skipped",
-        "planned_s_median",
-        "planned_s_min",
-        "planned_s_max",
-        "all_effects_s_median",
-        "all_effects_s_min",
-        "all_effects_s_max",
-        "speedup_median_ratio",
-        "speedup_min",
-        "speedup_max",
-        "max_diff",
-        "tolerance",
-        "equal",
-    ]);
-    csv.comment(format!(
-        "solver time: median, min and max of {k} runs (multi-flux, default streams) or of {k_mc} (Monte Carlo, \
-         {samples} photons, one thread, seed {}); tolerance: multi-flux {MF_TOL:e} (+ the transmission \
-         cut-off bound), Monte Carlo 4 combined standard errors",
-        ctx.seed
-    ));
+    let mut csv = savings_csv(k, k_mc, samples, ctx.seed);
     let (mut n_equal, mut n) = (0, 0);
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
     for (name, method, text) in scenes() {
@@ -232,26 +269,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         let reps = if method == "mc" { k_mc } else { k };
         let (planned, tp) = best_of(reps, &scene, method, false, samples, ctx.seed)?;
         let (full, tf) = best_of(reps, &scene, method, true, samples, ctx.seed)?;
-        let (diff, tol, diff_text, tol_text) = if method == "mc" {
-            let (sig, se) = mc_sigmas(&planned, &full);
-            let d = max_diff(&planned, &full);
-            (
-                sig,
-                4.0,
-                format!("{} ({:.2} se)", format_number(d), sig),
-                format!("4 se = {}", format_number(4.0 * se)),
-            )
-        } else {
-            let bound = planned.extra.get("cutoff_bound").and_then(|v| v.as_f64()).unwrap_or(0.0);
-            let tol = MF_TOL + bound;
-            let d = max_diff(&planned, &full);
-            let tt = if bound > 0.0 {
-                format!("{MF_TOL:.0e} + cut-off {}", format_number(bound))
-            } else {
-                format!("{MF_TOL:.0e}")
-            };
-            (d, tol, format_number(d), tt)
-        };
+        let (diff, tol, diff_text, tol_text) = difference(method, &planned, &full);
         let equal = diff <= tol;
         n += 1;
         n_equal += usize::from(equal);

@@ -8,17 +8,17 @@
 
 use std::time::Instant;
 
-use km_core::Solution;
+use km_core::{Scene, Solution};
 use km_multiflux::direction_set::{self, Combine};
 
 use crate::chart::{LineChart, Mark, PolarChart, PolarCurve, Series, format_number, plane_angle};
+use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods::{self, Method};
 use crate::recipes::accuracy::{rel_rms, rel_rms_noise};
-use crate::recipes::common::{plane_cut, ratio_text, timed_spread};
+use crate::recipes::common::{Spread, plane_cut, ratio_text, timed_spread};
 use crate::recipes::paper::n_directions;
 use crate::report::{Section, Table};
-use crate::reproduce::Ctx;
 use crate::scenes::{hemisphere_directions, plane_directions, seed_three_layers};
 
 /// Samples per incident direction in the seed's Monte Carlo (§4.2).
@@ -68,93 +68,17 @@ pub fn fig5(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let pts = |v: &[f64]| -> Vec<(f64, f64)> {
         order.iter().filter_map(|&i| Some((psi[i], *v.get(i)?))).collect()
     };
-    let ds_pts: Vec<(f64, f64)> =
-        plane_cut(&ds.reflected, true, false).iter().map(|p| (p.0, p.1)).collect();
-    let line = LineChart {
-        title: "Fig. 5: BRDF in the plane of incidence, multi-flux vs Monte Carlo".into(),
-        x_label: "exit angle in the plane (deg; + = mirror side)".into(),
-        y_label: "BRDF (1/sr)".into(),
-        series: vec![
-            Series::new(
-                format!("multi-flux {ref_streams} streams (reference)"),
-                pts(&b_ref),
-                Mark::Line,
-                0,
-            ),
-            Series::new(
-                format!("multi-flux {} streams", km_multiflux::DEFAULT_STREAMS),
-                pts(&b_mf),
-                Mark::Dashed,
-                2,
-            ),
-            Series::new(
-                format!("Monte Carlo {samples:.0e} (5 deg cones, ± 1 s.e.)"),
-                pts(&b_mc),
-                Mark::Points,
-                3,
-            )
-            .with_y_err(order.iter().map(|&i| mc_se.get(i).copied().unwrap_or(f64::NAN)).collect()),
-            Series::new(
-                format!("direction set {} (nodes near the plane)", ds.n_directions),
-                ds_pts.clone(),
-                Mark::Points,
-                4,
-            ),
-        ],
-        ..Default::default()
+    let curves = Fig5Curves {
+        reference: pts(&b_ref),
+        multiflux: pts(&b_mf),
+        mc: pts(&b_mc),
+        mc_err: order.iter().map(|&i| mc_se.get(i).copied().unwrap_or(f64::NAN)).collect(),
+        direction_set: plane_cut(&ds.reflected, true, false).iter().map(|p| (p.0, p.1)).collect(),
+        direction_set_n: ds.n_directions,
     };
-    ctx.chart("fig5", &line)?;
-    let polar = PolarChart {
-        // Monte Carlo, with its error bars, is in the line chart: a polar
-        // curve cannot carry them.
-        title: "Fig. 5: multi-flux, reference (line) and default streams (dashed)".into(),
-        incidence_deg: Some(45.0),
-        curves: vec![
-            PolarCurve {
-                label: format!("multi-flux {ref_streams} streams"),
-                points: pts(&b_ref),
-                colour: 0,
-                dashed: false,
-            },
-            PolarCurve {
-                label: format!("multi-flux {} streams", km_multiflux::DEFAULT_STREAMS),
-                points: pts(&b_mf),
-                colour: 2,
-                dashed: true,
-            },
-        ],
-        spikes: vec![],
-        r_label: "BRDF, 1/sr".into(),
-        surface: true,
-    };
-    ctx.chart("fig5-polar", &polar)?;
-    let mut csv = Csv::new(&[
-        "theta_deg",
-        "phi_deg",
-        "psi_deg",
-        "brdf_reference",
-        "brdf_multiflux",
-        "brdf_mc",
-        "brdf_mc_stderr",
-    ]);
-    csv.comment(format!(
-        "seed fig. 5 on the §4.4 scene; reference multi-flux {ref_streams} streams; multi-flux {} streams; \
-         Monte Carlo {samples} photons, seed {}, 5 deg cone bins",
-        km_multiflux::DEFAULT_STREAMS,
-        ctx.seed
-    ));
-    for (i, d) in dirs.iter().enumerate() {
-        csv.push_nums(&[
-            d[0],
-            d[1],
-            psi[i],
-            b_ref.get(i).copied().unwrap_or(f64::NAN),
-            b_mf.get(i).copied().unwrap_or(f64::NAN),
-            b_mc.get(i).copied().unwrap_or(f64::NAN),
-            mc_se.get(i).copied().unwrap_or(f64::NAN),
-        ]);
-    }
-    ctx.csv("fig5", &mut csv)?;
+    fig5_charts(ctx, &curves, ref_streams, samples)?;
+    let columns = [b_ref.as_slice(), &b_mf, &b_mc, &mc_se];
+    fig5_csv(ctx, &dirs, &psi, columns, ref_streams, samples)?;
     let mut t = Table::new(&[
         "method",
         "setting",
@@ -180,22 +104,7 @@ pub fn fig5(ctx: &mut Ctx) -> anyhow::Result<Section> {
         format_number(t_mf),
         "8.5 s for the whole BRDF".into(),
     ]);
-    t.push(vec![
-        "Monte Carlo".into(),
-        format!("{samples} photons"),
-        format!(
-            "{} +- {}",
-            format_number(r(&mc)),
-            format_number(methods::stderr_of(&mc, "reflectance").unwrap_or(f64::NAN))
-        ),
-        format!(
-            "{} (noise {})",
-            format_number(rel_rms(&b_mc, &b_ref)),
-            format_number(rel_rms_noise(&mc_se, &b_ref))
-        ),
-        format_number(t_mc),
-        "131 s per direction at 1e5 photons".into(),
-    ]);
+    t.push(mc_row(&mc, samples, rel_rms(&b_mc, &b_ref), rel_rms_noise(&mc_se, &b_ref), t_mc));
     t.push(vec![
         "direction set (seed's scheme)".into(),
         format!("{} directions", ds.n_directions),
@@ -226,6 +135,136 @@ pub fn fig5(ctx: &mut Ctx) -> anyhow::Result<Section> {
     Ok(sec)
 }
 
+/// The Monte Carlo row of fig. 5's table: R with its standard error, the
+/// BRDF error against the reference (and its noise part), the time.
+fn mc_row(mc: &Solution, samples: u64, error: f64, noise: f64, t_mc: f64) -> Vec<String> {
+    vec![
+        "Monte Carlo".into(),
+        format!("{samples} photons"),
+        format!(
+            "{} +- {}",
+            format_number(mc.channels.first().map_or(f64::NAN, |c| c.reflectance)),
+            format_number(methods::stderr_of(mc, "reflectance").unwrap_or(f64::NAN))
+        ),
+        format!("{} (noise {})", format_number(error), format_number(noise)),
+        format_number(t_mc),
+        "131 s per direction at 1e5 photons".into(),
+    ]
+}
+
+/// `fig5.csv`: per exit direction, the BRDF of the reference, of multi-flux
+/// and of Monte Carlo, and the Monte Carlo standard error (`columns`).
+fn fig5_csv(
+    ctx: &Ctx,
+    dirs: &[[f64; 2]],
+    psi: &[f64],
+    columns: [&[f64]; 4],
+    ref_streams: usize,
+    samples: u64,
+) -> anyhow::Result<()> {
+    let mut csv = Csv::new(&[
+        "theta_deg",
+        "phi_deg",
+        "psi_deg",
+        "brdf_reference",
+        "brdf_multiflux",
+        "brdf_mc",
+        "brdf_mc_stderr",
+    ]);
+    csv.comment(format!(
+        "seed fig. 5 on the §4.4 scene; reference multi-flux {ref_streams} streams; multi-flux {} streams; \
+         Monte Carlo {samples} photons, seed {}, 5 deg cone bins",
+        km_multiflux::DEFAULT_STREAMS,
+        ctx.seed
+    ));
+    for (i, d) in dirs.iter().enumerate() {
+        csv.push_nums(&[
+            d[0],
+            d[1],
+            psi[i],
+            columns[0].get(i).copied().unwrap_or(f64::NAN),
+            columns[1].get(i).copied().unwrap_or(f64::NAN),
+            columns[2].get(i).copied().unwrap_or(f64::NAN),
+            columns[3].get(i).copied().unwrap_or(f64::NAN),
+        ]);
+    }
+    ctx.csv("fig5", &mut csv)
+}
+
+/// The curves of fig. 5 in the plane of incidence, by exit angle `psi`.
+struct Fig5Curves {
+    reference: Vec<(f64, f64)>,
+    multiflux: Vec<(f64, f64)>,
+    mc: Vec<(f64, f64)>,
+    /// Standard errors of the Monte Carlo points.
+    mc_err: Vec<f64>,
+    direction_set: Vec<(f64, f64)>,
+    direction_set_n: usize,
+}
+
+/// Fig. 5 as a line chart (with the Monte Carlo error bars and the
+/// direction set's nodes) and as a polar plot.
+fn fig5_charts(ctx: &Ctx, c: &Fig5Curves, ref_streams: usize, samples: u64) -> anyhow::Result<()> {
+    let line = LineChart {
+        title: "Fig. 5: BRDF in the plane of incidence, multi-flux vs Monte Carlo".into(),
+        x_label: "exit angle in the plane (deg; + = mirror side)".into(),
+        y_label: "BRDF (1/sr)".into(),
+        series: vec![
+            Series::new(
+                format!("multi-flux {ref_streams} streams (reference)"),
+                c.reference.clone(),
+                Mark::Line,
+                0,
+            ),
+            Series::new(
+                format!("multi-flux {} streams", km_multiflux::DEFAULT_STREAMS),
+                c.multiflux.clone(),
+                Mark::Dashed,
+                2,
+            ),
+            Series::new(
+                format!("Monte Carlo {samples:.0e} (5 deg cones, ± 1 s.e.)"),
+                c.mc.clone(),
+                Mark::Points,
+                3,
+            )
+            .with_y_err(c.mc_err.clone()),
+            Series::new(
+                format!("direction set {} (nodes near the plane)", c.direction_set_n),
+                c.direction_set.clone(),
+                Mark::Points,
+                4,
+            ),
+        ],
+        ..Default::default()
+    };
+    ctx.chart("fig5", &line)?;
+    let polar = PolarChart {
+        // Monte Carlo, with its error bars, is in the line chart: a polar
+        // curve cannot carry them.
+        title: "Fig. 5: multi-flux, reference (line) and default streams (dashed)".into(),
+        incidence_deg: Some(45.0),
+        curves: vec![
+            PolarCurve {
+                label: format!("multi-flux {ref_streams} streams"),
+                points: c.reference.clone(),
+                colour: 0,
+                dashed: false,
+            },
+            PolarCurve {
+                label: format!("multi-flux {} streams", km_multiflux::DEFAULT_STREAMS),
+                points: c.multiflux.clone(),
+                colour: 2,
+                dashed: true,
+            },
+        ],
+        spikes: vec![],
+        r_label: "BRDF, 1/sr".into(),
+        surface: true,
+    };
+    ctx.chart("fig5-polar", &polar)
+}
+
 /// The speed-up: equal-accuracy Monte Carlo against multi-flux, and the ratio at the paper's settings.
 ///
 /// # Errors
@@ -244,51 +283,8 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let mc_se = methods::stderr_list(&mc, "brdf").unwrap_or_default();
     let noise = rel_rms_noise(&mc_se, &b_ref);
     let mc_err = rel_rms(&brdf(&mc), &b_ref);
-    let mut csv = Csv::new(&[
-        "streams",
-        "mf_seconds",
-        "mf_rel_rms",
-        "mc_samples_equal_accuracy",
-        "mc_seconds_equal_accuracy",
-        "ratio",
-    ]);
-    csv.comment(format!(
-        "equal-accuracy speed-up on the §4.4 scene; reference multi-flux {ref_streams} streams; \
-         Monte Carlo probe {samples} photons in {t_mc} s, BRDF noise (rel. RMS of stderr) {noise}"
-    ));
-    let mut t = Table::new(&[
-        "multi-flux streams",
-        "multi-flux time: median (min to max)",
-        "its BRDF error (rel. RMS)",
-        "extrapolated: MC photons for that error, N (noise/error)^2",
-        "extrapolated: MC time for that error (s)",
-        "extrapolated: speed-up at equal accuracy",
-    ]);
-    let mut headline_ratio = f64::NAN;
-    let mut rows: Vec<(usize, f64, f64)> = Vec::new();
-    for streams in [2, 4, 8, km_multiflux::DEFAULT_STREAMS, 32] {
-        let m = Method::Multiflux { streams };
-        let (sol, spread) = timed_spread(m, &scene, methods::repeats(m))?;
-        let t_mf = spread.median;
-        let e = rel_rms(&brdf(&sol), &b_ref);
-        // Noise-limited sample count: N_eq = N (noise / e)^2; time scales with N.
-        let n_eq = samples as f64 * (noise / e).powi(2);
-        let t_eq = t_mc * n_eq / samples as f64;
-        let ratio = t_eq / t_mf;
-        if streams == km_multiflux::DEFAULT_STREAMS {
-            headline_ratio = ratio;
-        }
-        rows.push((streams, t_mf, e));
-        csv.push_nums(&[streams as f64, t_mf, e, n_eq, t_eq, ratio]);
-        t.push(vec![
-            streams.to_string(),
-            spread.text(),
-            format_number(e),
-            format!("{n_eq:.2e}"),
-            format_number(t_eq),
-            format!("{ratio:.3e}"),
-        ]);
-    }
+    let probe = Probe { samples, seconds: t_mc, noise };
+    let (t, rows, headline_ratio, mut csv) = equal_accuracy(&scene, &b_ref, &probe, ref_streams)?;
     // The paper's own settings: 1e5 photons per incident direction, 303 directions.
     let per_dir = t_mc * PAPER_SAMPLES as f64 / samples as f64;
     // The other way round: the cheapest multi-flux setting as accurate as the paper's Monte Carlo.
@@ -304,75 +300,14 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let (_, one) = timed_spread(mf_method, &scene, methods::repeats(mf_method).max(5))?;
     let n_inc = set.len();
     // --full: run the Monte Carlo at the paper's sample count for every incidence node.
-    let mut measured_full = None;
-    if ctx.size == crate::reproduce::Size::Full {
-        let mut total = 0.0;
-        for &mu in set.mu() {
-            let theta = mu.acos().to_degrees().min(89.9);
-            let mut s = scene.clone();
-            s.channels[0].light = km_core::Light::Collimated { theta_deg: theta };
-            let (_, tt) = methods::timed(
-                Method::MonteCarlo { samples: PAPER_SAMPLES, seed: ctx.seed + 2 },
-                &s,
-                1,
-            )?;
-            total += tt;
-        }
-        measured_full = Some(total);
-    }
+    let measured_full = if ctx.size == crate::context::Size::Full {
+        Some(mc_every_incidence(ctx, &scene, set.mu())?)
+    } else {
+        None
+    };
     let mc_full = measured_full.unwrap_or(per_dir * n_inc as f64);
-    let mut p = Table::new(&["quantity", "paper (quoted)", "this machine"]);
-    p.push(vec![
-        "Monte Carlo, one incident direction, 1e5 photons".into(),
-        "131 s".into(),
-        format!(
-            "{} s{}",
-            format_number(per_dir),
-            if samples == PAPER_SAMPLES { "" } else { " (scaled from the probe)" }
-        ),
-    ]);
-    p.push(vec![
-        format!(
-            "Monte Carlo, whole BRDF, one run per incident direction (paper: 303 directions; \
-             here the {n_inc} incident directions of a {}-direction set)",
-            2 * n_inc
-        ),
-        "131 s x 303 directions".into(),
-        format!(
-            "{} s{}",
-            format_number(mc_full),
-            if measured_full.is_some() { " (measured)" } else { " (per direction x count)" }
-        ),
-    ]);
-    p.push(vec![
-        format!("multi-flux, whole BRDF (direction set, {} directions)", 2 * n_inc),
-        "8.5 s".into(),
-        format!("{} s", format_number(t_full_ds)),
-    ]);
-    p.push(vec![
-        if measured_full.is_some() {
-            "ratio at the paper's settings (measured)".into()
-        } else {
-            "extrapolated: ratio at the paper's settings (MC time per direction x count)".into()
-        },
-        "> 4000".into(),
-        format!("{:.0}", mc_full / t_full_ds),
-    ]);
-    p.push(vec![
-        format!(
-            "multi-flux Fourier mode, one incident direction, {} streams",
-            km_multiflux::DEFAULT_STREAMS
-        ),
-        "-".into(),
-        one.text(),
-    ]);
-    p.push(vec![
-        "ratio per incident direction (MC 1e5 / Fourier multi-flux; extremes of the multi-flux \
-         runs in brackets)"
-            .into(),
-        "-".into(),
-        ratio_text((per_dir / one.median, per_dir / one.max, per_dir / one.min)),
-    ]);
+    let paper = PaperSettings { per_dir, samples, n_inc, mc_full, measured_full, t_full_ds };
+    let p = paper_table(&paper, &one);
     ctx.csv("speedup", &mut csv)?;
     let mut sec = Section::new("The speed-up, at equal accuracy");
     sec.text(format!(
@@ -392,23 +327,7 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
         format_number(mc_err)
     ))
     .table(t)
-    .text(match cheapest {
-        Some((streams, t_mf, e)) => format!(
-            "Conversely, at the accuracy of the paper's Monte Carlo (10^5 photons per direction: \
-             relative RMS noise {} on this scene), the cheapest multi-flux setting that is at \
-             least as accurate is {streams} streams (error {}, {} s): {:.0}x faster than the \
-             Monte Carlo's {} s for one direction.",
-            format_number(paper_noise),
-            format_number(e),
-            format_number(t_mf),
-            paper_acc_ratio,
-            format_number(per_dir)
-        ),
-        None => format!(
-            "No multi-flux setting tried reaches the paper's Monte Carlo noise {} on this scene.",
-            format_number(paper_noise)
-        ),
-    })
+    .text(cheapest_text(cheapest, paper_noise, per_dir))
     .text(
         "Then at the paper's own settings: the Monte Carlo time per direction at 10^5 photons, \
          times the number of incident directions, against the seed's own direction-set scheme \
@@ -440,4 +359,185 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
         }
     );
     Ok(sec)
+}
+
+/// The words on the cheapest multi-flux setting at least as accurate as the
+/// paper's Monte Carlo (`(streams, seconds, error)`), if any.
+fn cheapest_text(cheapest: Option<(usize, f64, f64)>, paper_noise: f64, per_dir: f64) -> String {
+    match cheapest {
+        Some((streams, t_mf, e)) => format!(
+            "Conversely, at the accuracy of the paper's Monte Carlo (10^5 photons per direction: \
+             relative RMS noise {} on this scene), the cheapest multi-flux setting that is at \
+             least as accurate is {streams} streams (error {}, {} s): {:.0}x faster than the \
+             Monte Carlo's {} s for one direction.",
+            format_number(paper_noise),
+            format_number(e),
+            format_number(t_mf),
+            per_dir / t_mf,
+            format_number(per_dir)
+        ),
+        None => format!(
+            "No multi-flux setting tried reaches the paper's Monte Carlo noise {} on this scene.",
+            format_number(paper_noise)
+        ),
+    }
+}
+
+/// The Monte Carlo probe of the speed-up: photons, seconds, relative RMS noise of its BRDF.
+#[derive(Clone, Copy)]
+struct Probe {
+    samples: u64,
+    seconds: f64,
+    noise: f64,
+}
+
+/// Multi-flux at several stream counts against the Monte Carlo that would
+/// reach the same BRDF error (`N_eq = N (noise / error)^2`): the table, the
+/// rows `(streams, seconds, error)`, and the ratio at the default streams.
+#[allow(clippy::type_complexity)]
+fn equal_accuracy(
+    scene: &Scene,
+    b_ref: &[f64],
+    probe: &Probe,
+    ref_streams: usize,
+) -> anyhow::Result<(Table, Vec<(usize, f64, f64)>, f64, Csv)> {
+    let mut t = Table::new(&[
+        "multi-flux streams",
+        "multi-flux time: median (min to max)",
+        "its BRDF error (rel. RMS)",
+        "extrapolated: MC photons for that error, N (noise/error)^2",
+        "extrapolated: MC time for that error (s)",
+        "extrapolated: speed-up at equal accuracy",
+    ]);
+    let mut headline_ratio = f64::NAN;
+    let Probe { samples, seconds: t_mc, noise } = *probe;
+    let mut csv = Csv::new(&[
+        "streams",
+        "mf_seconds",
+        "mf_rel_rms",
+        "mc_samples_equal_accuracy",
+        "mc_seconds_equal_accuracy",
+        "ratio",
+    ]);
+    csv.comment(format!(
+        "equal-accuracy speed-up on the §4.4 scene; reference multi-flux {ref_streams} streams; \
+         Monte Carlo probe {samples} photons in {t_mc} s, BRDF noise (rel. RMS of stderr) {noise}"
+    ));
+    let mut rows: Vec<(usize, f64, f64)> = Vec::new();
+    for streams in [2, 4, 8, km_multiflux::DEFAULT_STREAMS, 32] {
+        let m = Method::Multiflux { streams };
+        let (sol, spread) = timed_spread(m, scene, methods::repeats(m))?;
+        let t_mf = spread.median;
+        let e = rel_rms(&brdf(&sol), b_ref);
+        // Noise-limited sample count: N_eq = N (noise / e)^2; time scales with N.
+        let n_eq = samples as f64 * (noise / e).powi(2);
+        let t_eq = t_mc * n_eq / samples as f64;
+        let ratio = t_eq / t_mf;
+        if streams == km_multiflux::DEFAULT_STREAMS {
+            headline_ratio = ratio;
+        }
+        rows.push((streams, t_mf, e));
+        csv.push_nums(&[streams as f64, t_mf, e, n_eq, t_eq, ratio]);
+        t.push(vec![
+            streams.to_string(),
+            spread.text(),
+            format_number(e),
+            format!("{n_eq:.2e}"),
+            format_number(t_eq),
+            format!("{ratio:.3e}"),
+        ]);
+    }
+    Ok((t, rows, headline_ratio, csv))
+}
+
+/// The Monte Carlo at the paper's photon count for every incidence `mu`
+/// (the `--full` run): total seconds.
+fn mc_every_incidence(ctx: &Ctx, scene: &Scene, mu: &[f64]) -> anyhow::Result<f64> {
+    let mut total = 0.0;
+    for &mu in mu {
+        let theta = mu.acos().to_degrees().min(89.9);
+        let mut s = scene.clone();
+        s.channels[0].light = km_core::Light::Collimated { theta_deg: theta };
+        let (_, tt) = methods::timed(
+            Method::MonteCarlo { samples: PAPER_SAMPLES, seed: ctx.seed + 2 },
+            &s,
+            1,
+        )?;
+        total += tt;
+    }
+    Ok(total)
+}
+
+/// What the paper's settings cost here.
+struct PaperSettings {
+    /// Monte Carlo seconds per incident direction at the paper's photons.
+    per_dir: f64,
+    /// Photons of the probe.
+    samples: u64,
+    /// Incident directions of the direction set.
+    n_inc: usize,
+    /// Monte Carlo seconds for the whole BRDF.
+    mc_full: f64,
+    /// The same, when measured (`--full`).
+    measured_full: Option<f64>,
+    /// Seconds of the direction set's whole BRDF.
+    t_full_ds: f64,
+}
+
+/// The table of the speed-up at the paper's settings.
+fn paper_table(p: &PaperSettings, one: &Spread) -> Table {
+    let mut t = Table::new(&["quantity", "paper (quoted)", "this machine"]);
+    t.push(vec![
+        "Monte Carlo, one incident direction, 1e5 photons".into(),
+        "131 s".into(),
+        format!(
+            "{} s{}",
+            format_number(p.per_dir),
+            if p.samples == PAPER_SAMPLES { "" } else { " (scaled from the probe)" }
+        ),
+    ]);
+    t.push(vec![
+        format!(
+            "Monte Carlo, whole BRDF, one run per incident direction (paper: 303 directions; \
+             here the {} incident directions of a {}-direction set)",
+            p.n_inc,
+            2 * p.n_inc
+        ),
+        "131 s x 303 directions".into(),
+        format!(
+            "{} s{}",
+            format_number(p.mc_full),
+            if p.measured_full.is_some() { " (measured)" } else { " (per direction x count)" }
+        ),
+    ]);
+    t.push(vec![
+        format!("multi-flux, whole BRDF (direction set, {} directions)", 2 * p.n_inc),
+        "8.5 s".into(),
+        format!("{} s", format_number(p.t_full_ds)),
+    ]);
+    t.push(vec![
+        if p.measured_full.is_some() {
+            "ratio at the paper's settings (measured)".into()
+        } else {
+            "extrapolated: ratio at the paper's settings (MC time per direction x count)".into()
+        },
+        "> 4000".into(),
+        format!("{:.0}", p.mc_full / p.t_full_ds),
+    ]);
+    t.push(vec![
+        format!(
+            "multi-flux Fourier mode, one incident direction, {} streams",
+            km_multiflux::DEFAULT_STREAMS
+        ),
+        "-".into(),
+        one.text(),
+    ]);
+    t.push(vec![
+        "ratio per incident direction (MC 1e5 / Fourier multi-flux; extremes of the multi-flux \
+         runs in brackets)"
+            .into(),
+        "-".into(),
+        ratio_text((p.per_dir / one.median, p.per_dir / one.max, p.per_dir / one.min)),
+    ]);
+    t
 }

@@ -6,10 +6,10 @@
 use km_core::{Solution, Substrate};
 
 use crate::chart::{HeatMap, format_number};
+use crate::context::{Ctx, Size};
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::report::{Section, Table};
-use crate::reproduce::{Ctx, Size};
 use crate::scenes::slab;
 
 /// Bottom of the colour scale of the error maps: the rounding level of
@@ -158,6 +158,44 @@ pub struct Counts {
     pub max_deviation: f64,
 }
 
+impl Counts {
+    /// Count one solved cell, store its balance error and its deviation from
+    /// the reference `r_ref`; returns its status word.
+    fn record(
+        &mut self,
+        c: &Cell,
+        r_ref: Option<f64>,
+        balance: &mut Option<f64>,
+        deviation: &mut Option<f64>,
+    ) -> &'static str {
+        self.non_finite += c.non_finite as usize;
+        self.negative += c.negative as usize;
+        self.above_one += c.above_one as usize;
+        let bal = if c.non_finite { f64::NAN } else { c.balance };
+        *balance = Some(bal);
+        if bal.is_finite() {
+            self.max_balance = self.max_balance.max(bal);
+        }
+        if let Some(rr) = r_ref {
+            let d = (c.r - rr).abs();
+            *deviation = Some(d);
+            if d.is_finite() {
+                self.max_deviation =
+                    if self.max_deviation.is_nan() { d } else { self.max_deviation.max(d) };
+            }
+        }
+        if c.non_finite {
+            "nan"
+        } else if c.negative {
+            "negative"
+        } else if c.above_one {
+            "above-one"
+        } else {
+            "ok"
+        }
+    }
+}
+
 /// Evaluate `method` over `grid`, draw the maps and write the CSV; returns the counts.
 ///
 /// # Errors
@@ -203,34 +241,8 @@ pub fn map(
                     "refused"
                 }
                 Some(c) => {
-                    counts.non_finite += c.non_finite as usize;
-                    counts.negative += c.negative as usize;
-                    counts.above_one += c.above_one as usize;
-                    let bal = if c.non_finite { f64::NAN } else { c.balance };
-                    balance[iy][ix] = Some(bal);
-                    if bal.is_finite() {
-                        counts.max_balance = counts.max_balance.max(bal);
-                    }
-                    if let Some(rr) = r_ref {
-                        let d = (c.r - rr).abs();
-                        deviation[iy][ix] = Some(d);
-                        if d.is_finite() {
-                            counts.max_deviation = if counts.max_deviation.is_nan() {
-                                d
-                            } else {
-                                counts.max_deviation.max(d)
-                            };
-                        }
-                    }
-                    if c.non_finite {
-                        "nan"
-                    } else if c.negative {
-                        "negative"
-                    } else if c.above_one {
-                        "above-one"
-                    } else {
-                        "ok"
-                    }
+                    let (bal, dev) = (&mut balance[iy][ix], &mut deviation[iy][ix]);
+                    counts.record(&c, r_ref, bal, dev)
                 }
             };
             let dev = deviation[iy][ix].unwrap_or(f64::NAN);

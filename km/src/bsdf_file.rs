@@ -1,0 +1,282 @@
+//! `km bsdf`'s files: the BSDF of a scene's stack on angle grids, its checks
+//! in a meta JSON, and the bytes of an npz, CSV or Fourier BSDF file
+//! (`docs/bsdf.md`).
+
+use std::path::Path;
+
+use km_multiflux::MultifluxOptions;
+use km_multiflux::bsdf::write::{FourierSettings, Table, fourier};
+use km_multiflux::bsdf::{Bsdf, BsdfError, BsdfOptions, Side, check, gauss_angles};
+use serde_json::{Value, json};
+
+use crate::Scene;
+
+/// File format of a BSDF file.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum BsdfFormat {
+    /// numpy `.npz` (zip of `.npy` arrays; names in docs/bsdf.md).
+    Npz,
+    /// Long-format CSV, one row per (channel, theta_i, theta_o, phi), after
+    /// the meta JSON as `# ` comment lines.
+    Csv,
+    /// The layerlab Fourier BSDF file read by Mitsuba 0.6 and pbrt-v3.
+    Fourier,
+}
+
+impl BsdfFormat {
+    /// The format named by a file's extension: `.csv`, `.bsdf` (Fourier),
+    /// anything else (or no file) npz.
+    ///
+    /// ```
+    /// use km::bsdf_file::BsdfFormat;
+    /// assert_eq!(BsdfFormat::from_path(Some("a.bsdf".as_ref())), BsdfFormat::Fourier);
+    /// assert_eq!(BsdfFormat::from_path(None), BsdfFormat::Npz);
+    /// ```
+    pub fn from_path(path: Option<&Path>) -> BsdfFormat {
+        match path.and_then(|p| p.extension()).and_then(|e| e.to_str()) {
+            Some("csv") => BsdfFormat::Csv,
+            Some("bsdf") => BsdfFormat::Fourier,
+            _ => BsdfFormat::Npz,
+        }
+    }
+
+    /// The default polar grid in degrees: 48 angles uniform in theta from 0
+    /// (step 1.875) for the Fourier file, which needs 0 and equal grids;
+    /// else the arccosines of 32 Gauss nodes in mu.
+    pub fn default_theta(self) -> Vec<f64> {
+        match self {
+            BsdfFormat::Fourier => (0..48).map(|k| 1.875 * k as f64).collect(),
+            _ => gauss_angles(32).0,
+        }
+    }
+}
+
+/// The default azimuths: every 5 degrees from 0 (72).
+pub fn default_phi() -> Vec<f64> {
+    (0..72).map(|k| 5.0 * k as f64).collect()
+}
+
+/// An angle list that [`parse_angles`] refuses: the list as given (trimmed)
+/// for the errors about a `gauss:N` or a range, and what is wrong.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum AngleListError {
+    /// A `gauss:N` or `START:STOP:STEP` that is not valid.
+    #[error("{text}: {reason}")]
+    Grid {
+        /// The list as given.
+        text: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A comma-separated list with a value that is not valid.
+    #[error("{reason}")]
+    List {
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// The most values one angle list gives.
+pub const MAX_ANGLES: usize = 100_000;
+
+/// Angles in degrees from a list `a,b,c`, a range `START:STOP:STEP` (STOP
+/// excluded: `START + k STEP < STOP`) or `gauss:N` (the arccosines of the
+/// `N` Gauss–Legendre nodes in `mu` on (0, 1), `1 <= N <= 1024`).
+///
+/// # Errors
+/// [`AngleListError`] for values that are not finite numbers, an empty or
+/// reversed range, `N` outside `1..=1024`, more than [`MAX_ANGLES`] values.
+///
+/// ```
+/// use km::bsdf_file::parse_angles;
+/// assert_eq!(parse_angles("0:90:30").unwrap(), vec![0.0, 30.0, 60.0]);
+/// assert_eq!(parse_angles("0, 45").unwrap(), vec![0.0, 45.0]);
+/// assert_eq!(parse_angles("gauss:4").unwrap().len(), 4);
+/// assert!(parse_angles("0:90").is_err());
+/// ```
+pub fn parse_angles(text: &str) -> Result<Vec<f64>, AngleListError> {
+    let text = text.trim();
+    let grid = |reason: String| AngleListError::Grid { text: text.into(), reason };
+    if let Some(n) = text.strip_prefix("gauss:") {
+        let n: usize = n.trim().parse().map_err(|e| grid(format!("N: {e}")))?;
+        if n == 0 || n > 1024 {
+            return Err(grid("N must lie in 1..=1024".into()));
+        }
+        return Ok(gauss_angles(n).0);
+    }
+    if text.contains(':') {
+        let parts: Vec<&str> = text.split(':').collect();
+        let [a, b, s] = parts[..] else {
+            return Err(grid("a range is START:STOP:STEP".into()));
+        };
+        let num = |x: &str| -> Result<f64, AngleListError> {
+            let v: f64 = x.trim().parse().map_err(|e| grid(format!("`{x}`: {e}")))?;
+            if !v.is_finite() {
+                return Err(grid(format!("`{x}` is not finite")));
+            }
+            Ok(v)
+        };
+        let (a, b, s) = (num(a)?, num(b)?, num(s)?);
+        if s <= 0.0 || b <= a {
+            return Err(grid("needs STOP > START and STEP > 0".into()));
+        }
+        // The count, less a relative 1e-9 so that STOP itself stays out.
+        let count = ((b - a) / s - 1e-9).ceil();
+        if count > MAX_ANGLES as f64 {
+            return Err(grid(format!("{count} values (at most {MAX_ANGLES})")));
+        }
+        return Ok((0..count as usize).map(|k| a + s * k as f64).collect());
+    }
+    let list = |reason: String| AngleListError::List { reason };
+    let v = text
+        .split(',')
+        .map(|x| {
+            let v: f64 =
+                x.trim().parse().map_err(|e| list(format!("`{x}` is not a number: {e}")))?;
+            if !v.is_finite() {
+                return Err(list(format!("`{x}` is not finite")));
+            }
+            Ok(v)
+        })
+        .collect::<Result<Vec<f64>, _>>()?;
+    if v.len() > MAX_ANGLES {
+        return Err(list(format!("{} values (at most {MAX_ANGLES})", v.len())));
+    }
+    Ok(v)
+}
+
+/// What a BSDF file is asked for.
+#[derive(Debug, Clone)]
+pub struct BsdfRequest {
+    /// Incidence polar angles, degrees in [0, 90).
+    pub theta_i: Vec<f64>,
+    /// Exit polar angles, degrees in [0, 90).
+    pub theta_o: Vec<f64>,
+    /// Azimuths, degrees (180 = mirror side).
+    pub phi: Vec<f64>,
+    /// Light from the substrate side (npz, csv only).
+    pub from_below: bool,
+    /// Gauss nodes per hemisphere and Snell segment (`None`: the solver's choice).
+    pub streams: Option<usize>,
+    /// The file format.
+    pub format: BsdfFormat,
+}
+
+/// A computed BSDF, its meta JSON and (when asked) the file's bytes.
+pub struct BsdfFile {
+    /// The BSDF (light from the chosen side).
+    pub bsdf: Bsdf,
+    /// The azimuths of the table, degrees.
+    pub phi: Vec<f64>,
+    /// The meta JSON of the file (scene, solver, conventions, checks, seconds).
+    pub meta: Value,
+    /// Seconds spent computing the operators and the table.
+    pub seconds: f64,
+    /// The options of the table.
+    pub options: BsdfOptions,
+    /// The bytes of the file in the requested format, when asked for.
+    pub bytes: Option<Vec<u8>>,
+}
+
+/// The BSDF of `scene` on the grids of `request`, its checks (energy,
+/// reflection reciprocity, negative values: `docs/bsdf.md`) in the meta
+/// JSON, and, when `with_bytes`, the file's bytes (the Fourier file solves
+/// the stack from below as well when it transmits). `scene_file` and
+/// `scene_text` are recorded in the meta.
+///
+/// # Errors
+/// The solver's refusals and failures, grids outside their domains, and a
+/// Fourier file asked for light from below.
+pub fn bsdf_file(
+    scene: &Scene,
+    scene_file: &str,
+    scene_text: &str,
+    request: &BsdfRequest,
+    with_bytes: bool,
+) -> Result<BsdfFile, BsdfError> {
+    let (theta_i, theta_o, phi) = (&request.theta_i, &request.theta_o, &request.phi);
+    let solver = MultifluxOptions { streams: request.streams, ..Default::default() };
+    let side = if request.from_below { Side::Below } else { Side::Above };
+    let start = std::time::Instant::now();
+    let options = BsdfOptions { solver: solver.clone(), side };
+    let bsdf = Bsdf::new(scene, theta_i, theta_o, &options)?;
+    let table = Table::new(&bsdf, phi)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let mut meta = meta(&bsdf, phi, &solver, request.from_below);
+    meta["scene_file"] = json!(scene_file);
+    meta["scene"] = json!(scene_text);
+    meta["channels"] = json!(scene.labels);
+    meta["seconds"] = json!(seconds);
+    let bytes = if !with_bytes {
+        None
+    } else {
+        Some(match request.format {
+            BsdfFormat::Npz => table.npz(&meta_text(&meta)?),
+            BsdfFormat::Csv => {
+                let mut head = String::new();
+                for line in meta_text(&meta)?.lines() {
+                    head.push_str(&format!("# {line}\n"));
+                }
+                let mut b = head.into_bytes();
+                b.extend(table.csv());
+                b
+            }
+            BsdfFormat::Fourier => {
+                let below = if bsdf.transmits {
+                    let o = BsdfOptions { solver, side: Side::Below };
+                    Some(Bsdf::new(scene, theta_i, theta_o, &o)?)
+                } else {
+                    None
+                };
+                fourier(&bsdf, below.as_ref(), &FourierSettings::default())?
+            }
+        })
+    };
+    Ok(BsdfFile { bsdf, phi: phi.clone(), meta, seconds, options, bytes })
+}
+
+/// The meta JSON as one line.
+fn meta_text(meta: &Value) -> Result<String, BsdfError> {
+    serde_json::to_string(meta)
+        .map_err(|e| BsdfError::Input { name: "meta", reason: e.to_string() })
+}
+
+/// The meta JSON of a BSDF file: the solver, the conventions and the checks
+/// (the scene and the seconds are filled in by [`bsdf_file`]).
+fn meta(bsdf: &Bsdf, phi: &[f64], solver: &MultifluxOptions, from_below: bool) -> Value {
+    let energy = check::energy(bsdf, phi.len().max(72));
+    let recip = check::reciprocity(bsdf, &[0.0, 90.0, 180.0], 1e-6);
+    let neg = check::negatives(bsdf, phi);
+    json!({
+        "km_version": env!("CARGO_PKG_VERSION"),
+        "scene_file": null,
+        "scene": null,
+        "channels": null,
+        "solver": {
+            "method": "multiflux",
+            "streams": bsdf.channels.iter().map(|c| c.streams).max(),
+            "fourier_orders": (0..bsdf.channels.len()).map(|c| bsdf.orders(c)).max(),
+            "delta_m": solver.delta_m,
+            "single_scattering_correction": solver.delta_m,
+        },
+        "side": if from_below { "below" } else { "above" },
+        "units": {"angles": "degrees", "brdf": "1/sr", "btdf": "1/sr"},
+        "conventions": "light arrives from phi = 0; phi = 180 is the mirror side; theta from \
+            the normal on each side; brdf/btdf are the smooth parts per unit irradiance on the \
+            surface (divided by cos theta_i), delta parts in reflectance_specular and \
+            transmittance_direct",
+        "checks": {
+            "energy_max_error": energy.max_error,
+            "energy_rule": "hemispherical integral of the table (Gauss rule when theta_o is \
+                gauss:N, else trapezoid in mu) plus delta parts, against the solver's totals",
+            "reflection_reciprocity_max_relative": recip,
+            "negative_values": neg.count,
+            "values": neg.total,
+            "most_negative": neg.worst.map(|w| json!({
+                "value": w.0, "channel": w.1, "theta_i": w.2, "theta_o": w.3, "phi": w.4,
+                "transmitted": w.5,
+            })),
+        },
+        "seconds": null,
+    })
+}

@@ -1,0 +1,137 @@
+//! Running a solve: the work budgets scaled by one factor, a solve repeated
+//! for its timing, one shard of a Monte Carlo run, and the settings that
+//! apply to some methods only.
+
+use km_core::{Scene, Solution};
+
+use crate::{KmError, Method, MethodOptions, Options};
+
+impl Options {
+    /// Every default work and memory budget multiplied by `factor`: the
+    /// multi-flux work (eq. W1 of docs/limits.md), the Monte Carlo photon
+    /// steps and tally memory. The two-flux and dipole closed forms have no
+    /// budget (and no check of `factor`).
+    ///
+    /// # Errors
+    /// [`KmError::Option`] named `budget` when `factor` is not finite and > 0.
+    ///
+    /// ```
+    /// let o = km::Options::new(km::Method::Multiflux).with_budget(2.0).unwrap();
+    /// let km::MethodOptions::Multiflux(m) = &o.method else { unreachable!() };
+    /// assert_eq!(m.max_work, Some(2.0 * km::multiflux_budget::DEFAULT_MAX_WORK));
+    /// assert!(km::Options::new(km::Method::Mc).with_budget(0.0).is_err());
+    /// ```
+    pub fn with_budget(mut self, factor: f64) -> Result<Options, KmError> {
+        if matches!(self.method, MethodOptions::Km(_) | MethodOptions::Dipole(_)) {
+            return Ok(self);
+        }
+        if !(factor.is_finite() && factor > 0.0) {
+            return Err(KmError::Option {
+                name: "budget",
+                value: factor.to_string(),
+                reason: "must be a finite factor > 0",
+            });
+        }
+        let scale = |x: u64| (x as f64 * factor).min(u64::MAX as f64) as u64;
+        match &mut self.method {
+            MethodOptions::Multiflux(o) => {
+                o.max_work =
+                    Some(o.max_work.unwrap_or(crate::multiflux_budget::DEFAULT_MAX_WORK) * factor);
+            }
+            MethodOptions::Mc(o) => {
+                o.max_events = o.max_events.map(scale);
+                o.max_tally_bytes = scale(o.max_tally_bytes);
+            }
+            MethodOptions::Km(_) | MethodOptions::Dipole(_) => {}
+        }
+        Ok(self)
+    }
+}
+
+/// [`crate::solve`] called `repeat` times: the first call's solution, its
+/// `seconds` the first (cold) call's; for `repeat > 1` its `extra` gains
+/// `repeat`, `seconds_best` (the least) and `seconds_median` (the median,
+/// the mean of the middle two for an even count) over all calls.
+///
+/// # Errors
+/// The first failing call's error.
+pub fn solve_repeated(scene: &Scene, options: &Options, repeat: u32) -> Result<Solution, KmError> {
+    let mut sol = crate::solve(scene, options)?;
+    if repeat > 1 {
+        // Warm calls after the first: the same answer, timed again.
+        let mut times = vec![sol.seconds];
+        for _ in 1..repeat {
+            times.push(crate::solve(scene, options)?.seconds);
+        }
+        times.sort_by(f64::total_cmp);
+        let mid = times.len() / 2;
+        let median =
+            if times.len() % 2 == 1 { times[mid] } else { 0.5 * (times[mid - 1] + times[mid]) };
+        sol.extra.insert("repeat".into(), repeat.into());
+        sol.extra.insert("seconds_best".into(), times[0].into());
+        sol.extra.insert("seconds_median".into(), median.into());
+    }
+    Ok(sol)
+}
+
+/// Shard `index` of `count` of a Monte Carlo run (docs/montecarlo.md): the
+/// partial tally that `km_montecarlo::merge_files` combines with the others.
+///
+/// # Errors
+/// A method other than Monte Carlo ([`KmError::Option`] named `method`);
+/// the tracer's errors.
+pub fn mc_shard(
+    scene: &Scene,
+    options: &Options,
+    index: u64,
+    count: u64,
+) -> Result<km_montecarlo::Partial, KmError> {
+    let MethodOptions::Mc(o) = &options.method else {
+        return Err(KmError::Option {
+            name: "method",
+            value: options.method().name().into(),
+            reason: "shards are parts of a Monte Carlo run",
+        });
+    };
+    Ok(km_montecarlo::run_shard(scene, o, index, count)?)
+}
+
+/// A setting that applies to some methods only: `km solve` refuses it
+/// with another method, naming what it sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MethodSetting {
+    /// The setting's name (the command line's flag, `_` for `-`).
+    pub name: &'static str,
+    /// The methods it applies to.
+    pub methods: &'static [Method],
+    /// What it sets, in words.
+    pub sets: &'static str,
+}
+
+/// The settings that apply to some methods only.
+pub const METHOD_SETTINGS: &[MethodSetting] = &[
+    setting("samples", &[Method::Mc], "the photon count of Monte Carlo"),
+    setting("seed", &[Method::Mc], "the random seed of Monte Carlo"),
+    setting("threads", &[Method::Mc], "the worker threads of Monte Carlo"),
+    setting("estimator", &[Method::Mc], "the absorption estimator of Monte Carlo"),
+    setting("shard", &[Method::Mc], "a share of a Monte Carlo run"),
+    setting("streams", &[Method::Multiflux], "the Gauss nodes per hemisphere of multi-flux"),
+    setting("order", &[Method::Multiflux], "the Neumann order of multi-flux adding"),
+    setting("km_mapping", &[Method::Km], "how two-flux K, S come from the scene"),
+    setting("fdr", &[Method::Dipole], "how the dipole computes F_dr"),
+    setting("dipole", &[Method::Dipole], "which dipole"),
+    setting(
+        "tolerance",
+        &[Method::Multiflux, Method::Mc],
+        "an accuracy target, met by choosing streams or photons; km and dipole are closed \
+         forms with no accuracy setting",
+    ),
+];
+
+const fn setting(
+    name: &'static str,
+    methods: &'static [Method],
+    sets: &'static str,
+) -> MethodSetting {
+    MethodSetting { name, methods, sets }
+}
