@@ -57,7 +57,7 @@ fn main() -> anyhow::Result<()> {
     let f2 = minor_faults();
     warm.sort_by(f64::total_cmp);
     let median = warm[warm.len() / 2];
-    let diff = |a: Option<u64>, b: Option<u64>| Some(b?.checked_sub(a?)?);
+    let diff = |a: Option<u64>, b: Option<u64>| b?.checked_sub(a?);
     let line = serde_json::json!({
         "streams": streams,
         "first_s": first,
