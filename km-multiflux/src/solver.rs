@@ -206,10 +206,9 @@ pub fn solve_channel(
     opts: &MultifluxOptions,
 ) -> Result<ChannelPart, MultifluxError> {
     let streams = opts.streams.unwrap_or_else(|| default_streams(ch));
-    let r = std::cell::Cell::new(0.0);
-    let (result, orders) = solve_mono_residual(ch, opts, &r)?;
-    let cutoff = planned_cutoff(ch, opts).1;
-    Ok(ChannelPart { result, streams, orders, residual: r.get(), cutoff })
+    let (r, cut) = (std::cell::Cell::new(0.0), std::cell::Cell::new(None));
+    let (result, orders) = solve_mono_residual(ch, opts, &r, &cut)?;
+    Ok(ChannelPart { result, streams, orders, residual: r.get(), cutoff: cut.get() })
 }
 
 /// The [`Solution`] of `scene` from its channels' parts (in channel order)
@@ -298,21 +297,26 @@ pub fn solve_mono(
     scene: &MonoScene,
     opts: &MultifluxOptions,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
-    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0))
+    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0), &std::cell::Cell::new(None))
 }
 
 /// [`solve_mono`], also reporting in `out_residual` the size of the
-/// conservation fix-up of eq. 18a (0 when none was needed).
+/// conservation fix-up of eq. 18a (0 when none was needed) and in
+/// `out_cutoff` the bound of the planner's thick-layer cut (eq. PL1 of
+/// `docs/planner.md`; `None` when no layer was cut), so that the plan is
+/// made once per channel.
 fn solve_mono_residual(
     scene: &MonoScene,
     opts: &MultifluxOptions,
     out_residual: &std::cell::Cell<f64>,
+    out_cutoff: &std::cell::Cell<Option<f64>>,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
     scene.validate()?;
     let streams = resolve_streams(scene, opts)?;
     // The plan's `transmission` rule: a layer through which nothing measurable
     // returns is a half-space; nothing below it is built.
-    let (cut, _) = planned_cutoff(scene, opts);
+    let (cut, bound) = planned_cutoff(scene, opts);
+    out_cutoff.set(bound);
     let scene = cut.as_ref().unwrap_or(scene);
     let all = opts.all_effects;
 
