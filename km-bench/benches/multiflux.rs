@@ -3,7 +3,9 @@
 //! (Fourier order 0) and a full BRDF/BTDF (all Fourier orders the phase
 //! function needs, 5 exit directions); a 3-layer stack with interfaces
 //! (totals); the seed 000 §4.4 scene (Fresnel surface, layer, Lambertian 0.8);
-//! the intensity correction (TMS + IMS) of one exit direction.
+//! the intensity correction (TMS + IMS) of one exit direction; 512 distinct
+//! spectral channels of one slab, serial (`km_multiflux::solve`) against all
+//! cores (`km::solve`).
 //!
 //! Short run: `cargo bench -p km-bench --bench multiflux -- --warm-up-time 1 --measurement-time 2`.
 
@@ -71,6 +73,28 @@ fn bench(c: &mut Criterion) {
     c.bench_function("multiflux seed 4.4 scene totals (N = 16)", |b| {
         b.iter(|| solve(black_box(&seed), &o).expect("solve"))
     });
+
+    // 512 distinct channels (albedo 0.5..0.99, g 0.1..0.8 across the
+    // spectrum) of one slab at 30 degrees, totals, N = 16.
+    let k = 512;
+    let list = |f: &dyn Fn(f64) -> f64| {
+        let v: Vec<String> = (0..k).map(|i| format!("{:.6}", f(i as f64 / k as f64))).collect();
+        format!("[{}]", v.join(", "))
+    };
+    let spectral = scene(&format!(
+        "[spectrum]\nwavelengths_nm = {}\n[light]\ntheta_deg = 30.0\n\
+         [[layer]]\ntau = 1.0\nalbedo = {}\ng = {}\n",
+        list(&|x| 400.0 + 300.0 * x),
+        list(&|x| 0.5 + 0.49 * x),
+        list(&|x| 0.1 + 0.7 * x)
+    ));
+    let mut g = c.benchmark_group("multiflux 512 channels (N = 16)");
+    g.bench_function("serial", |b| b.iter(|| solve(black_box(&spectral), &o).expect("solve")));
+    let all = km::Options::from(o.clone());
+    g.bench_function("all cores", |b| {
+        b.iter(|| km::solve(black_box(&spectral), &all).expect("solve"))
+    });
+    g.finish();
 }
 
 criterion_group! {

@@ -3,12 +3,15 @@
 
 Not run by CI. From the repository root:
 
-    python3 km-bench/scripts/peers.py [--out out] [--repeats 20]
+    python3 km-bench/scripts/peers.py [--out out] [--repeats 20] [--python PY]
 
 It creates a virtual environment (out/peers-venv), installs the peers from
 PyPI (iadpython: Prahl's adding-doubling; PythonicDISORT: DISORT in Python;
 nanodisort: the C DISORT, cdisort 2.1.3), builds km in release mode, runs
 every case with every tool that can treat it, and writes out/peers.md.
+With `--python PY` the peers installed for that interpreter are used
+instead (no virtual environment, nothing installed); a peer it lacks is
+reported as refused.
 
 Timing: each peer is timed in-process the way its users call it (one call of
 its public function, set-up included), best of --repeats calls. km is timed
@@ -53,8 +56,11 @@ DISORT_STREAMS = 32
 KM_STREAMS = 16
 
 
-def ensure_venv(out: Path) -> Path:
-    """Create the virtual environment with the peers; return its python."""
+def ensure_venv(out: Path, python: str | None) -> Path:
+    """Create the virtual environment with the peers; return its python
+    (or `python` as given, untouched)."""
+    if python:
+        return Path(python)
     env = out / "peers-venv"
     py = env / "bin" / "python"
     if not py.exists():
@@ -170,6 +176,8 @@ def main():
     ap.add_argument("--out", default="out")
     ap.add_argument("--repeats", type=int, default=20)
     ap.add_argument("--profile", default="release", help="cargo profile of the km binaries")
+    ap.add_argument("--python", default=None,
+                    help="interpreter whose installed peers are used (no virtual environment)")
     args = ap.parse_args()
     root = Path(__file__).resolve().parents[2]
     out = (root / args.out).resolve()
@@ -183,7 +191,7 @@ def main():
         p.write_text(scene_toml(c["tau"], c["albedo"], c["g"], c["n"]))
         paths.append(p)
 
-    py = ensure_venv(out)
+    py = ensure_venv(out, args.python)
     km, timing = build_km(root, args.profile)
     peers = run_peers(py, cases, args.repeats)
     lib = subprocess.run([str(timing), str(KM_STREAMS), str(args.repeats), *map(str, paths)],

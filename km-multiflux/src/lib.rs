@@ -38,6 +38,7 @@ pub mod solver;
 
 pub use error::MultifluxError;
 pub use solver::{
-    DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED,
-    InternalField, MultifluxOptions, default_streams, internal_field, solve, solve_mono,
+    ChannelPart, DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD,
+    DEFAULT_STREAMS_PEAKED, InternalField, MultifluxOptions, assemble, default_streams,
+    internal_field, solve, solve_channel, solve_mono,
 };

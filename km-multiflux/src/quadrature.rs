@@ -28,7 +28,41 @@
 //! - S. A. Prahl, "The adding-doubling method", in *Optical-Thermal Response of
 //!   Laser-Irradiated Tissue* (1995) §5.3: quadrature split at the critical angle.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use km_core::fresnel::gauss_legendre;
+
+/// Stream counts whose Gauss–Legendre rule a thread keeps (the oldest goes).
+const RULES_KEPT: usize = 8;
+
+/// A Gauss–Legendre rule: nodes and weights on `[-1, 1]`.
+type Rule = Rc<(Vec<f64>, Vec<f64>)>;
+
+thread_local! {
+    /// Gauss–Legendre rules by point count, most recent last.
+    static RULES: RefCell<Vec<(usize, Rule)>> =
+        const { RefCell::new(Vec::new()) };
+}
+
+/// The `n`-point Gauss–Legendre rule on `[-1, 1]` (nodes, weights), computed
+/// once per thread and point count: the rule is a pure function of `n`, so
+/// a repeated solve, channel or Fourier pass does not rebuild it (the
+/// values are those of [`gauss_legendre`], bit for bit).
+fn rule(n: usize) -> Rule {
+    RULES.with(|cell| {
+        let mut rules = cell.borrow_mut();
+        if let Some((_, r)) = rules.iter().find(|(k, _)| *k == n) {
+            return Rc::clone(r);
+        }
+        let r = Rc::new(gauss_legendre(n));
+        if rules.len() >= RULES_KEPT {
+            rules.remove(0);
+        }
+        rules.push((n, Rc::clone(&r)));
+        r
+    })
+}
 
 /// The global direction grid of a stack (see the module doc).
 #[derive(Debug, Clone, PartialEq)]
@@ -63,7 +97,8 @@ impl AngularGrid {
         let mut idx: Vec<f64> = indices.to_vec();
         idx.sort_by(|a, b| a.total_cmp(b));
         idx.dedup();
-        let (x, wx) = gauss_legendre(streams);
+        let gl = rule(streams);
+        let (x, wx) = (&gl.0, &gl.1);
         let mut mu_birth = Vec::with_capacity(streams * idx.len());
         let mut w_birth = Vec::with_capacity(streams * idx.len());
         let mut n_birth = Vec::with_capacity(streams * idx.len());
@@ -72,7 +107,7 @@ impl AngularGrid {
             // Segment [prev, nk] in s, i.e. mu in (0, mu_top] in the medium of index nk.
             let r = prev / nk;
             let mu_top = (1.0 - r * r).sqrt();
-            for (xi, wi) in x.iter().zip(&wx) {
+            for (xi, wi) in x.iter().zip(wx) {
                 mu_birth.push(0.5 * (xi + 1.0) * mu_top);
                 w_birth.push(0.5 * wi * mu_top);
                 n_birth.push(nk);

@@ -163,27 +163,78 @@ impl Default for MultifluxOptions {
 pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, MultifluxError> {
     crate::budget::check(scene, opts)?;
     // The matrices are small (tens of rows): faer runs sequentially, one core
-    // per solve (parallelise over channels or scenes outside). The workspace
-    // builds faer without its rayon feature, so its global default is already
-    // sequential: the solve changes no global state.
+    // per solve (parallelise over channels or scenes outside, as `km::solve`
+    // does with [`solve_channel`] and [`assemble`]). The workspace builds faer
+    // without its rayon feature, so its global default is already sequential:
+    // the solve changes no global state.
     let start = Instant::now();
-    let mut channels = Vec::with_capacity(scene.channels.len());
+    let parts =
+        scene.channels.iter().map(|ch| solve_channel(ch, opts)).collect::<Result<Vec<_>, _>>()?;
+    Ok(assemble(scene, opts, parts, start.elapsed().as_secs_f64()))
+}
+
+/// One channel solved by [`solve_channel`]: its result and what
+/// [`assemble`] needs to describe the whole solve (streams, Fourier orders,
+/// conservation fix-up, thick-layer cut).
+#[derive(Debug, Clone)]
+pub struct ChannelPart {
+    result: ChannelResult,
+    streams: usize,
+    orders: usize,
+    residual: f64,
+    cutoff: Option<f64>,
+}
+
+/// Solve one channel of a scene as [`solve`] does (no budget check: call
+/// [`crate::budget::check`] on the whole scene first). Channels are
+/// independent, so they may be solved in any order or at the same time;
+/// [`assemble`] of the parts in channel order is bit-identical to [`solve`].
+///
+/// # Errors
+/// As [`solve`].
+///
+/// ```
+/// use km_multiflux::{MultifluxOptions, assemble, solve, solve_channel};
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let o = MultifluxOptions::default();
+/// let parts: Vec<_> = scene.channels.iter().map(|c| solve_channel(c, &o).unwrap()).collect();
+/// let a = assemble(&scene, &o, parts, 0.0);
+/// assert_eq!(a.channels, solve(&scene, &o).unwrap().channels);
+/// ```
+pub fn solve_channel(
+    ch: &MonoScene,
+    opts: &MultifluxOptions,
+) -> Result<ChannelPart, MultifluxError> {
+    let streams = opts.streams.unwrap_or_else(|| default_streams(ch));
+    let (r, cut) = (std::cell::Cell::new(0.0), std::cell::Cell::new(None));
+    let (result, orders) = solve_mono_residual(ch, opts, &r, &cut)?;
+    Ok(ChannelPart { result, streams, orders, residual: r.get(), cutoff: cut.get() })
+}
+
+/// The [`Solution`] of `scene` from its channels' parts (in channel order)
+/// and the wall time `seconds` they took: the largest stream count, Fourier
+/// order, conservation fix-up (eq. 18a of `docs/multiflux.md`) and
+/// thick-layer bound (eq. PL1 of `docs/planner.md`) over the channels.
+pub fn assemble(
+    scene: &Scene,
+    opts: &MultifluxOptions,
+    parts: Vec<ChannelPart>,
+    seconds: f64,
+) -> Solution {
+    let mut channels = Vec::with_capacity(parts.len());
     let mut orders = 0;
     let mut streams = 0;
     let mut cutoff: Option<f64> = None;
     let mut residual = 0.0f64;
-    for ch in &scene.channels {
-        streams = streams.max(opts.streams.unwrap_or_else(|| default_streams(ch)));
-        let r = std::cell::Cell::new(0.0);
-        let (res, m) = solve_mono_residual(ch, opts, &r)?;
-        residual = residual.max(r.get());
-        orders = orders.max(m);
-        channels.push(res);
-        if let Some(b) = planned_cutoff(ch, opts).1 {
+    for p in parts {
+        streams = streams.max(p.streams);
+        residual = residual.max(p.residual);
+        orders = orders.max(p.orders);
+        channels.push(p.result);
+        if let Some(b) = p.cutoff {
             cutoff = Some(cutoff.map_or(b, |c: f64| c.max(b)));
         }
     }
-    let seconds = start.elapsed().as_secs_f64();
     let mut extra = serde_json::Map::new();
     let mut notes = Vec::new();
     if let Some(b) = cutoff {
@@ -203,7 +254,7 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     if let Some(k) = opts.neumann_order {
         extra.insert("neumann_order".into(), json!(k));
     }
-    Ok(Solution {
+    Solution {
         method: "multiflux".into(),
         channels,
         labels: scene.labels.clone(),
@@ -211,7 +262,7 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
         notes,
         extra,
         ..Default::default()
-    })
+    }
 }
 
 /// One layer after delta-M scaling.
@@ -246,21 +297,26 @@ pub fn solve_mono(
     scene: &MonoScene,
     opts: &MultifluxOptions,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
-    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0))
+    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0), &std::cell::Cell::new(None))
 }
 
 /// [`solve_mono`], also reporting in `out_residual` the size of the
-/// conservation fix-up of eq. 18a (0 when none was needed).
+/// conservation fix-up of eq. 18a (0 when none was needed) and in
+/// `out_cutoff` the bound of the planner's thick-layer cut (eq. PL1 of
+/// `docs/planner.md`; `None` when no layer was cut), so that the plan is
+/// made once per channel.
 fn solve_mono_residual(
     scene: &MonoScene,
     opts: &MultifluxOptions,
     out_residual: &std::cell::Cell<f64>,
+    out_cutoff: &std::cell::Cell<Option<f64>>,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
     scene.validate()?;
     let streams = resolve_streams(scene, opts)?;
     // The plan's `transmission` rule: a layer through which nothing measurable
     // returns is a half-space; nothing below it is built.
-    let (cut, _) = planned_cutoff(scene, opts);
+    let (cut, bound) = planned_cutoff(scene, opts);
+    out_cutoff.set(bound);
     let scene = cut.as_ref().unwrap_or(scene);
     let all = opts.all_effects;
 

@@ -1,11 +1,14 @@
 //! One solver interface over the four methods: [`Solver`], implemented by
 //! each method's own option type, and [`Options`], what [`crate::solve`] takes.
 
+use std::time::Instant;
+
 use km_core::two_flux::KmOptions;
 use km_core::{Scene, Solution};
 use km_dipole::DipoleOptions;
 use km_montecarlo::McOptions;
 use km_multiflux::MultifluxOptions;
+use rayon::prelude::*;
 
 use crate::error::{KmError, Reason, Unsupported};
 use crate::{Method, accuracy};
@@ -58,12 +61,29 @@ impl Solver for KmOptions {
     }
 }
 
+/// Scenes with at least this many channels have them solved on all cores
+/// (below it the thread pool's start costs more than it saves).
+const PARALLEL_CHANNELS: usize = 4;
+
 impl Solver for MultifluxOptions {
     fn method(&self) -> Method {
         Method::Multiflux
     }
+    /// The channels of a scene with at least four of them
+    /// are solved on all cores (rayon); each channel is computed alone, and
+    /// the parts are assembled in channel order, so the result is
+    /// bit-identical to the serial [`km_multiflux::solve`] (the first
+    /// failing channel's error is the one returned, as there).
     fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
-        Ok(km_multiflux::solve(scene, self)?)
+        if scene.channels.len() < PARALLEL_CHANNELS {
+            return Ok(km_multiflux::solve(scene, self)?);
+        }
+        km_multiflux::budget::check(scene, self)?;
+        let start = Instant::now();
+        let parts: Vec<_> =
+            scene.channels.par_iter().map(|ch| km_multiflux::solve_channel(ch, self)).collect();
+        let parts = parts.into_iter().collect::<Result<Vec<_>, _>>()?;
+        Ok(km_multiflux::assemble(scene, self, parts, start.elapsed().as_secs_f64()))
     }
     fn solve_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
         accuracy::multiflux(scene, self, tol)
