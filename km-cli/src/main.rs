@@ -26,11 +26,12 @@ const DEMO_SCENE: &str = include_str!("../../examples/seed-three-layers.toml");
     version,
     about = "Reflection, transmission and the light field of stacks of flat scattering layers",
     long_about = "Reflection, transmission and the light field of stacks of flat scattering \
-layers (paint, coatings, skin, milk, clouds), by four methods over one scene file:\n\
-  km         two-flux Kubelka–Munk, closed form\n\
-  multiflux  multi-flux eigenvalue solver (discrete ordinates)\n\
-  mc         Monte Carlo reference tracer\n\
-  dipole     diffusion dipole for semi-infinite media\n\n\
+layers (paint, coatings, skin, milk, clouds), by five methods over one scene file:\n\
+  km             two-flux Kubelka–Munk, closed form\n\
+  multiflux      multi-flux eigenvalue solver (discrete ordinates)\n\
+  direction-set  multi-flux on the seed's direction set on the sphere (totals)\n\
+  mc             Monte Carlo reference tracer\n\
+  dipole         diffusion dipole for semi-infinite media\n\n\
 Without a subcommand, runs `km reproduce --quick` (the paper's figures and the \
 accuracy/time study, into out/).",
     after_help = "Examples:\n  km solve examples/seed-three-layers.toml --method multiflux --json\n  \
@@ -236,6 +237,10 @@ pub struct SolveArgs {
     /// Truncate adding after this Neumann order (seed eq. 21) [multiflux]; default exact.
     #[arg(long)]
     pub order: Option<usize>,
+    /// Directions on the sphere, both hemispheres, in the medium of lowest index (4..=2000)
+    /// [direction-set] (default 303, the seed's).
+    #[arg(long, value_name = "N")]
+    pub directions: Option<usize>,
     /// Photons per channel [mc].
     #[arg(long, default_value_t = 1_000_000)]
     pub samples: u64,

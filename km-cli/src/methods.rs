@@ -29,6 +29,7 @@ fn with_flags(e: KmError, args: &SolveArgs) -> anyhow::Error {
             | KmError::Option { name: "accuracy target", .. },
             Some(t),
         ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
+        (KmError::Option { name: "directions", .. }, _) => option_flag(e),
         (KmError::Unsupported(_), _) => {
             anyhow::Error::new(e).context(format!("--method {}", args.method.name()))
         }
@@ -45,6 +46,9 @@ pub fn options(args: &SolveArgs) -> Result<km::Options> {
             neumann_order: args.order,
             all_effects: args.all_effects,
             ..Default::default()
+        }),
+        Method::DirectionSet => km::MethodOptions::DirectionSet(km::DirectionSetOptions {
+            directions: args.directions.unwrap_or(km::direction_set::DEFAULT_DIRECTIONS),
         }),
         Method::Mc => km::MethodOptions::Mc(mc_options(args)?),
         Method::Dipole => km::MethodOptions::Dipole(dipole_options(args)),

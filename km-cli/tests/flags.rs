@@ -14,7 +14,7 @@ fn examples(name: &str) -> String {
     root.to_string_lossy().into_owned()
 }
 
-const METHODS: [&str; 4] = ["km", "multiflux", "mc", "dipole"];
+const METHODS: [&str; 5] = ["km", "multiflux", "direction-set", "mc", "dipole"];
 
 /// A scene every method treats for `method` (the dipole needs a half-space).
 fn scene_for(method: &str) -> String {
@@ -30,6 +30,7 @@ const FLAGS: &[(&str, &str, &str, bool, &[&str])] = &[
     ("--estimator", "survival", "analog", true, &["mc"]),
     ("--streams", "4", "8", true, &["multiflux"]),
     ("--order", "1", "2", true, &["multiflux"]),
+    ("--directions", "50", "100", true, &["direction-set"]),
     ("--km-mapping", "seed", "star1988", true, &["km"]),
     ("--fdr", "exact", "egan-hilgeman", true, &["dipole"]),
     ("--dipole", "jensen2001", "better", true, &["dipole"]),
@@ -151,4 +152,25 @@ fn demo_says_it_skips_the_dipole_and_why() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success());
     assert!(text.contains("dipole: skipped: method dipole cannot treat this scene"), "{text}");
+}
+
+#[test]
+fn direction_set_refuses_output_directions_and_bad_sizes_naming_the_flag() {
+    let seed = examples("seed-three-layers.toml");
+    let out = km(&["solve", &seed, "--method", "direction-set", "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(out.stdout.is_empty());
+    assert!(err.contains("--method direction-set") && err.contains("6 output directions"), "{err}");
+    let slab = examples("fresnel-slab.toml");
+    for n in ["3", "2001"] {
+        let out = km(&["solve", &slab, "--method", "direction-set", "--directions", n]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(&format!("--directions {n}: must lie in [4, 2000]")), "{err}");
+    }
+    // `km sweep` reaches it too (at its default settings).
+    let out = km(&["sweep", &slab, "--set", "layer[1].g=0:0.5:2", "--method", "direction-set"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().count(), 3, "a header and 2 rows");
 }

@@ -115,6 +115,7 @@ impl Options {
                 ..Default::default()
             }),
             Method::Mc => km::MethodOptions::Mc(self.mc()?),
+            Method::DirectionSet => km::MethodOptions::new(Method::DirectionSet),
             Method::Dipole => km::MethodOptions::Dipole(km::DipoleOptions::default()),
         };
         Ok(km::Options { method, tolerance: self.tolerance, all_effects: self.all_effects })

@@ -39,6 +39,38 @@ pub enum Reason {
     /// The method gives no radially resolved profile.
     #[error("it gives no radial profile Rd(r) (the dipole and Monte Carlo do)")]
     NoProfile,
+    /// The method has values on its own direction nodes only.
+    #[error(
+        "it gives the totals only (its radiances are on its own direction nodes) and the scene \
+         asks for {directions} output directions (the multi-flux and Monte Carlo methods give \
+         BRDF/BTDF values there; without [output] directions_deg the totals are computed)"
+    )]
+    OutputDirections {
+        /// Number of output directions asked for.
+        directions: usize,
+    },
+    /// The method needs a medium with extinction for a half-space layer.
+    #[error(
+        "layer[{layer}] is a clear half-space (sigma_t = 0), which has no direction set of its \
+         own: give it as a transparent substrate"
+    )]
+    ClearHalfSpace {
+        /// 1-based layer.
+        layer: usize,
+    },
+    /// The direction set of a denser medium is larger than the solver may hold.
+    #[error(
+        "channel {channel} needs a set of {directions} downward directions in its densest \
+         medium (at most {limit}): use fewer directions"
+    )]
+    SetTooLarge {
+        /// 0-based channel.
+        channel: usize,
+        /// Downward directions of the largest set.
+        directions: usize,
+        /// The most allowed.
+        limit: usize,
+    },
     /// The method needs scattering.
     #[error("diffusion needs scattering and channel {channel} has sigma_s = 0")]
     NoScattering {

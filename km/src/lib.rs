@@ -2,10 +2,12 @@
 //!
 //! The library a user depends on: one scene, four methods, one interface.
 //!
-//! * [`Method`]: the method registry (`km`, `multiflux`, `mc`, `dipole`).
+//! * [`Method`]: the method registry (`km`, `multiflux`, `direction-set`,
+//!   `mc`, `dipole`).
 //! * [`Solver`]: what every method implements (capability check, solve,
 //!   solve to an accuracy target), by its own option type ([`KmOptions`],
-//!   [`MultifluxOptions`], [`McOptions`], [`DipoleOptions`]).
+//!   [`MultifluxOptions`], [`DirectionSetOptions`], [`McOptions`],
+//!   [`DipoleOptions`]).
 //! * [`solve`]: the entry point: applies the plan (docs/planner.md), solves
 //!   channels with identical coefficients once, cuts a layer too thick to
 //!   transmit anything into a half-space for the dipole, meets an accuracy
@@ -36,6 +38,7 @@
 
 pub mod accuracy;
 pub mod bsdf_file;
+pub mod direction_set;
 mod error;
 mod method;
 mod profile;
@@ -44,6 +47,7 @@ mod solver;
 mod sweep;
 pub mod text;
 
+pub use direction_set::DirectionSetOptions;
 pub use error::{KmError, Reason, Unsupported};
 /// Output files written atomically, never over devices, links or inputs (`docs/limits.md`).
 pub use km_core::atomic_file;

@@ -1,4 +1,4 @@
-//! The method registry: the four methods of km, by name.
+//! The method registry: the methods of km, by name.
 
 use std::fmt;
 use std::str::FromStr;
@@ -12,6 +12,10 @@ pub enum Method {
     Km,
     /// Multi-flux eigenvalue solver, discrete ordinates (km-multiflux, seed eq. 18–21).
     Multiflux,
+    /// The multi-flux solver on the seed's own direction set on the sphere
+    /// (km-multiflux `direction_set`, seed §3 and §4.2; docs/multiflux-direction-set.md):
+    /// totals and delta parts, no Fourier series, no delta-M.
+    DirectionSet,
     /// Monte Carlo reference tracer (km-montecarlo).
     Mc,
     /// Diffusion dipole for a semi-infinite layer (km-dipole).
@@ -20,9 +24,11 @@ pub enum Method {
 
 impl Method {
     /// Every method, in the order of the documentation.
-    pub const ALL: [Method; 4] = [Method::Km, Method::Multiflux, Method::Mc, Method::Dipole];
+    pub const ALL: [Method; 5] =
+        [Method::Km, Method::Multiflux, Method::DirectionSet, Method::Mc, Method::Dipole];
 
-    /// The name used in JSON, scene tools and messages (`km`, `multiflux`, `mc`, `dipole`).
+    /// The name used in JSON, scene tools and messages (`km`, `multiflux`,
+    /// `direction-set`, `mc`, `dipole`).
     ///
     /// ```
     /// assert_eq!(km::Method::Mc.name(), "mc");
@@ -33,6 +39,7 @@ impl Method {
         match self {
             Method::Km => "km",
             Method::Multiflux => "multiflux",
+            Method::DirectionSet => "direction-set",
             Method::Mc => "mc",
             Method::Dipole => "dipole",
         }
@@ -43,6 +50,7 @@ impl Method {
         match self {
             Method::Km => "two-flux Kubelka–Munk, closed form",
             Method::Multiflux => "multi-flux eigenvalue solver (discrete ordinates)",
+            Method::DirectionSet => "multi-flux on the seed's direction set on the sphere",
             Method::Mc => "Monte Carlo reference tracer",
             Method::Dipole => "diffusion dipole for semi-infinite media",
         }
@@ -50,7 +58,12 @@ impl Method {
 
     /// The planner's simplifications this method obeys (docs/planner.md).
     pub fn simplifications(self) -> &'static [Simplification] {
-        relevant_to(self.name())
+        match self {
+            // Every node of the set carries every effect: only duplicate
+            // channels can be skipped.
+            Method::DirectionSet => &[Simplification::DuplicateChannels],
+            _ => relevant_to(self.name()),
+        }
     }
 
     /// Whether the method has an accuracy setting that an accuracy target can choose.
@@ -67,7 +80,7 @@ impl fmt::Display for Method {
 
 /// A method name that is none of km's.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown method `{0}` (known: km, multiflux, mc, dipole)")]
+#[error("unknown method `{0}` (known: km, multiflux, direction-set, mc, dipole)")]
 pub struct UnknownMethod(pub String);
 
 impl FromStr for Method {

@@ -9,8 +9,9 @@ use crate::{KmError, Method, MethodOptions, Options};
 impl Options {
     /// Every default work and memory budget multiplied by `factor`: the
     /// multi-flux work (eq. W1 of docs/limits.md), the Monte Carlo photon
-    /// steps and tally memory. The two-flux and dipole closed forms have no
-    /// budget (and no check of `factor`).
+    /// steps and tally memory. The two-flux and dipole closed forms and the
+    /// direction set (bounded by its own limits, [`crate::direction_set`])
+    /// have no budget (and no check of `factor`).
     ///
     /// # Errors
     /// [`KmError::Option`] named `budget` when `factor` is not finite and > 0.
@@ -22,7 +23,10 @@ impl Options {
     /// assert!(km::Options::new(km::Method::Mc).with_budget(0.0).is_err());
     /// ```
     pub fn with_budget(mut self, factor: f64) -> Result<Options, KmError> {
-        if matches!(self.method, MethodOptions::Km(_) | MethodOptions::Dipole(_)) {
+        if matches!(
+            self.method,
+            MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_)
+        ) {
             return Ok(self);
         }
         if !(factor.is_finite() && factor > 0.0) {
@@ -42,7 +46,7 @@ impl Options {
                 o.max_events = o.max_events.map(scale);
                 o.max_tally_bytes = scale(o.max_tally_bytes);
             }
-            MethodOptions::Km(_) | MethodOptions::Dipole(_) => {}
+            MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_) => {}
         }
         Ok(self)
     }
@@ -117,6 +121,7 @@ pub const METHOD_SETTINGS: &[MethodSetting] = &[
     setting("shard", &[Method::Mc], "a share of a Monte Carlo run"),
     setting("streams", &[Method::Multiflux], "the Gauss nodes per hemisphere of multi-flux"),
     setting("order", &[Method::Multiflux], "the Neumann order of multi-flux adding"),
+    setting("directions", &[Method::DirectionSet], "the size of the direction set on the sphere"),
     setting("km_mapping", &[Method::Km], "how two-flux K, S come from the scene"),
     setting("fdr", &[Method::Dipole], "how the dipole computes F_dr"),
     setting("dipole", &[Method::Dipole], "which dipole"),

@@ -1,4 +1,4 @@
-//! One solver interface over the four methods: [`Solver`], implemented by
+//! One solver interface over the five methods: [`Solver`], implemented by
 //! each method's own option type, and [`Options`], what [`crate::solve`] takes.
 
 use std::time::Instant;
@@ -10,13 +10,15 @@ use km_montecarlo::McOptions;
 use km_multiflux::MultifluxOptions;
 use rayon::prelude::*;
 
+use crate::direction_set::DirectionSetOptions;
 use crate::error::{KmError, Reason, Unsupported};
 use crate::{Method, accuracy};
 
 /// A method at its settings: what it can treat and how it solves.
 ///
 /// Implemented by each method's option type ([`KmOptions`],
-/// [`MultifluxOptions`], [`McOptions`], [`DipoleOptions`]) and by
+/// [`MultifluxOptions`], [`DirectionSetOptions`], [`McOptions`],
+/// [`DipoleOptions`]) and by
 /// [`MethodOptions`]. [`Solver::solve`] is the bare solver (no plan applied
 /// from outside, no channel merging, no thick-layer cut): [`crate::solve`]
 /// adds those.
@@ -136,6 +138,8 @@ pub enum MethodOptions {
     Km(KmOptions),
     /// Multi-flux.
     Multiflux(MultifluxOptions),
+    /// Multi-flux on a direction set.
+    DirectionSet(DirectionSetOptions),
     /// Monte Carlo.
     Mc(McOptions),
     /// Diffusion dipole.
@@ -148,6 +152,7 @@ impl MethodOptions {
         match method {
             Method::Km => MethodOptions::Km(KmOptions::default()),
             Method::Multiflux => MethodOptions::Multiflux(MultifluxOptions::default()),
+            Method::DirectionSet => MethodOptions::DirectionSet(DirectionSetOptions::default()),
             Method::Mc => MethodOptions::Mc(McOptions::default()),
             Method::Dipole => MethodOptions::Dipole(DipoleOptions::default()),
         }
@@ -157,6 +162,7 @@ impl MethodOptions {
         match self {
             MethodOptions::Km(o) => o,
             MethodOptions::Multiflux(o) => o,
+            MethodOptions::DirectionSet(o) => o,
             MethodOptions::Mc(o) => o,
             MethodOptions::Dipole(o) => o,
         }
@@ -167,7 +173,9 @@ impl MethodOptions {
         match self {
             MethodOptions::Multiflux(m) => m.all_effects,
             MethodOptions::Mc(m) => m.all_effects,
-            MethodOptions::Km(_) | MethodOptions::Dipole(_) => false,
+            MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_) => {
+                false
+            }
         }
     }
 
@@ -177,7 +185,7 @@ impl MethodOptions {
         match &mut o {
             MethodOptions::Multiflux(m) => m.all_effects = all_effects,
             MethodOptions::Mc(m) => m.all_effects = all_effects,
-            MethodOptions::Km(_) | MethodOptions::Dipole(_) => {}
+            MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_) => {}
         }
         o
     }
@@ -260,5 +268,6 @@ macro_rules! from_options {
 }
 from_options!(KmOptions, Km);
 from_options!(MultifluxOptions, Multiflux);
+from_options!(DirectionSetOptions, DirectionSet);
 from_options!(McOptions, Mc);
 from_options!(DipoleOptions, Dipole);

@@ -285,6 +285,7 @@ pub fn plan_words(plan: &Plan, method: Method) -> String {
             "Fourier order m = 0 only; eigen-solve only for scattering layers"
         }
         Method::Multiflux => "Fourier orders m = 0..M for the requested directions",
+        Method::DirectionSet => "eigen-solve per layer on matched direction sets, exact adding",
         Method::Mc if plan.angular_tallies => "photon tracing with totals and angular bins",
         Method::Mc => "photon tracing with totals only",
         Method::Dipole => "closed form for a semi-infinite layer",
