@@ -56,7 +56,7 @@ fn opts(samples: u64, estimator: Estimator) -> McOptions {
 /// Interactions of one run (deterministic for a seed).
 fn interactions(scene: &Scene, o: &McOptions) -> u64 {
     let sol = solve(scene, o).expect("valid scene");
-    sol.extra["mc"]["interactions"].as_u64().unwrap_or(0)
+    sol.to_json()["mc"]["interactions"].as_u64().unwrap_or(0)
 }
 
 fn figure_of_merit() {
@@ -70,7 +70,7 @@ fn figure_of_merit() {
             let sol = &runs[0];
             let se = sol.channels[0].stderr.as_ref().and_then(|m| m.get("reflectance"));
             let se = se.unwrap_or(f64::NAN);
-            let ev = sol.extra["mc"]["interactions"].as_f64().unwrap_or(f64::NAN);
+            let ev = sol.to_json()["mc"]["interactions"].as_f64().unwrap_or(f64::NAN);
             println!(
                 "FOM {name:12} {:17} N = {samples}, R = {:.5} +- {:.2e}, t = {:.3} s, \
                  {:.2e} events/s, {:.1} events/photon, FOM = 1/(se^2 t) = {:.3e}",

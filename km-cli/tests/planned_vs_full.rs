@@ -139,9 +139,9 @@ fn azimuth_isotropic_with_directions_and_anisotropic_totals() {
         let (d, planned, full) = mf_pair(text);
         assert!(d <= MF_TOL, "{tag}: {d:e}");
         // Planned: the one order m = 0; full: every order the streams resolve.
-        assert_eq!(planned.extra["fourier_orders"], 1, "{tag}");
-        let streams = full.extra["streams"].as_u64().unwrap();
-        assert_eq!(full.extra["fourier_orders"].as_u64().unwrap(), 2 * streams, "{tag}");
+        assert_eq!(planned.to_json()["fourier_orders"], 1, "{tag}");
+        let streams = full.to_json()["streams"].as_u64().unwrap();
+        assert_eq!(full.to_json()["fourier_orders"].as_u64().unwrap(), 2 * streams, "{tag}");
     }
 }
 
@@ -151,9 +151,9 @@ fn transmission_thick_absorbing_layer_over_a_substrate() {
                 n = 1.4\n[substrate]\nkind = \"lambertian\"\nalbedo = 0.5\n";
     assert_named("transmission", text, "multiflux", "transmission");
     let (d, planned, full) = mf_pair(text);
-    let bound = planned.extra["cutoff_bound"].as_f64().expect("cutoff_bound in extra");
+    let bound = planned.to_json()["cutoff_bound"].as_f64().expect("cutoff_bound in extra");
     assert!(bound < 1e-14, "bound {bound:e}");
-    assert!(full.extra.get("cutoff_bound").is_none());
+    assert!(full.to_json().get("cutoff_bound").is_none());
     // The neglected light is at most the stated bound (plus rounding).
     assert!(d <= bound + MF_TOL, "transmission: {d:e} > {bound:e}");
 }
@@ -170,8 +170,9 @@ fn angular_tallies_monte_carlo_totals_only() {
     assert_eq!(a.reflectance.to_bits(), b.reflectance.to_bits());
     assert_eq!(a.transmittance.to_bits(), b.transmittance.to_bits());
     assert_eq!(a.absorptance.to_bits(), b.absorptance.to_bits());
-    assert!(planned.extra["mc"].get("rings").is_none());
-    let rings = &full.extra["mc"]["rings"]["brdf"];
+    assert!(planned.to_json()["mc"].get("rings").is_none());
+    let json = full.to_json();
+    let rings = &json["mc"]["rings"]["brdf"];
     assert_eq!(rings.as_array().map(Vec::len), Some(8), "{rings}");
 }
 
@@ -228,6 +229,6 @@ fn all_effects_runs_stay_deterministic_and_shard_exactly() {
         let (a, b) = (&one.channels[0], &other.channels[0]);
         assert_eq!(a.reflectance.to_bits(), b.reflectance.to_bits());
         assert_eq!(a.transmittance.to_bits(), b.transmittance.to_bits());
-        assert_eq!(one.extra["mc"]["rings"], other.extra["mc"]["rings"]);
+        assert_eq!(one.to_json()["mc"]["rings"], other.to_json()["mc"]["rings"]);
     }
 }

@@ -16,6 +16,13 @@ use serde_json::{Map, Value, json};
 
 use crate::plan::Plan;
 
+pub mod diagnostics;
+
+pub use diagnostics::{
+    Diagnostics, DipoleDiagnostics, DirectionSetDiagnostics, McDiagnostics, McRadial, McRings,
+    MethodDiagnostics, MultifluxDiagnostics, RepeatedTiming,
+};
+
 /// Version of the JSON layout written by [`Solution::to_json`] (key `"format"`).
 pub const JSON_FORMAT: u32 = 2;
 
@@ -200,8 +207,9 @@ pub struct Solution {
     pub plan: Option<Plan>,
     /// How an accuracy target was met, when one was given.
     pub accuracy: Option<AccuracyReport>,
-    /// Method-specific settings and diagnostics (e.g. `streams`, `mc`), merged into the JSON.
-    pub extra: Map<String, Value>,
+    /// Method-specific settings and diagnostics (e.g. `streams`, `mc`), typed;
+    /// merged into the JSON by [`Solution::to_json`].
+    pub diagnostics: Diagnostics,
 }
 
 impl Solution {
@@ -249,9 +257,7 @@ impl Solution {
             out.insert("channels".into(), json!(self.labels));
         }
         out.insert("seconds".into(), json!(self.seconds));
-        for (k, v) in &self.extra {
-            out.insert(k.clone(), v.clone());
-        }
+        out.extend(self.diagnostics.to_json());
         out.insert("notes".into(), json!(self.notes));
         if let Some(p) = &self.plan {
             out.insert("plan".into(), p.to_json());

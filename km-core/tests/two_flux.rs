@@ -420,7 +420,7 @@ fn scene_with_matched_index_is_the_bare_layer() {
     assert!((c.transmittance_direct - (-0.5f64).exp()).abs() < 1e-15);
     assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-15);
     assert_eq!(sol.method, "km");
-    assert_eq!(sol.extra["km_mapping"], "seed");
+    assert_eq!(sol.to_json()["km_mapping"], "seed");
 }
 
 #[test]

@@ -31,7 +31,6 @@ use std::time::Instant;
 
 use km_core::fresnel::{diffuse_reflectance, reflectance};
 use km_core::{ChannelResult, Light, MonoScene, Scene, Solution};
-use serde_json::{Map, Value, json};
 
 use crate::better_dipole::BetterDipole;
 use crate::dipole::{exit_constant_from_fdr, fresnel_transmittance, rd_radial, rd_total};
@@ -251,29 +250,30 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
     }
     let seconds = start.elapsed().as_secs_f64();
 
-    // Report the diffusion quantities: a number for one channel, a list for several.
-    let one = media.len() == 1;
-    let list = |f: &dyn Fn(&Medium) -> f64| -> Value {
-        if one { json!(f(&media[0])) } else { json!(media.iter().map(f).collect::<Vec<_>>()) }
-    };
-    let mut extra = Map::new();
-    extra.insert("dipole_model".into(), json!(opts.model.name()));
+    // Report the diffusion quantities, one per channel.
+    let list = |f: &dyn Fn(&Medium) -> f64| -> Vec<f64> { media.iter().map(f).collect() };
     let fdr_model = match opts.model {
         DipoleModel::Jensen2001 => opts.fdr.name(),
         DipoleModel::Better => FdrModel::Exact.name(),
     };
-    extra.insert("fdr_model".into(), json!(fdr_model));
-    extra.insert("fdr".into(), list(&|m| m.fdr()));
-    extra.insert("A".into(), list(&|m| m.a()));
-    extra.insert("reduced_albedo".into(), list(&|m| m.alpha_prime()));
-    extra.insert("rd_dipole".into(), list(&|m| m.rd_total()));
+    let diagnostics = km_core::solution::DipoleDiagnostics {
+        model: opts.model.name(),
+        fdr_model,
+        fdr: list(&|m| m.fdr()),
+        a: list(&|m| m.a()),
+        reduced_albedo: list(&|m| m.alpha_prime()),
+        rd_dipole: list(&|m| m.rd_total()),
+    };
     Ok(Solution {
         method: "dipole".into(),
         channels,
         labels: scene.labels.clone(),
         seconds,
         notes: notes(scene),
-        extra,
+        diagnostics: km_core::solution::Diagnostics {
+            method: km_core::solution::MethodDiagnostics::Dipole(diagnostics),
+            ..Default::default()
+        },
         ..Default::default()
     })
 }

@@ -33,7 +33,6 @@ use std::path::{Path, PathBuf};
 
 use km_core::{ChannelResult, Solution};
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, Value, json};
 
 use crate::error::McError;
 use crate::options::McOptions;
@@ -560,15 +559,6 @@ pub fn merge(parts: &[Partial]) -> Result<Solution, McError> {
     Ok(build_solution(parts, &m))
 }
 
-/// JSON number or null (NaN standard errors of one-batch runs).
-fn num(x: f64) -> Value {
-    serde_json::Number::from_f64(x).map(Value::Number).unwrap_or(Value::Null)
-}
-
-fn nums(v: impl IntoIterator<Item = f64>) -> Value {
-    Value::Array(v.into_iter().map(num).collect())
-}
-
 /// Turn merged statistics into the contract [`Solution`].
 pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
     let p0 = &parts[0];
@@ -626,59 +616,50 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
         });
         lost.push(mean(Layout::LOST));
         a_sub.push(mean(Layout::A_SUB));
-        rings_r.push(nums(per(&|k| l.ring_r(k), l.rings, &meta.ring, &mean)));
-        rings_t.push(nums(per(&|k| l.ring_t(k), l.rings, &meta.ring, &mean)));
-        rings_r_se.push(nums(per(&|k| l.ring_r(k), l.rings, &meta.ring, &se)));
-        rings_t_se.push(nums(per(&|k| l.ring_t(k), l.rings, &meta.ring, &se)));
-        radial.push(nums(per(&|k| l.radial(k), l.radial, &meta.annulus, &mean)));
-        radial_se.push(nums(per(&|k| l.radial(k), l.radial, &meta.annulus, &se)));
+        rings_r.push(per(&|k| l.ring_r(k), l.rings, &meta.ring, &mean));
+        rings_t.push(per(&|k| l.ring_t(k), l.rings, &meta.ring, &mean));
+        rings_r_se.push(per(&|k| l.ring_r(k), l.rings, &meta.ring, &se));
+        rings_t_se.push(per(&|k| l.ring_t(k), l.rings, &meta.ring, &se));
+        radial.push(per(&|k| l.radial(k), l.radial, &meta.annulus, &mean));
+        radial_se.push(per(&|k| l.radial(k), l.radial, &meta.annulus, &se));
     }
     let o = &p0.options;
-    let one = channels.len() == 1;
-    let pick = |v: Vec<Value>| if one { v[0].clone() } else { Value::Array(v) };
-    let photons = o.samples as f64;
-    let mut mc = Map::new();
-    mc.insert("estimator".into(), json!(o.estimator.name()));
-    mc.insert("samples".into(), json!(o.samples));
-    mc.insert("seed".into(), json!(o.seed));
-    mc.insert("batch_size".into(), json!(p0.batch_size));
-    mc.insert("batches".into(), json!(p0.batch_count));
-    mc.insert("bin_half_angle_deg".into(), json!(o.bin_half_angle_deg));
-    mc.insert("max_steps_per_photon".into(), json!(o.max_steps_per_photon));
-    mc.insert("interactions".into(), pick(m.interactions.iter().map(|&x| json!(x)).collect()));
-    mc.insert(
-        "interactions_per_photon".into(),
-        pick(m.interactions.iter().map(|&x| num(x as f64 / photons)).collect()),
-    );
-    mc.insert("steps".into(), pick(m.steps.iter().map(|&x| json!(x)).collect()));
-    mc.insert("capped_photons".into(), pick(m.capped.iter().map(|&x| json!(x)).collect()));
-    mc.insert("lost_weight".into(), pick(lost.into_iter().map(num).collect()));
-    mc.insert("absorptance_substrate".into(), pick(a_sub.into_iter().map(num).collect()));
-    if let Some(e) = &o.ring_mu_edges {
-        mc.insert(
-            "rings".into(),
-            json!({
-                "mu_edges": e,
-                "brdf": pick(rings_r), "btdf": pick(rings_t),
-                "stderr": { "brdf": pick(rings_r_se), "btdf": pick(rings_t_se) },
-            }),
-        );
-    }
-    if let Some(r) = o.radial {
-        let mid: Vec<f64> = (0..r.count).map(|i| (i as f64 + 0.5) * r.dr).collect();
-        mc.insert(
-            "radial".into(),
-            json!({ "dr": r.dr, "r": mid, "rd": pick(radial), "stderr": pick(radial_se) }),
-        );
-    }
-    let mut extra = Map::new();
-    extra.insert("mc".into(), Value::Object(mc));
+    let mc = km_core::solution::McDiagnostics {
+        estimator: o.estimator.name(),
+        samples: o.samples,
+        seed: o.seed,
+        batch_size: p0.batch_size,
+        batches: p0.batch_count,
+        bin_half_angle_deg: o.bin_half_angle_deg,
+        max_steps_per_photon: o.max_steps_per_photon,
+        interactions: m.interactions.clone(),
+        steps: m.steps.clone(),
+        capped_photons: m.capped.clone(),
+        lost_weight: lost,
+        absorptance_substrate: a_sub,
+        rings: o.ring_mu_edges.as_ref().map(|e| km_core::solution::McRings {
+            mu_edges: e.clone(),
+            brdf: rings_r,
+            btdf: rings_t,
+            brdf_stderr: rings_r_se,
+            btdf_stderr: rings_t_se,
+        }),
+        radial: o.radial.map(|r| km_core::solution::McRadial {
+            dr: r.dr,
+            r: (0..r.count).map(|i| (i as f64 + 0.5) * r.dr).collect(),
+            rd: radial,
+            rd_stderr: radial_se,
+        }),
+    };
     Solution {
         method: "mc".into(),
         channels,
         labels: p0.labels.clone(),
         seconds,
-        extra,
+        diagnostics: km_core::solution::Diagnostics {
+            method: km_core::solution::MethodDiagnostics::MonteCarlo(Box::new(mc)),
+            ..Default::default()
+        },
         ..Default::default()
     }
 }

@@ -96,9 +96,9 @@ fn total_internal_reflection_trapping() {
     .unwrap();
     let sol = solve(&s, &McOptions { samples: 50_000, ..Default::default() }).unwrap();
     let c = &sol.channels[0];
-    assert_eq!(sol.extra["mc"]["capped_photons"], 0);
+    assert_eq!(sol.to_json()["mc"]["capped_photons"], 0);
     assert!((c.reflectance + c.absorptance - 1.0).abs() < 1e-11);
-    assert!(sol.extra["mc"]["interactions_per_photon"].as_f64().unwrap() > 1.0);
+    assert!(sol.to_json()["mc"]["interactions_per_photon"].as_f64().unwrap() > 1.0);
 }
 
 /// A conservative half-space reflects everything (R = 1), but its walks have
@@ -111,8 +111,8 @@ fn conservative_half_space_reports_its_bias_bound() {
     let o = McOptions { samples: 20_000, max_steps_per_photon: 10_000, ..Default::default() };
     let sol = solve(&s, &o).unwrap();
     let c = &sol.channels[0];
-    let lost = sol.extra["mc"]["lost_weight"].as_f64().unwrap();
-    let capped = sol.extra["mc"]["capped_photons"].as_u64().unwrap();
+    let lost = sol.to_json()["mc"]["lost_weight"].as_f64().unwrap();
+    let capped = sol.to_json()["mc"]["capped_photons"].as_u64().unwrap();
     assert!(capped > 0 && lost > 0.0 && lost < 0.05, "capped {capped} lost {lost}");
     assert!((c.reflectance + lost - 1.0).abs() < 1e-12);
     assert_eq!(c.absorptance, 0.0);

@@ -39,7 +39,7 @@ directions_deg = [[0.0, 0.0], [45.0, 180.0], [70.0, 0.0]]
 "#;
 
 fn mc(sol: &km_core::Solution, key: &str) -> f64 {
-    sol.extra["mc"][key].as_f64().unwrap()
+    sol.to_json()["mc"][key].as_f64().unwrap()
 }
 
 /// The JSON of a solution without its timing (the only field allowed to differ).
@@ -189,7 +189,8 @@ fn rings_covering_the_hemisphere_hold_the_diffuse_totals() {
     let o = McOptions { samples: 20_000, ring_mu_edges: Some(edges.clone()), ..Default::default() };
     let sol = solve(&s, &o).unwrap();
     let c = &sol.channels[0];
-    let rings = &sol.extra["mc"]["rings"];
+    let json = sol.to_json();
+    let rings = &json["mc"]["rings"];
     let sum = |key: &str| -> f64 {
         rings[key]
             .as_array()
@@ -254,6 +255,6 @@ fn progress_callback_does_not_change_the_result() {
     });
     let b = solve(&s, &McOptions { progress: Some(p), ..o }).unwrap();
     assert_eq!(json_without_seconds(&a), json_without_seconds(&b));
-    let batches = b.extra["mc"]["batches"].as_u64().unwrap();
+    let batches = b.to_json()["mc"]["batches"].as_u64().unwrap();
     assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), batches);
 }

@@ -19,7 +19,6 @@ use std::time::Instant;
 use faer::Mat;
 use km_core::phase::PhaseFunction;
 use km_core::{ChannelResult, Light, MonoScene, Scene, Solution, Substrate};
-use serde_json::json;
 
 use crate::MultifluxError;
 use crate::adding::{LayerOperators, add, add_truncated};
@@ -235,32 +234,32 @@ pub fn assemble(
             cutoff = Some(cutoff.map_or(b, |c: f64| c.max(b)));
         }
     }
-    let mut extra = serde_json::Map::new();
     let mut notes = Vec::new();
     if let Some(b) = cutoff {
-        extra.insert("cutoff_bound".into(), json!(b));
         notes.push(format!(
             "transmission rule: a thick layer was solved as a half-space; the light \
              neglected below it is < {b:.1e} of the incident (docs/planner.md eq. PL1)"
         ));
     }
-    if residual > 0.0 {
+    let diagnostics = km_core::solution::MultifluxDiagnostics {
+        streams,
+        fourier_orders: orders,
+        all_effects: opts.all_effects,
+        neumann_order: opts.neumann_order,
+        cutoff_bound: cutoff,
         // Size of the conservation fix-up (docs/multiflux.md eq. 18a).
-        extra.insert("conservation_residual".into(), json!(residual));
-    }
-    extra.insert("all_effects".into(), json!(opts.all_effects));
-    extra.insert("streams".into(), json!(streams));
-    extra.insert("fourier_orders".into(), json!(orders));
-    if let Some(k) = opts.neumann_order {
-        extra.insert("neumann_order".into(), json!(k));
-    }
+        conservation_residual: (residual > 0.0).then_some(residual),
+    };
     Solution {
         method: "multiflux".into(),
         channels,
         labels: scene.labels.clone(),
         seconds,
         notes,
-        extra,
+        diagnostics: km_core::solution::Diagnostics {
+            method: km_core::solution::MethodDiagnostics::Multiflux(diagnostics),
+            ..Default::default()
+        },
         ..Default::default()
     }
 }

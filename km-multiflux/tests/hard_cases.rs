@@ -160,7 +160,8 @@ fn conservative_half_space_reflects_exactly_one() {
                 assert_eq!(c.reflectance, 1.0, "{t}");
                 assert_eq!(c.absorptance, 0.0, "{t}");
                 assert_eq!(c.transmittance, 0.0, "{t}");
-                let res = s.extra.get("conservation_residual").map_or(0.0, |v| v.as_f64().unwrap());
+                let res =
+                    s.to_json().get("conservation_residual").map_or(0.0, |v| v.as_f64().unwrap());
                 assert!(res < 1e-9, "residual {res}\n{t}");
                 let t = text(f64::INFINITY, 0.999999, g, n, theta, false);
                 let c = solve(&scene(&t), &MultifluxOptions::default()).unwrap().channels.remove(0);
@@ -299,7 +300,7 @@ fn default_streams_meet_the_target_at_g_099() {
         let e =
             (c.reflectance - b.reflectance).abs().max((c.transmittance - b.transmittance).abs());
         let expect = if theta > 80.0 { 128 } else { 32 };
-        assert_eq!(a.extra["streams"], expect, "{t}");
+        assert_eq!(a.to_json()["streams"], expect, "{t}");
         if theta > 80.0 {
             worst_grazing = worst_grazing.max(e);
         } else {

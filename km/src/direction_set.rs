@@ -13,9 +13,9 @@
 
 use std::time::Instant;
 
+use km_core::solution::{Diagnostics, DirectionSetDiagnostics, MethodDiagnostics};
 use km_core::{ChannelResult, Layer, Light, MonoScene, Scene, Solution, Substrate};
 use km_multiflux::direction_set::{Combine, Incidence, MatchedSets, brdf_for_incidence, totals};
-use serde_json::{Map, Value, json};
 
 use crate::error::{KmError, Reason, Unsupported};
 use crate::{Method, Solver};
@@ -168,9 +168,9 @@ impl Solver for DirectionSetOptions {
     }
 
     /// Each channel on its matched sets; the totals and delta parts, no
-    /// angular values. `extra` gets `direction_set`: `directions` (the
-    /// setting) and `nodes` (directions of the ambient set, both hemispheres;
-    /// a list over channels for several).
+    /// angular values. The diagnostics are [`DirectionSetDiagnostics`] (JSON
+    /// `direction_set`: `directions`, the setting, and `nodes`, directions of
+    /// the ambient set in both hemispheres, a list over channels for several).
     fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
         self.check()?;
         self.supports(scene)?;
@@ -180,23 +180,21 @@ impl Solver for DirectionSetOptions {
         for c in &scene.channels {
             channels.push(solve_channel(c, self.directions)?);
             let sets = channel_sets(c, self.directions)?;
-            let ambient = sets.set(c.ambient_n)?;
-            nodes.push(json!(2 * ambient.len()));
+            nodes.push(2 * sets.set(c.ambient_n)?.len());
         }
-        let mut ds = Map::new();
-        ds.insert("directions".into(), json!(self.directions));
-        ds.insert(
-            "nodes".into(),
-            if nodes.len() == 1 { nodes.remove(0) } else { Value::Array(nodes) },
-        );
-        let mut extra = Map::new();
-        extra.insert("direction_set".into(), Value::Object(ds));
+        let diagnostics = Diagnostics {
+            method: MethodDiagnostics::DirectionSet(DirectionSetDiagnostics {
+                directions: self.directions,
+                nodes,
+            }),
+            ..Default::default()
+        };
         Ok(Solution {
             method: Method::DirectionSet.name().into(),
             channels,
             labels: scene.labels.clone(),
             seconds: start.elapsed().as_secs_f64(),
-            extra,
+            diagnostics,
             ..Default::default()
         })
     }

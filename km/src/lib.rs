@@ -53,7 +53,7 @@ pub use error::{KmError, Reason, Unsupported};
 pub use km_core::atomic_file;
 pub use km_core::plan::{Plan, Request, Simplification};
 pub use km_core::set::SetEdit;
-pub use km_core::solution::AccuracyReport;
+pub use km_core::solution::{AccuracyReport, Diagnostics, MethodDiagnostics};
 pub use km_core::two_flux::{KmMapping, KmOptions};
 pub use km_core::{
     ChannelResult, Layer, Light, MonoScene, Scene, SceneLimits, Solution, Substrate, Uncertainty,
@@ -135,7 +135,7 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     }
     // A spectral scene's JSON `channels` are its wavelengths (numbers, nm).
     if let Some(w) = scene.wavelengths_nm.as_ref().filter(|w| w.len() > 1) {
-        sol.extra.insert("channels".into(), serde_json::json!(w));
+        sol.diagnostics.wavelengths_nm = Some(w.clone());
     }
     sol.plan = Some(plan);
     Ok(sol)

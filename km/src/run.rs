@@ -53,9 +53,10 @@ impl Options {
 }
 
 /// [`crate::solve`] called `repeat` times: the first call's solution, its
-/// `seconds` the first (cold) call's; for `repeat > 1` its `extra` gains
+/// `seconds` the first (cold) call's; for `repeat > 1` its diagnostics gain
+/// the timing over all calls ([`km_core::solution::RepeatedTiming`]: JSON
 /// `repeat`, `seconds_best` (the least) and `seconds_median` (the median,
-/// the mean of the middle two for an even count) over all calls.
+/// the mean of the middle two for an even count)).
 ///
 /// # Errors
 /// The first failing call's error.
@@ -71,9 +72,11 @@ pub fn solve_repeated(scene: &Scene, options: &Options, repeat: u32) -> Result<S
         let mid = times.len() / 2;
         let median =
             if times.len() % 2 == 1 { times[mid] } else { 0.5 * (times[mid - 1] + times[mid]) };
-        sol.extra.insert("repeat".into(), repeat.into());
-        sol.extra.insert("seconds_best".into(), times[0].into());
-        sol.extra.insert("seconds_median".into(), median.into());
+        sol.diagnostics.repeated = Some(km_core::solution::RepeatedTiming {
+            repeat,
+            seconds_best: times[0],
+            seconds_median: median,
+        });
     }
     Ok(sol)
 }

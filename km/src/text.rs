@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use crate::{ChannelResult, Light, Method, Plan, Scene, Solution, Substrate};
+use crate::{ChannelResult, Light, Method, MethodDiagnostics, Plan, Scene, Solution, Substrate};
 
 /// Reads one number of a channel's result.
 type Getter = fn(&ChannelResult) -> f64;
@@ -111,13 +111,13 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
         }
     }
     if mc {
-        let photons = sol.extra.get("mc").and_then(|m| m.get("samples")).and_then(|n| n.as_u64());
+        let photons = sol.diagnostics.mc().map(|m| m.samples);
         if let Some(n) = photons {
             let _ = writeln!(s, "Monte Carlo: {n} photons per channel; ± is one standard error");
         }
     }
-    if let Some(m) = sol.extra.get("km_mapping").and_then(|m| m.as_str()) {
-        let _ = writeln!(s, "{}", km_mapping_words(m, scene));
+    if let MethodDiagnostics::TwoFlux { mapping } = &sol.diagnostics.method {
+        let _ = writeln!(s, "{}", km_mapping_words(mapping.name(), scene));
     }
     if let Some(a) = &sol.accuracy {
         let _ = writeln!(

@@ -40,8 +40,8 @@ fn parallel_channels_are_bit_identical_to_serial() {
         assert_eq!(p.brdf, s.brdf, "channel {i}");
         assert_eq!(p.btdf, s.btdf, "channel {i}");
     }
-    assert_eq!(par.extra.get("streams"), serial.extra.get("streams"));
-    assert_eq!(par.extra.get("fourier_orders"), serial.extra.get("fourier_orders"));
+    assert_eq!(par.to_json().get("streams"), serial.to_json().get("streams"));
+    assert_eq!(par.to_json().get("fourier_orders"), serial.to_json().get("fourier_orders"));
     assert_eq!(par.notes, serial.notes);
 }
 

@@ -229,7 +229,7 @@ fn difference(
             format!("4 se = {}", format_number(4.0 * se)),
         )
     } else {
-        let bound = planned.extra.get("cutoff_bound").and_then(|v| v.as_f64()).unwrap_or(0.0);
+        let bound = planned.to_json().get("cutoff_bound").and_then(|v| v.as_f64()).unwrap_or(0.0);
         let tol = MF_TOL + bound;
         let d = max_diff(planned, full);
         let tt = if bound > 0.0 {

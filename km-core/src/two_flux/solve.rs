@@ -3,8 +3,6 @@
 use std::f64::consts::PI;
 use std::time::Instant;
 
-use serde_json::{Map, json};
-
 use crate::error::CoreError;
 use crate::scene::{MonoScene, Scene, Substrate};
 use crate::solution::{ChannelResult, Solution};
@@ -207,15 +205,16 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
     {
         notes.push("mapping seed ignores g (K = sigma_a, S = sigma_s)".to_string());
     }
-    let mut extra = Map::new();
-    extra.insert("km_mapping".into(), json!(opts.mapping.name()));
     Ok(Solution {
         method: "km".into(),
         channels,
         labels: scene.labels.clone(),
         seconds,
         notes,
-        extra,
+        diagnostics: crate::solution::Diagnostics {
+            method: crate::solution::MethodDiagnostics::TwoFlux { mapping: opts.mapping },
+            ..Default::default()
+        },
         ..Default::default()
     })
 }

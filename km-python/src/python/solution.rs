@@ -219,7 +219,7 @@ impl PySolution {
     /// Method settings and diagnostics (`streams`, `fourier_orders`, ...), a dict.
     #[getter]
     fn extra<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json_to_py(py, &Value::Object(self.sol.extra.clone()))
+        json_to_py(py, &Value::Object(self.sol.diagnostics.to_json()))
     }
     /// The solver's own wall time, seconds.
     #[getter]
