@@ -132,8 +132,8 @@ km sweep examples/fresnel-slab.toml --set layer[1].albedo=0.5:0.9:3 \
         #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
         method: Method,
         /// Output format.
-        #[arg(long, value_enum, default_value_t = SweepFormat::Table)]
-        format: SweepFormat,
+        #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
+        format: km::SweepFormat,
     },
     /// Print what a scene calls for: effects present, work skipped and why.
     #[command(after_help = "Examples:\n  km plan examples/seed-three-layers.toml\n  \
@@ -229,8 +229,8 @@ pub struct SolveArgs {
     #[arg(long)]
     pub all_effects: bool,
     /// Two-flux coefficients K, S from the scene [km] (default seed: K = sigma_a, S = sigma_s).
-    #[arg(long, value_enum, default_value_t = KmMappingArg::Seed)]
-    pub km_mapping: KmMappingArg,
+    #[arg(long, value_enum, default_value_t = km::KmMapping::Seed)]
+    pub km_mapping: km::KmMapping,
     /// Gauss nodes per hemisphere [multiflux] (default 16).
     #[arg(long)]
     pub streams: Option<usize>,
@@ -251,8 +251,8 @@ pub struct SolveArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// Absorption estimator [mc].
-    #[arg(long, value_enum, default_value_t = EstimatorArg::Survival)]
-    pub estimator: EstimatorArg,
+    #[arg(long, value_enum, default_value_t = km::Estimator::SurvivalBiasing)]
+    pub estimator: km::Estimator,
     /// Run shard I of N (0-based) and write its partial tally to --out [mc].
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
@@ -266,11 +266,11 @@ pub struct SolveArgs {
           value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub repeat: u32,
     /// How F_dr is computed [dipole].
-    #[arg(long, value_enum, default_value_t = FdrArg::Exact)]
-    pub fdr: FdrArg,
+    #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
+    pub fdr: km::FdrModel,
     /// Which dipole [dipole].
-    #[arg(long, value_enum, default_value_t = DipoleArg::Jensen2001)]
-    pub dipole: DipoleArg,
+    #[arg(long, value_enum, default_value_t = km::DipoleModel::Jensen2001)]
+    pub dipole: km::DipoleModel,
 }
 
 /// The `--method` values: the library's method registry.
@@ -283,17 +283,6 @@ fn method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
 fn profile_method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
     clap::builder::PossibleValuesParser::new([Method::Dipole.name(), Method::Mc.name()])
         .try_map(|s| s.parse::<Method>())
-}
-
-/// How the two-flux coefficients K, S are obtained from the scene.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum KmMappingArg {
-    /// K = sigma_a, S = sigma_s, as in the seed paper.
-    Seed,
-    /// Star, Marijnissen & van Gemert 1988: K = 2 sigma_a, S = 3/4 sigma_s (1 - g) - 1/4 sigma_a.
-    Star1988,
-    /// Gate 1974: K = 2 sigma_a, S = 3/4 sigma_s (1 - g).
-    Gate1974,
 }
 
 /// `--json` or `--format` (table by default).
@@ -310,45 +299,6 @@ pub enum OutputFormat {
     Json,
     /// Comma-separated values with a header.
     Csv,
-}
-
-/// Output format of `km sweep`.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SweepFormat {
-    /// Aligned columns.
-    Table,
-    /// Comma-separated values with a header.
-    Csv,
-    /// One JSON object per line.
-    Jsonl,
-}
-
-/// Monte Carlo absorption estimator.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EstimatorArg {
-    /// Survival biasing (implicit capture) with Russian roulette, as MCML.
-    Survival,
-    /// Analog absorption.
-    Analog,
-}
-
-/// How the dipole computes F_dr.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FdrArg {
-    /// Numerical integral of the exact Fresnel reflectance.
-    Exact,
-    /// Egan & Hilgeman's polynomial fit.
-    EganHilgeman,
-}
-
-/// Which dipole.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DipoleArg {
-    /// Jensen, Marschner, Levoy & Hanrahan 2001.
-    #[value(name = "jensen2001")]
-    Jensen2001,
-    /// d'Eon 2012, the better dipole.
-    Better,
 }
 
 fn main() -> ExitCode {
@@ -427,7 +377,7 @@ fn sweep(
     scene: &std::path::Path,
     set: &[String],
     method: Method,
-    format: SweepFormat,
+    format: km::SweepFormat,
 ) -> anyhow::Result<()> {
     // Read as every scene file is read (regular file or `-`, size limit).
     let text = km::read_scene_text(scene, km::SceneLimits::from_env().max_bytes)
@@ -445,11 +395,6 @@ fn sweep(
     }
     let opts = methods::options(&SolveArgs::defaults(method))?;
     let points = km::sweep(&text, &edits, &axes, &opts)?;
-    let format = match format {
-        SweepFormat::Table => km::SweepFormat::Table,
-        SweepFormat::Csv => km::SweepFormat::Csv,
-        SweepFormat::Jsonl => km::SweepFormat::Jsonl,
-    };
     stdout::print(&km::sweep_text(&axes, &points, format))
 }
 

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use km::{KmError, Method, Scene, Solution};
 
-use crate::{DipoleArg, EstimatorArg, FdrArg, KmMappingArg, OutputFormat, SolveArgs};
+use crate::{OutputFormat, SolveArgs};
 
 /// Solve `scene` with the method and options of `args` (through
 /// [`km::solve_repeated`], `--repeat` times).
@@ -40,7 +40,7 @@ fn with_flags(e: KmError, args: &SolveArgs) -> anyhow::Error {
 /// The library options of `args`.
 pub fn options(args: &SolveArgs) -> Result<km::Options> {
     let method = match args.method {
-        Method::Km => km::MethodOptions::Km(km::KmOptions { mapping: km_mapping(args.km_mapping) }),
+        Method::Km => km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping }),
         Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
             streams: args.streams,
             neumann_order: args.order,
@@ -67,14 +67,6 @@ fn option_flag(e: KmError) -> anyhow::Error {
     }
 }
 
-fn km_mapping(m: KmMappingArg) -> km::KmMapping {
-    match m {
-        KmMappingArg::Seed => km::KmMapping::Seed,
-        KmMappingArg::Star1988 => km::KmMapping::StarEtAl1988,
-        KmMappingArg::Gate1974 => km::KmMapping::Gate1974,
-    }
-}
-
 fn mc_options(args: &SolveArgs) -> Result<km::McOptions> {
     if args.samples == 0 {
         bail!("--samples must be at least 1");
@@ -83,10 +75,7 @@ fn mc_options(args: &SolveArgs) -> Result<km::McOptions> {
         samples: args.samples,
         seed: args.seed,
         threads: args.threads,
-        estimator: match args.estimator {
-            EstimatorArg::Survival => km::Estimator::SurvivalBiasing,
-            EstimatorArg::Analog => km::Estimator::Analog,
-        },
+        estimator: args.estimator,
         progress: args.progress().then(progress_bar),
         all_effects: args.all_effects,
         ..Default::default()
@@ -117,16 +106,7 @@ fn progress_bar() -> km::Progress {
 }
 
 fn dipole_options(args: &SolveArgs) -> km::DipoleOptions {
-    km::DipoleOptions {
-        fdr: match args.fdr {
-            FdrArg::Exact => km::FdrModel::Exact,
-            FdrArg::EganHilgeman => km::FdrModel::EganHilgeman,
-        },
-        model: match args.dipole {
-            DipoleArg::Jensen2001 => km::DipoleModel::Jensen2001,
-            DipoleArg::Better => km::DipoleModel::Better,
-        },
-    }
+    km::DipoleOptions { fdr: args.fdr, model: args.dipole }
 }
 
 /// `I/N` with `0 <= I < N`.

@@ -26,6 +26,7 @@ use crate::error::DipoleError;
 
 /// How the internal diffuse Fresnel reflectance `F_dr(eta)` is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FdrModel {
     /// The hemispherical average of the exact unpolarised Fresnel reflectance
     /// seen from inside, `F_dr = 2 integral_0^1 F_r(mu) mu dmu` (eq. D9),
@@ -34,11 +35,19 @@ pub enum FdrModel {
     /// 24-point Gauss–Legendre rule, equal to rounding) with the nodes
     /// computed once ([`fresnel_moment`]). Valid for any `eta > 0`.
     #[default]
+    #[cfg_attr(
+        feature = "clap",
+        value(name = "exact", help = "Numerical integral of the exact Fresnel reflectance")
+    )]
     Exact,
     /// The Egan & Hilgeman (1979) polynomial fit quoted by Jensen et al. 2001,
     /// `F_dr = -1.440 / eta^2 + 0.710 / eta + 0.668 + 0.0636 eta` (eq. D10).
     /// Defined for `eta >= 1` only (it turns negative below); within 0.1 %
     /// of the exact value for `1.1 <= eta <= 1.5` (it gives 0.0016, not 0, at `eta = 1`).
+    #[cfg_attr(
+        feature = "clap",
+        value(name = "egan-hilgeman", help = "Egan & Hilgeman's polynomial fit")
+    )]
     EganHilgeman,
 }
 

@@ -39,12 +39,18 @@ use crate::params::{DiffusionParams, FdrModel, fresnel_moment};
 
 /// Which dipole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum DipoleModel {
     /// Jensen et al. 2001 (eq. D13–D16), with the chosen [`FdrModel`].
     #[default]
+    #[cfg_attr(
+        feature = "clap",
+        value(name = "jensen2001", help = "Jensen, Marschner, Levoy & Hanrahan 2001")
+    )]
     Jensen2001,
     /// d'Eon 2012's better dipole (eq. D19–D22); it uses the exact Fresnel
     /// moments and ignores [`DipoleOptions::fdr`].
+    #[cfg_attr(feature = "clap", value(name = "better", help = "d'Eon 2012, the better dipole"))]
     Better,
 }
 

@@ -6,15 +6,24 @@ use crate::error::McError;
 
 /// How absorption is simulated (docs/montecarlo.md §4 states what each tallies).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Estimator {
     /// Implicit capture (MCML): at each interaction the fraction `1 - albedo`
     /// of the weight is deposited and the photon goes on with the rest; the
     /// first-surface Fresnel reflection is split deterministically; Russian
     /// roulette below [`McOptions::roulette_threshold`].
     #[default]
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            name = "survival",
+            help = "Survival biasing (implicit capture) with Russian roulette, as MCML"
+        )
+    )]
     SurvivalBiasing,
     /// Analog: weight 1 throughout; absorption, Fresnel reflection and the
     /// Lambertian albedo are all decided by a random number.
+    #[cfg_attr(feature = "clap", value(name = "analog", help = "Analog absorption"))]
     Analog,
 }
 

@@ -135,8 +135,10 @@ pub fn sweep(
 
 /// How [`sweep_text`] lays out the rows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SweepFormat {
     /// Aligned columns (22 characters each).
+    #[cfg_attr(feature = "clap", value(help = "Aligned columns"))]
     Table,
     /// Comma-separated values with a header.
     Csv,

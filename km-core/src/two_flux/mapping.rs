@@ -10,16 +10,32 @@ use super::check_ks;
 
 /// How the scene's `(sigma_a, sigma_s, g)` become the two-flux `(K, S)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum KmMapping {
     /// `K = sigma_a`, `S = sigma_s`, as in the seed (seed eq. 1–2); `g` is ignored.
     #[default]
+    #[cfg_attr(
+        feature = "clap",
+        value(name = "seed", help = "K = sigma_a, S = sigma_s, as in the seed paper")
+    )]
     Seed,
     /// Star, Marijnissen & van Gemert (1988), from diffusion theory:
     /// `K = 2 sigma_a`, `S = (3/4) sigma_s (1 - g) - (1/4) sigma_a` (eq. K13).
     /// Needs `3 sigma_s (1 - g) >= sigma_a` (`S >= 0`).
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            name = "star1988",
+            help = "Star, Marijnissen & van Gemert 1988: K = 2 sigma_a, S = 3/4 sigma_s (1 - g) - 1/4 sigma_a"
+        )
+    )]
     StarEtAl1988,
     /// Gate (1974), confirmed by Thennadil (2008) for diffuse light:
     /// `K = 2 sigma_a`, `S = (3/4) sigma_s (1 - g)` (eq. K14).
+    #[cfg_attr(
+        feature = "clap",
+        value(name = "gate1974", help = "Gate 1974: K = 2 sigma_a, S = 3/4 sigma_s (1 - g)")
+    )]
     Gate1974,
 }
 
