@@ -21,6 +21,7 @@ METHODS = [
     ("multiflux", ["--streams", "8"], {"streams": 8}),
     ("mc", ["--samples", "20000", "--seed", "3"], {"samples": 20000, "seed": 3}),
     ("dipole", [], {}),
+    ("direction-set", [], {}),
     ("multiflux", ["--tolerance", "1e-4"], {"tolerance": 1e-4}),
 ]
 

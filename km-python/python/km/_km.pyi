@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 __version__: str
 
-Method = Literal["km", "multiflux", "mc", "dipole"]
+Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
 FloatOrArray = float | npt.NDArray[np.float64]
 
 class KmError(ValueError):

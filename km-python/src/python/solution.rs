@@ -109,7 +109,7 @@ impl PySolution {
 
 #[pymethods]
 impl PySolution {
-    /// Method name (`km`, `multiflux`, `mc`, `dipole`).
+    /// Method name (`km`, `multiflux`, `mc`, `dipole`, `direction-set`).
     #[getter]
     fn method(&self) -> String {
         self.sol.method.clone()
