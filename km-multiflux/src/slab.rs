@@ -257,12 +257,25 @@ impl Lu {
 /// order: the mode coefficients of its rows `R_xq`, `T_xq` and, for the beam's source integral, its
 /// Legendre values and the even/odd kernels to the nodes.
 struct Probe {
+    /// The probe's cosine in this layer.
+    mu: f64,
     /// Path integrals per mode (eq. 14): `R_xq = (us Cp^-1 + uy Cm^-1) T`.
     us: Vec<f64>,
     uy: Vec<f64>,
     lam: Vec<f64>,
     ev: Vec<f64>,
     od: Vec<f64>,
+}
+
+/// The probes of one layer and order, computed once per distinct cosine:
+/// everything in a probe's rows depends on its polar angle only, so the exit
+/// directions that share one (any number of azimuths) share one [`Probe`].
+struct Probes {
+    /// One entry per distinct probe cosine, in order of first appearance.
+    rows: Vec<Probe>,
+    /// For each extra: its entry in `rows` (`None` for the beam and for
+    /// directions absent from this medium).
+    of: Vec<Option<usize>>,
 }
 
 /// `exp(-t / mu)`, 0 for an infinite `t`.
@@ -692,7 +705,7 @@ impl SlabSolution {
         if self.tau.is_infinite() {
             uy.iter_mut().for_each(|x| *x = 0.0);
         }
-        Probe { us, uy, lam: lam_x, ev, od }
+        Probe { mu: mu_x, us, uy, lam: lam_x, ev, od }
     }
 
     /// `(R_xq, T_xq)` of a probe: `R_xq = (us Cp^-1 + uy Cm^-1) T`,
@@ -726,7 +739,7 @@ impl SlabSolution {
         &self,
         mu_b: f64,
         extras: &[Extra],
-        rows: &[Option<Probe>],
+        probes: &Probes,
         tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
@@ -742,33 +755,47 @@ impl SlabSolution {
             cr[i] = zm[i] + hs[i];
             ct[i] = zp[i] * eb_att + hd[i];
         }
-        // Beam -> probes: homogeneous rows plus the particular source integral.
+        // Beam -> probes: homogeneous rows plus the particular source integral,
+        // once per distinct probe cosine (`per`); only the peak correction
+        // depends on the azimuth.
         let lam_b = self.lam_at(mu_b);
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
+        let per: Vec<[f64; 4]> = probes
+            .rows
+            .iter()
+            .map(|pr| {
+                let (us, uy, lam_x, ev, od) = (&pr.us, &pr.uy, &pr.lam, &pr.ev, &pr.od);
+                // Direct single scattering of the beam into ±mu_x.
+                let (mut se, mut so) = (0.0, 0.0);
+                for l in self.m..self.chi.len() {
+                    let x = self.chi[l] * lam_x[l] * lam_b[l];
+                    if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
+                }
+                // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
+                let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
+                let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
+                // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
+                let (mut up, mut dn) = (direct_up, direct_dn);
+                for j in 0..n {
+                    let f = self.omega * self.w[j] * 0.5;
+                    // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
+                    up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
+                    dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
+                }
+                let beta = 1.0 / pr.mu;
+                let kb = 1.0 / mu_b;
+                // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b).
+                [
+                    up * beta * phi(kb + beta, self.tau),
+                    dn * beta * e2(kb, beta, self.tau),
+                    dot(us, &sp),
+                    dot(uy, &sm),
+                ]
+            })
+            .collect();
         for (ex_i, exx) in extras.iter().enumerate() {
-            let (Some(pr), Some(mu_x)) = (&rows[ex_i], exx.mu) else { continue };
-            let (us, uy, lam_x, ev, od) = (&pr.us, &pr.uy, &pr.lam, &pr.ev, &pr.od);
-            // Direct single scattering of the beam into ±mu_x.
-            let (mut se, mut so) = (0.0, 0.0);
-            for l in self.m..self.chi.len() {
-                let x = self.chi[l] * lam_x[l] * lam_b[l];
-                if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
-            }
-            // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
-            let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
-            let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
-            // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
-            let (mut up, mut dn) = (direct_up, direct_dn);
-            for j in 0..n {
-                let f = self.omega * self.w[j] * 0.5;
-                // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
-                up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
-                dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
-            }
-            let beta = 1.0 / mu_x;
-            let kb = 1.0 / mu_b;
-            let mut out_up = up * beta * phi(kb + beta, self.tau);
-            let mut out_dn = dn * beta * e2(kb, beta, self.tau);
+            let (Some(p), Some(mu_x)) = (probes.of[ex_i], exx.mu) else { continue };
+            let [mut out_up, mut out_dn, hp, hm] = per[p];
             if let (Some(t), 0) = (tms, self.m) {
                 // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
                 // (TMS) and the forward peak's second order (IMS), real space.
@@ -776,10 +803,8 @@ impl SlabSolution {
                 out_up += du;
                 out_dn += dd;
             }
-            // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b), and
-            // T_xq a + R_xq b with the sign of the second term flipped
-            // (nothing leaves the bottom of a half-space).
-            let (hp, hm) = (dot(us, &sp), dot(uy, &sm));
+            // T_xq a + R_xq b is the same with the sign of the second term
+            // flipped (nothing leaves the bottom of a half-space).
             out_up += hp + hm;
             if !self.tau.is_infinite() {
                 out_dn += hp - hm;
@@ -908,14 +933,15 @@ impl SlabSolution {
             rr.col_as_slice_mut(j)[..n].copy_from_slice(r.col_as_slice(j));
             tt.col_as_slice_mut(j)[..n].copy_from_slice(tr.col_as_slice(j));
         }
-        // Probe rows first (needed by the beam columns).
-        let rows = self.probe_rows_all(extras);
+        // Probe rows first (needed by the beam columns), once per distinct cosine.
+        let probes = self.probes(extras);
+        let vectors: Vec<_> = probes.rows.iter().map(|pr| self.probe_row_vectors(pr)).collect();
         for (e, ex) in extras.iter().enumerate() {
             if let Some(mu_x) = ex.mu {
                 tt[(n + e, n + e)] = atten(self.tau, mu_x);
             }
-            if let Some(pr) = &rows[e] {
-                let (rx, tx) = self.probe_row_vectors(pr);
+            if let Some(p) = probes.of[e] {
+                let (rx, tx) = &vectors[p];
                 for i in 0..n {
                     rr[(n + e, i)] = rx[i];
                     tt[(n + e, i)] = tx[i];
@@ -924,9 +950,9 @@ impl SlabSolution {
         }
         for (eb, ex) in extras.iter().enumerate() {
             let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
-            let (cr, ct) = self.beam_response_rows(mu_b, extras, &rows, tms);
+            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms);
             for i in 0..dim {
-                if i < n || rows[i - n].is_some() {
+                if i < n || probes.of[i - n].is_some() {
                     rr[(i, n + eb)] = cr[i];
                     tt[(i, n + eb)] = ct[i];
                 }
@@ -950,10 +976,10 @@ impl SlabSolution {
         let (true, Some(mu_b)) = (extras[eb].beam, extras[eb].mu) else {
             return (cr, ct);
         };
-        let rows = self.probe_rows_all(extras);
-        let (r, t) = self.beam_response_rows(mu_b, extras, &rows, tms);
+        let probes = self.probes(extras);
+        let (r, t) = self.beam_response_rows(mu_b, extras, &probes, tms);
         for i in 0..dim {
-            if i < n || rows[i - n].is_some() {
+            if i < n || probes.of[i - n].is_some() {
                 cr[i] = r[i];
                 ct[i] = t[i];
             }
@@ -963,16 +989,24 @@ impl SlabSolution {
         (cr, ct)
     }
 
-    /// `(R_xq, T_xq)` of every probe (`None` for the beam and for directions
-    /// absent from this medium).
-    fn probe_rows_all(&self, extras: &[Extra]) -> Vec<Option<Probe>> {
-        extras
+    /// The probes of `extras`, one [`Probe`] per distinct cosine (the beam
+    /// and directions absent from this medium have none).
+    fn probes(&self, extras: &[Extra]) -> Probes {
+        let mut rows: Vec<Probe> = Vec::new();
+        let of = extras
             .iter()
             .map(|ex| match (ex.beam, ex.mu) {
-                (false, Some(mu_x)) => Some(self.probe_rows(mu_x)),
+                (false, Some(mu_x)) => Some(match rows.iter().position(|p| p.mu == mu_x) {
+                    Some(i) => i,
+                    None => {
+                        rows.push(self.probe_rows(mu_x));
+                        rows.len() - 1
+                    }
+                }),
                 _ => None,
             })
-            .collect()
+            .collect();
+        Probes { rows, of }
     }
 
     /// The beam's columns (nodes and probes) with the resonance guard.
@@ -980,7 +1014,7 @@ impl SlabSolution {
         &self,
         mu_b: f64,
         extras: &[Extra],
-        rows: &[Option<Probe>],
+        probes: &Probes,
         tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
         // Eq. S6 is singular at k_j mu_b = 1 (the full response is not): at
@@ -990,18 +1024,18 @@ impl SlabSolution {
         // log10(1/|k mu_b - 1|) digits.
         let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-9);
         if !near {
-            self.beam_columns(mu_b, extras, rows, tms)
+            self.beam_columns(mu_b, extras, probes, tms)
         } else if mu_b * (1.0 + 1e-6) < 1.0 {
             let (a, b) = (
-                self.beam_columns(mu_b * (1.0 - 1e-6), extras, rows, tms),
-                self.beam_columns(mu_b * (1.0 + 1e-6), extras, rows, tms),
+                self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms),
+                self.beam_columns(mu_b * (1.0 + 1e-6), extras, probes, tms),
             );
             let avg = |x: &[f64], y: &[f64]| -> Vec<f64> {
                 x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect()
             };
             (avg(&a.0, &b.0), avg(&a.1, &b.1))
         } else {
-            self.beam_columns(mu_b * (1.0 - 1e-6), extras, rows, tms)
+            self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms)
         }
     }
 
