@@ -58,9 +58,10 @@ use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, slab_operators};
 use crate::solver::{
-    Closing, FOURIER_TOL, MultifluxOptions, Scaled, close_stack, combine, default_streams,
-    delta_parts, flux, media_grid, planned_cutoff, resolve_streams, scale_layers,
+    FOURIER_TOL, MultifluxOptions, Scaled, default_streams, flux, media_grid, planned_cutoff,
+    resolve_streams, scale_layers,
 };
+use crate::stack::{StackPieces, add_stack, delta_parts};
 
 /// An error of the BSDF table or its files.
 #[derive(Debug, thiserror::Error)]
@@ -736,18 +737,13 @@ fn stack(
     m: usize,
     neumann: Option<usize>,
 ) -> Result<LayerOperators, MultifluxError> {
-    let mut acc: Option<LayerOperators> = None;
-    let mut n_above = scene.ambient_n;
     let interface = |na: f64, nb: f64| {
         let mut ops =
             fresnel_operators(&grid.medium(na), &grid.medium(nb), &extras_in(na), &extras_in(nb));
         scrub_ops(&mut ops, kinds);
         ops
     };
-    for (li, l) in layers.iter().enumerate() {
-        if l.n != n_above {
-            acc = Some(combine(acc, interface(n_above, l.n), neumann)?);
-        }
+    let layer = |li: usize, l: &Scaled| {
         let nodes = grid.medium(l.n);
         let ex = extras_in(l.n);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
@@ -784,15 +780,13 @@ fn stack(
                 }
             }
         }
-        acc = Some(combine(acc, ops, neumann)?);
-        n_above = l.n;
-    }
-    let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
+        Ok(ops)
+    };
     let lambertian = |n: f64, albedo: f64| {
         let mut g = lambertian_reflection(&grid.medium(n), &extras_in(n), albedo, m);
         scrub(&mut g, kinds);
         g
     };
-    let close = Closing { half_space, n_above, n_sub, all_effects: false, neumann };
-    close_stack(scene, acc, &close, &interface, &lambertian)
+    let pieces = StackPieces { interface: &interface, layer: &layer, lambertian: &lambertian };
+    add_stack(scene, layers, n_sub, neumann, false, &pieces)
 }
