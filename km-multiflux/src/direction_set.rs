@@ -4,7 +4,7 @@
 //! `{s_i}` (303 directions in its §4.2) and solves the discretised radiative
 //! transfer equation (seed eq. 18)
 //!
-//! `K dI/dz = (-sigma_t + sigma_s P) I`, `Q = K^-1 (-sigma_t + sigma_s P)`   (eq. D1)
+//! `K dI/dz = (-sigma_t + sigma_s P) I`, `Q = K^-1 (-sigma_t + sigma_s P)`   (eq. DS1)
 //!
 //! exactly in depth by eigen-decomposition of `Q` (seed eq. 19–20). This
 //! module is that scheme, made correct and stable (docs/multiflux-direction-set.md); the
@@ -24,7 +24,7 @@
 //!   total-internal-reflection cone gets rings of its own.
 //! * **Phase matrix** `P_ij = p(s_i . s_j) w_j`, rescaled symmetrically
 //!   (`p_ij -> d_i d_j p_ij`, symmetric Sinkhorn–Knopp) so every row sums to 1
-//!   while `w_i P_ij = w_j P_ji` (reciprocity) is kept (eq. D3).
+//!   while `w_i P_ij = w_j P_ji` (reciprocity) is kept (eq. DS3).
 //! * **Eigen-solution** ([`DiscreteModes`]): the plus/minus symmetry reduces
 //!   the `2N x 2N` problem to a symmetric `N x N` one (Stamnes & Swanson 1981);
 //!   the slab operators are written with `tanh` and `sech^2` of `lambda z0 / 2`
@@ -210,7 +210,7 @@ impl DirectionSet {
     /// A set on the sphere of about `n_target` directions (both hemispheres)
     /// in a medium of index 1, without a prescribed incidence node.
     ///
-    /// Layout (docs eq. D2): `n_mu = round(sqrt(pi N_h / 8))` Gauss–Legendre
+    /// Layout (docs eq. DS2): `n_mu = round(sqrt(pi N_h / 8))` Gauss–Legendre
     /// rings per hemisphere (`N_h = n_target / 2`), azimuth counts
     /// `m_r = max(1, round(C sin theta_r))` with `C` chosen so that the
     /// hemisphere holds about `N_h` directions.
@@ -278,7 +278,7 @@ impl DirectionSet {
         [s * self.phi[j].cos(), s * self.phi[j].sin(), self.mu[j]]
     }
 
-    /// The two blocks of the discrete phase matrix (docs eq. D3):
+    /// The two blocks of the discrete phase matrix (docs eq. DS3):
     /// `P++_ij = p(s_i . s_j) w_j` (down to down) and `P+-_ij = p(s_i . s'_j) w_j`
     /// (`s'_j` the mirror of `s_j`), rescaled symmetrically so that every row of
     /// `[P++ P+-]` sums to 1 and `w_i P_ij = w_j P_ji`. By mirror symmetry
@@ -310,7 +310,7 @@ impl DirectionSet {
     }
 
     /// Reflection and transmission operators of one homogeneous layer on this
-    /// set (seed eq. 20, in the stable form of docs eq. D8–D10). Operators act
+    /// set (seed eq. 20, in the stable form of docs eq. DS8–DS10). Operators act
     /// on radiance vectors: `I_up(0) = r_top I_down(0)`, `I_down(z0) = t_down I_down(0)`.
     /// The layer's own index `n` is not used (interfaces are separate operators).
     /// A pure absorber (`sigma_s = 0`) or a clear layer needs no eigen-solve:
@@ -346,7 +346,7 @@ pub struct Incidence {
 /// Direction sets for several media, matched across their interfaces: the
 /// set of the medium of index `n_k` holds the rings of every lower-index set
 /// mapped by Snell's law (`n sin theta` conserved, weights by
-/// `n_k^2 mu_k dmu_k = n_l^2 mu_l dmu_l`, docs eq. D4), followed by rings of
+/// `n_k^2 mu_k dmu_k = n_l^2 mu_l dmu_l`, docs eq. DS4), followed by rings of
 /// its own in the total-internal-reflection cone `0 < mu < mu_c`. A direction
 /// keeps its index in every set it belongs to, so refraction and mirror
 /// reflection are diagonal operators (seed §3.4 without interpolation).
@@ -460,7 +460,7 @@ impl MatchedSets {
                 let nk = media[nd.panel];
                 let s = nd.h / nj;
                 let mu_j = (1.0 - s * s).max(0.0).sqrt();
-                // Etendue: n_j^2 mu_j dmu_j = n_k^2 mu_k dmu_k (docs eq. D4).
+                // Etendue: n_j^2 mu_j dmu_j = n_k^2 mu_k dmu_k (docs eq. DS4).
                 let dmu_j = if nd.panel == j {
                     nd.dmu
                 } else {

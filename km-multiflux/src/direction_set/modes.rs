@@ -1,10 +1,10 @@
-//! The direction set's phase matrix, renormalised symmetrically (eq. D3), and
+//! The direction set's phase matrix, renormalised symmetrically (eq. DS3), and
 //! the eigen-solution of a slab on the set (seed eq. 18–20, the half-size
 //! symmetric form) with its reflection and transmission operators.
 
 use super::*;
 
-/// Symmetric rescaling of a discrete phase function (docs eq. D3): given raw
+/// Symmetric rescaling of a discrete phase function (docs eq. DS3): given raw
 /// values `p++_ij = p(s_i . s_j)`, `p+-_ij = p(s_i . s'_j)` (symmetric
 /// matrices) and weights `w`, find `d > 0` with
 /// `sum_j d_i d_j (p++_ij + p+-_ij) w_j = 1` by the symmetric Sinkhorn–Knopp
@@ -64,12 +64,12 @@ pub(crate) fn renormalised_blocks(
 /// With `M = diag(mu)`, `W = diag(w)`, `A = M^-1 (sigma_t - sigma_s P++)`,
 /// `B = M^-1 sigma_s P+-`, the system is `d/dz [I+; I-] = [[-A, B], [-B, A]] [I+; I-]`.
 /// Its eigenvalues are `+-lambda_k` with `lambda_k^2` the eigenvalues of
-/// `(A + B)(A - B)` (docs eq. D6). The decaying mode `exp(-lambda z)` has
+/// `(A + B)(A - B)` (docs eq. DS6). The decaying mode `exp(-lambda z)` has
 /// `I+ = (S + lambda F) / 2`, `I- = (S - lambda F) / 2` with
 /// `(A + B)(A - B) S = lambda^2 S` and `F = (A + B)^-1 S`; the growing one is
 /// its mirror image. `(A + B)(A - B)` is similar to the symmetric
 /// `L^T H_e L` (`H_o = L L^T`, `H_o,e = (MW)^-1/2 W (sigma_t - sigma_s (P++ -+ P+-)) (MW)^-1/2`),
-/// so `S = (MW)^-1/2 L Y`, `F = (MW)^-1/2 L^-T Y` with `Y` orthonormal (docs eq. D7).
+/// so `S = (MW)^-1/2 L Y`, `F = (MW)^-1/2 L^-T Y` with `Y` orthonormal (docs eq. DS7).
 #[derive(Debug, Clone)]
 pub struct DiscreteModes {
     mu: Vec<f64>,
@@ -104,7 +104,7 @@ impl DiscreteModes {
             return Err(invalid("sigma_t", sigma_t, "modes need sigma_t > 0"));
         }
         let n = mu.len();
-        // Symmetric odd / even operators H_o, H_e (docs eq. D7).
+        // Symmetric odd / even operators H_o, H_e (docs eq. DS7).
         let rs: Vec<f64> = (0..n).map(|i| (mu[i] * w[i]).sqrt().recip()).collect();
         let h = |sign: f64| {
             Mat::from_fn(n, n, |i, j| {
@@ -137,7 +137,7 @@ impl DiscreteModes {
         let nu = evd.S().column_vector().to_owned();
         // lambda^2 >= 0 in exact arithmetic: clamp rounding. Conservative
         // scattering has exactly one null mode (the isotropic radiance; docs
-        // eq. D7): rounding would give it lambda ~ 1e-8 sigma_t / mu_min, which
+        // eq. DS7): rounding would give it lambda ~ 1e-8 sigma_t / mu_min, which
         // matters at tau ~ 1e4 and above, so its value is set to 0.
         let mut nu: Vec<f64> = (0..n).map(|k| nu[k].max(0.0)).collect();
         if sigma_a == 0.0 {
@@ -167,7 +167,7 @@ impl DiscreteModes {
 
     /// Eigenvectors of the decaying modes `exp(-lambda_k z)`: column `k` of
     /// `(X+, X-)` is the downward and upward radiance of mode `k`
-    /// (`X+- = (S +- lambda F) / 2`, docs eq. D6). The growing mode
+    /// (`X+- = (S +- lambda F) / 2`, docs eq. DS6). The growing mode
     /// `exp(+lambda_k z)` is `(X-, X+)`.
     pub fn eigenvectors(&self) -> (Mat<f64>, Mat<f64>) {
         let n = self.mu.len();
@@ -179,7 +179,7 @@ impl DiscreteModes {
     }
 
     /// Reflection and transmission operators of a slab of `thickness`
-    /// (length, `>= 0`, `inf` for a half-space). Docs eq. D8–D10, with
+    /// (length, `>= 0`, `inf` for a half-space). Docs eq. DS8–DS10, with
     /// `t_k = tanh(lambda_k z0 / 2)`, `c_k = t_k / lambda_k` (`-> z0 / 2`):
     ///
     /// * `R + T = (S - F diag(lambda t)) (S + F diag(lambda t))^-1`
@@ -218,7 +218,7 @@ impl DiscreteModes {
                 t_up: Mat::zeros(n, n),
             });
         }
-        // Per-mode factors, all bounded (docs eq. D9).
+        // Per-mode factors, all bounded (docs eq. DS9).
         let mut lt = vec![0.0; n];
         let mut c = vec![0.0; n];
         let mut sech2 = vec![0.0; n];
@@ -238,7 +238,7 @@ impl DiscreteModes {
         let lu2 = d2.partial_piv_lu();
         let sum = lu1.rsolve(&n1);
         let diff = lu2.rsolve(&n2);
-        // T = S D1^-1 F sech^2 D2^-1 (docs eq. D10): decays like exp(-lambda z0).
+        // T = S D1^-1 F sech^2 D2^-1 (docs eq. DS10): decays like exp(-lambda z0).
         let fs = Mat::from_fn(n, n, |i, k| F[(i, k)] * sech2[k]);
         let t = lu2.rsolve(&(lu1.rsolve(S) * fs));
         let r = Mat::from_fn(n, n, |i, j| 0.5 * (sum[(i, j)] + diff[(i, j)]));

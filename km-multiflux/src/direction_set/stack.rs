@@ -24,7 +24,7 @@ pub(crate) fn absorber_operators(mu: &[f64], sigma_t: f64, thickness: f64) -> La
 // Interfaces and substrates (seed §3.4)
 
 /// A smooth Fresnel interface from the medium of `above` (index `n_a`) to that
-/// of `below` (`n_b`), on matched sets (docs eq. D11). Direction `j` keeps its
+/// of `below` (`n_b`), on matched sets (docs eq. DS11). Direction `j` keeps its
 /// index across the interface, so every operator is diagonal:
 ///
 /// * `r_top_jj = R_F(mu_a,j)`, `t_down_jj = (1 - R_F) (n_b / n_a)^2` (n^2 radiance law),
@@ -73,7 +73,7 @@ pub fn interface_operators(above: &DirectionSet, below: &DirectionSet) -> Result
 }
 
 /// A Lambertian reflector of `albedo` in `[0, 1]` as an operator on radiance:
-/// `r_ij = (albedo / pi) mu_j w_j` (docs eq. D12), no transmission
+/// `r_ij = (albedo / pi) mu_j w_j` (docs eq. DS12), no transmission
 /// (`t_down` has 0 rows). `albedo = 0` is the black substrate.
 ///
 /// # Errors
@@ -209,7 +209,7 @@ pub struct StackResponse {
 ///
 /// The beam is a node of the ambient set (`I_inc = e_i0 / w_i0` for unit
 /// irradiance normal to the beam); reflected radiance `I_r = R e_i0 / w_i0`;
-/// `f_r(j) = I_r,j / mu0` (docs eq. D13). The delta parts are the response of
+/// `f_r(j) = I_r,j / mu0` (docs eq. DS13). The delta parts are the response of
 /// the same stack without scattering and with a black substrate.
 ///
 /// # Errors
