@@ -219,66 +219,15 @@ fn solve_mono_residual(
     let (n_sub, grid) = media_grid(scene, streams);
     // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
     let n_keep = 2 * streams;
-
-    // Extras: the beam, then probes (by Snell invariant s).
-    // (s, is_beam, phi): probes share an extra when s (and, for the
-    // single-scattering correction of a beam, phi) agree.
-    let mut ex_s: Vec<(f64, bool, f64)> = Vec::new();
-    let beam = match scene.light {
-        Light::Collimated { theta_deg } => {
-            ex_s.push((n0 * theta_deg.to_radians().sin(), true, 0.0));
-            Some(0)
-        }
-        Light::Diffuse => None,
-    };
+    let ex = ChannelExtras::new(scene, n_sub, opts.delta_m);
+    let beam = ex.beam;
     let tms_on = opts.delta_m && beam.is_some();
-    let probe = |s: f64, phi: f64, ex_s: &mut Vec<(f64, bool, f64)>| -> usize {
-        let phi = if tms_on { phi } else { 0.0 };
-        if let Some(i) = ex_s.iter().position(|&(t, b, p)| !b && t == s && p == phi) {
-            return i;
-        }
-        ex_s.push((s, false, phi));
-        ex_s.len() - 1
-    };
-    let dirs = &scene.directions_deg;
-    let brdf_ix: Vec<usize> =
-        dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
-    let btdf_ix: Vec<usize> = match n_sub {
-        Some(ns) => {
-            dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), d[1], &mut ex_s)).collect()
-        }
-        None => Vec::new(),
-    };
-    let extras_in = |n: f64| -> Vec<Extra> {
-        ex_s.iter()
-            .map(|&(s, beam, phi_deg)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg })
-            .collect()
-    };
+    let extras_in = |n: f64| ex.in_medium(n);
 
     // Delta-M scaling of each layer.
     let layers = scale_layers(scene, opts, n_keep);
-
-    // Fourier orders: 0 for totals; up to the last non-negligible moment for angles.
-    let need_angles = !dirs.is_empty();
-    let m_max = if need_angles && beam.is_some() {
-        let mut m = 0;
-        for l in &layers {
-            if l.omega > 0.0
-                && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
-            {
-                m = m.max(last);
-            }
-        }
-        m.min(opts.max_fourier_order.unwrap_or(usize::MAX))
-    } else {
-        0
-    };
-    // Everything on: every order the streams resolve, even for totals.
-    let m_max = if all {
-        (2 * streams - 1).min(opts.max_fourier_order.unwrap_or(usize::MAX))
-    } else {
-        m_max
-    };
+    let dirs = &scene.directions_deg;
+    let m_max = last_order(&layers, opts, !dirs.is_empty() && beam.is_some(), streams);
 
     let nodes0 = grid.medium(n0);
     let e0 = extras_in(n0);
@@ -297,21 +246,7 @@ fn solve_mono_residual(
     // `FOURIER_TOL` times the largest BRDF/BTDF value so far.
     let mut small_orders = 0;
     let mut m_used = 0;
-    // A layer alone in the ambient medium under a beam (no interface, nothing
-    // below it): the answer is one column of its operators, computed without
-    // the node-to-node operators (`slab_beam_response`). Never with all effects.
-    let lone = match (beam, &layers[..]) {
-        (Some(b), [l]) if !all && l.n == n0 => {
-            let floor_free = l.tau.is_infinite()
-                || match scene.substrate {
-                    Substrate::Black => true,
-                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == n0),
-                    Substrate::Lambertian { .. } => false,
-                };
-            floor_free.then_some((b, l))
-        }
-        _ => None,
-    };
+    let lone = lone_layer(scene, &layers, beam, n_sub, all);
     for m in 0..=m_max {
         m_used = m;
         let (up, down) = if let Some((b, l)) = lone {
@@ -332,49 +267,20 @@ fn solve_mono_residual(
                 tms_on && !dirs.is_empty(),
                 all,
             )?;
-            // Input at the top.
-            let a = {
-                let mut a = vec![0.0; na0 + e0.len()];
-                match beam {
-                    Some(b) => a[na0 + b] = 1.0,
-                    None if m == 0 => {
-                        // Uniform radiance 1/pi (unit irradiance) in every down-going
-                        // direction: the nodes and the probes (whose direct
-                        // transmission and mirror reflection are smooth in angle
-                        // for diffuse light, so they belong to the BRDF/BTDF).
-                        for (i, x) in a.iter_mut().enumerate() {
-                            if i < na0 || e0[i - na0].mu.is_some() {
-                                *x = 1.0 / std::f64::consts::PI;
-                            }
-                        }
-                    }
-                    None => {}
-                }
-                a
-            };
+            let a = top_input(na0, &e0, beam, m);
             let down = if nodes_sub.is_some() { apply(&ops.t_down, &a) } else { Vec::new() };
             (apply(&ops.r_top, &a), down)
         };
-        let cosm = |phi_deg: f64| (m as f64 * (phi_deg - 180.0).to_radians()).cos();
         if m == 0 {
             r_tot = flux(&nodes0, &up[..na0]) + beam.map_or(0.0, |b| up[na0 + b]);
         }
-        let mut term = 0.0f64;
-        for (k, d) in dirs.iter().enumerate() {
-            let x = up[na0 + brdf_ix[k]];
-            out.brdf[k] += x * cosm(d[1]);
-            term = term.max(x.abs());
-        }
+        let mut term = add_order(&mut out.brdf, dirs, &up[na0..], &ex.brdf_ix, m);
         if let Some(ns) = &nodes_sub {
             let nb = ns.mu.len();
             if m == 0 {
                 t_tot = flux(ns, &down[..nb]) + beam.map_or(0.0, |b| down[nb + b]);
             }
-            for (k, d) in dirs.iter().enumerate() {
-                let x = down[nb + btdf_ix[k]];
-                out.btdf[k] += x * cosm(d[1]);
-                term = term.max(x.abs());
-            }
+            term = term.max(add_order(&mut out.btdf, dirs, &down[nb..], &ex.btdf_ix, m));
         }
         if m > 0 && !all {
             let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
@@ -384,15 +290,165 @@ fn solve_mono_residual(
             }
         }
     }
+    finish(scene, &layers, n_sub, &ex, &nodes0, (r_tot, t_tot), &mut out, out_residual)?;
+    Ok((out, m_used + 1))
+}
 
-    // Delta parts with the true (unscaled) optical thicknesses.
-    let (spec, direct) = match beam {
-        Some(b) => delta_parts(scene, &layers, n_sub, ex_s[b].0),
+/// Add Fourier order `m` of the exit radiances (`x[ix[k]]` for direction
+/// `k`) to `vals`: `I^m cos m(phi - 180 deg)`; returns the largest `|I^m|`.
+fn add_order(vals: &mut [f64], dirs: &[[f64; 2]], x: &[f64], ix: &[usize], m: usize) -> f64 {
+    let mut term = 0.0f64;
+    for (k, d) in dirs.iter().enumerate() {
+        let v = x[ix[k]];
+        vals[k] += v * (m as f64 * (d[1] - 180.0).to_radians()).cos();
+        term = term.max(v.abs());
+    }
+    term
+}
+
+/// The extra directions of a channel besides the nodes: the beam, then the
+/// probes by Snell invariant `s`, as `(s, is_beam, phi)`; probes share an
+/// extra when `s` (and, for the beam's single-scattering correction, `phi`)
+/// agree.
+struct ChannelExtras {
+    ex_s: Vec<(f64, bool, f64)>,
+    /// The beam's extra (`None` for diffuse light).
+    beam: Option<usize>,
+    /// The extra of each exit direction above (BRDF) and below (BTDF).
+    brdf_ix: Vec<usize>,
+    btdf_ix: Vec<usize>,
+}
+
+impl ChannelExtras {
+    fn new(scene: &MonoScene, n_sub: Option<f64>, delta_m: bool) -> Self {
+        let n0 = scene.ambient_n;
+        let mut ex_s: Vec<(f64, bool, f64)> = Vec::new();
+        let beam = match scene.light {
+            Light::Collimated { theta_deg } => {
+                ex_s.push((n0 * theta_deg.to_radians().sin(), true, 0.0));
+                Some(0)
+            }
+            Light::Diffuse => None,
+        };
+        let tms_on = delta_m && beam.is_some();
+        let probe = |s: f64, phi: f64, ex_s: &mut Vec<(f64, bool, f64)>| -> usize {
+            let phi = if tms_on { phi } else { 0.0 };
+            if let Some(i) = ex_s.iter().position(|&(t, b, p)| !b && t == s && p == phi) {
+                return i;
+            }
+            ex_s.push((s, false, phi));
+            ex_s.len() - 1
+        };
+        let dirs = &scene.directions_deg;
+        let brdf_ix: Vec<usize> =
+            dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
+        let btdf_ix: Vec<usize> = match n_sub {
+            Some(ns) => {
+                dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), d[1], &mut ex_s)).collect()
+            }
+            None => Vec::new(),
+        };
+        ChannelExtras { ex_s, beam, brdf_ix, btdf_ix }
+    }
+
+    /// The extras as directions in the medium of index `n`.
+    fn in_medium(&self, n: f64) -> Vec<Extra> {
+        self.ex_s
+            .iter()
+            .map(|&(s, beam, phi_deg)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg })
+            .collect()
+    }
+}
+
+/// The last Fourier order: 0 for totals; with exit directions under a beam
+/// (`angles`), up to the last non-negligible moment; every order the streams
+/// resolve (`2N - 1`) with all effects; never above the options' bound.
+fn last_order(layers: &[Scaled], opts: &MultifluxOptions, angles: bool, streams: usize) -> usize {
+    let bound = opts.max_fourier_order.unwrap_or(usize::MAX);
+    if opts.all_effects {
+        return (2 * streams - 1).min(bound);
+    }
+    if !angles {
+        return 0;
+    }
+    let mut m = 0;
+    for l in layers {
+        if l.omega > 0.0
+            && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
+        {
+            m = m.max(last);
+        }
+    }
+    m.min(bound)
+}
+
+/// A layer alone in the ambient medium under a beam (no interface, nothing
+/// below it): the answer is one column of its operators, computed without
+/// the node-to-node operators (`slab_beam_response`). Never with all effects.
+fn lone_layer<'a>(
+    scene: &MonoScene,
+    layers: &'a [Scaled],
+    beam: Option<usize>,
+    n_sub: Option<f64>,
+    all: bool,
+) -> Option<(usize, &'a Scaled)> {
+    match (beam, layers) {
+        (Some(b), [l]) if !all && l.n == scene.ambient_n => {
+            let floor_free = l.tau.is_infinite()
+                || match scene.substrate {
+                    Substrate::Black => true,
+                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == scene.ambient_n),
+                    Substrate::Lambertian { .. } => false,
+                };
+            floor_free.then_some((b, l))
+        }
+        _ => None,
+    }
+}
+
+/// The input at the top for order `m`: the beam's unit irradiance, or for
+/// diffuse light (order 0 only) uniform radiance 1/pi (unit irradiance) in
+/// every down-going direction: the nodes and the probes (whose direct
+/// transmission and mirror reflection are smooth in angle for diffuse light,
+/// so they belong to the BRDF/BTDF).
+fn top_input(na0: usize, e0: &[Extra], beam: Option<usize>, m: usize) -> Vec<f64> {
+    let mut a = vec![0.0; na0 + e0.len()];
+    match beam {
+        Some(b) => a[na0 + b] = 1.0,
+        None if m == 0 => {
+            for (i, x) in a.iter_mut().enumerate() {
+                if i < na0 || e0[i - na0].mu.is_some() {
+                    *x = 1.0 / std::f64::consts::PI;
+                }
+            }
+        }
+        None => {}
+    }
+    a
+}
+
+/// The channel's totals: the delta parts with the true (unscaled) optical
+/// thicknesses, exact conservation (eq. 18a), and a refusal of non-finite
+/// results; `(r_tot, t_tot)` are the diffuse-and-all totals from order 0.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+    ex: &ChannelExtras,
+    nodes0: &MediumNodes,
+    (r_tot, t_tot): (f64, f64),
+    out: &mut ChannelResult,
+    out_residual: &std::cell::Cell<f64>,
+) -> Result<(), MultifluxError> {
+    let n0 = scene.ambient_n;
+    let (spec, direct) = match ex.beam {
+        Some(b) => delta_parts(scene, layers, n_sub, ex.ex_s[b].0),
         None => {
             let (mut s, mut d) = (0.0, 0.0);
-            for i in 0..na0 {
+            for i in 0..nodes0.mu.len() {
                 let sx = n0 * (1.0 - nodes0.mu[i] * nodes0.mu[i]).max(0.0).sqrt();
-                let (si, di) = delta_parts(scene, &layers, n_sub, sx);
+                let (si, di) = delta_parts(scene, layers, n_sub, sx);
                 let f = 2.0 * nodes0.w[i] * nodes0.mu[i];
                 s += f * si;
                 d += f * di;
@@ -424,7 +480,7 @@ fn solve_mono_residual(
             detail: "non-finite result".into(),
         });
     }
-    Ok((out, m_used + 1))
+    Ok(())
 }
 
 /// Totals that obey the bounds exactly (eq. 18a of `docs/multiflux.md`):
