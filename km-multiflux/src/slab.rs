@@ -177,78 +177,9 @@ impl SlabSolution {
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
-        // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
-        // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
-        let mut ae = Mat::<f64>::zeros(n, nl);
-        let mut ao = Mat::<f64>::zeros(n, nl);
-        let mut lt = Mat::<f64>::zeros(nl, n);
-        for i in 0..n {
-            let c = lt.col_as_slice_mut(i);
-            c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
-        }
-        for l in m..nl {
-            let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
-            let even = (l + m).is_multiple_of(2);
-            for i in 0..n {
-                let x = chi[l] * lam[i * nl + l];
-                if even { ce[i] = x } else { co[i] = x }
-            }
-        }
-        let mut pe = &ae * &lt;
-        let mut po = &ao * &lt;
-        // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
-        // (energy conservation of the discrete scattering; docs/multiflux.md). Symmetric
-        // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
+        let (pe, po) = phase_blocks(w, m, &chi, &lam, n);
         let renorm_m0 = m == 0;
-        if renorm_m0 {
-            let mut d = vec![1.0; n];
-            let mut r = vec![0.0; n];
-            for _ in 0..60 {
-                r.iter_mut().for_each(|x| *x = 0.0);
-                for j in 0..n {
-                    let c = pe.col_as_slice(j);
-                    let f = w[j] * d[j];
-                    for i in 0..n {
-                        r[i] += c[i] * f;
-                    }
-                }
-                let mut worst = 0.0f64;
-                for i in 0..n {
-                    r[i] *= d[i];
-                    worst = worst.max((r[i] - 1.0).abs());
-                }
-                if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
-                    break;
-                }
-                for i in 0..n {
-                    d[i] /= r[i].sqrt();
-                }
-            }
-            for j in 0..n {
-                let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
-                for i in 0..n {
-                    ce[i] *= d[i] * d[j];
-                    co[i] *= d[i] * d[j];
-                }
-            }
-        }
-        // H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)   (eq. S3).
-        let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
-        let mut hp = Mat::<f64>::zeros(n, n);
-        let mut hm = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
-            let hpc = hp.col_as_slice_mut(j);
-            for i in 0..n {
-                hpc[i] = -omega * sq[i] * co[i] * sq[j];
-            }
-            hpc[j] += 1.0 / mu[j];
-            let hmc = hm.col_as_slice_mut(j);
-            for i in 0..n {
-                hmc[i] = -omega * sq[i] * ce[i] * sq[j];
-            }
-            hmc[j] += 1.0 / mu[j];
-        }
+        let (hp, hm) = h_matrices(mu, w, omega, &pe, &po);
 
         let fail = |what: &'static str| MultifluxError::Numerical {
             what,
@@ -277,65 +208,13 @@ impl SlabSolution {
 
         // Eq. S4-S5, column by column.
         let half = tau.is_infinite();
-        let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
-        let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
-        let mut cp = Mat::<f64>::zeros(n, n);
-        let mut cp_out = Mat::<f64>::zeros(n, n);
-        let mut cm = Mat::<f64>::zeros(n, n);
-        let mut cm_out = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
-            let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
-            let c = cp.col_as_slice_mut(j);
-            for i in 0..n {
-                c[i] = a * vc[i] + b * zc[i];
-            }
-            let c = cp_out.col_as_slice_mut(j);
-            for i in 0..n {
-                c[i] = a * vc[i] - b * zc[i];
-            }
-            if !half {
-                let (a, b) = (0.5 * ph[j], 0.5 * (1.0 + e[j]));
-                let c = cm.col_as_slice_mut(j);
-                for i in 0..n {
-                    c[i] = a * vc[i] + b * zc[i];
-                }
-                let c = cm_out.col_as_slice_mut(j);
-                for i in 0..n {
-                    c[i] = a * vc[i] - b * zc[i];
-                }
-            }
-        }
+        let (e, [cp, cp_out, cm, cm_out]) = boundary_matrices(&v, &z, &k, tau);
         // LU factors of Cp and Cm: every later use is a solve, never an inverse.
         let lu_p = Lu::new(&cp);
         let lu_m = (!half).then(|| Lu::new(&cm));
         let (r, tr) = if full {
-            // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
-            let xp = solve_right(&lu_p, &cp, &cp_out);
-            let xm = match &lu_m {
-                Some(lu) => solve_right(lu, &cm, &cm_out),
-                None => xp.clone(),
-            };
-            // Back to radiances: R_ji = R~_ji t_i / t_j, by columns i of R.
-            let mut r = Mat::<f64>::zeros(n, n);
-            let mut tr = Mat::<f64>::zeros(n, n);
-            let mut finite = true;
-            for i in 0..n {
-                let (xpc, xmc) = (&xp[i * n..(i + 1) * n], &xm[i * n..(i + 1) * n]);
-                let (rc, tc) = (r.col_as_slice_mut(i), tr.col_as_slice_mut(i));
-                for j in 0..n {
-                    let f = t[i] / t[j];
-                    let rv = 0.5 * (xpc[j] + xmc[j]) * f;
-                    let tv = if half { 0.0 } else { 0.5 * (xpc[j] - xmc[j]) * f };
-                    finite &= rv.is_finite() && tv.is_finite();
-                    rc[j] = rv;
-                    tc[j] = tv;
-                }
-            }
-            if !finite {
-                return Err(fail("layer operators (non-finite)"));
-            }
-            (r, tr)
+            node_rt(&lu_p, lu_m.as_ref(), [&cp, &cp_out, &cm, &cm_out], &t)
+                .ok_or_else(|| fail("layer operators (non-finite)"))?
         } else {
             // Only the factors are kept: check that they are usable.
             let finite = lu_p.lu.iter().all(|x| x.is_finite())
@@ -399,6 +278,172 @@ impl SlabSolution {
     pub fn t(&self) -> &Mat<f64> {
         &self.tr
     }
+}
+
+/// The even and odd (in `l + m`) parts of the phase matrix between the
+/// nodes, `P(mu_i, mu_j) ± P(mu_i, -mu_j) = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j)`
+/// (`c_l = (2l+1) chi_l`, Legendre table `lam` node-major), for `m = 0`
+/// renormalised symmetrically so every row integrates to 1 over the nodes.
+fn phase_blocks(w: &[f64], m: usize, chi: &[f64], lam: &[f64], n: usize) -> (Mat<f64>, Mat<f64>) {
+    let nl = chi.len();
+    // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
+    // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
+    let mut ae = Mat::<f64>::zeros(n, nl);
+    let mut ao = Mat::<f64>::zeros(n, nl);
+    let mut lt = Mat::<f64>::zeros(nl, n);
+    for i in 0..n {
+        let c = lt.col_as_slice_mut(i);
+        c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
+    }
+    for l in m..nl {
+        let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
+        let even = (l + m).is_multiple_of(2);
+        for i in 0..n {
+            let x = chi[l] * lam[i * nl + l];
+            if even { ce[i] = x } else { co[i] = x }
+        }
+    }
+    let mut pe = &ae * &lt;
+    let mut po = &ao * &lt;
+    // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
+    // (energy conservation of the discrete scattering; docs/multiflux.md). Symmetric
+    // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
+    if m == 0 {
+        let mut d = vec![1.0; n];
+        let mut r = vec![0.0; n];
+        for _ in 0..60 {
+            r.iter_mut().for_each(|x| *x = 0.0);
+            for j in 0..n {
+                let c = pe.col_as_slice(j);
+                let f = w[j] * d[j];
+                for i in 0..n {
+                    r[i] += c[i] * f;
+                }
+            }
+            let mut worst = 0.0f64;
+            for i in 0..n {
+                r[i] *= d[i];
+                worst = worst.max((r[i] - 1.0).abs());
+            }
+            if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
+                break;
+            }
+            for i in 0..n {
+                d[i] /= r[i].sqrt();
+            }
+        }
+        for j in 0..n {
+            let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
+            for i in 0..n {
+                ce[i] *= d[i] * d[j];
+                co[i] *= d[i] * d[j];
+            }
+        }
+    }
+    (pe, po)
+}
+
+/// `H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)` (eq. S3).
+fn h_matrices(
+    mu: &[f64],
+    w: &[f64],
+    omega: f64,
+    pe: &Mat<f64>,
+    po: &Mat<f64>,
+) -> (Mat<f64>, Mat<f64>) {
+    let n = mu.len();
+    let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
+    let mut hp = Mat::<f64>::zeros(n, n);
+    let mut hm = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
+        let hpc = hp.col_as_slice_mut(j);
+        for i in 0..n {
+            hpc[i] = -omega * sq[i] * co[i] * sq[j];
+        }
+        hpc[j] += 1.0 / mu[j];
+        let hmc = hm.col_as_slice_mut(j);
+        for i in 0..n {
+            hmc[i] = -omega * sq[i] * ce[i] * sq[j];
+        }
+        hmc[j] += 1.0 / mu[j];
+    }
+    (hp, hm)
+}
+
+/// The boundary matrices of eq. S4–S5 from the modes `v~`, `z~`, `k`:
+/// `e = exp(-k tau0)` and `[Cp, Cp_out, Cm, Cm_out]` (the `Cm` pair zero for
+/// a half-space).
+fn boundary_matrices(v: &Mat<f64>, z: &Mat<f64>, k: &[f64], tau: f64) -> (Vec<f64>, [Mat<f64>; 4]) {
+    let n = k.len();
+    let half = tau.is_infinite();
+    let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
+    let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
+    let mut cp = Mat::<f64>::zeros(n, n);
+    let mut cp_out = Mat::<f64>::zeros(n, n);
+    let mut cm = Mat::<f64>::zeros(n, n);
+    let mut cm_out = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
+        let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
+        let c = cp.col_as_slice_mut(j);
+        for i in 0..n {
+            c[i] = a * vc[i] + b * zc[i];
+        }
+        let c = cp_out.col_as_slice_mut(j);
+        for i in 0..n {
+            c[i] = a * vc[i] - b * zc[i];
+        }
+        if !half {
+            let (a, b) = (0.5 * ph[j], 0.5 * (1.0 + e[j]));
+            let c = cm.col_as_slice_mut(j);
+            for i in 0..n {
+                c[i] = a * vc[i] + b * zc[i];
+            }
+            let c = cm_out.col_as_slice_mut(j);
+            for i in 0..n {
+                c[i] = a * vc[i] - b * zc[i];
+            }
+        }
+    }
+    (e, [cp, cp_out, cm, cm_out])
+}
+
+/// The node-to-node `R` and `T` (eq. S5): `R~ ± T~ = C_out C^-1` from the
+/// factors of `Cp`, `Cm` (`lu_m = None`: a half-space), back to radiances
+/// with `t = sqrt(w mu)`; `None` if not finite.
+fn node_rt(
+    lu_p: &Lu,
+    lu_m: Option<&Lu>,
+    c: [&Mat<f64>; 4],
+    t: &[f64],
+) -> Option<(Mat<f64>, Mat<f64>)> {
+    let [cp, cp_out, cm, cm_out] = c;
+    let n = t.len();
+    let half = lu_m.is_none();
+    // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
+    let xp = solve_right(lu_p, cp, cp_out);
+    let xm = match lu_m {
+        Some(lu) => solve_right(lu, cm, cm_out),
+        None => xp.clone(),
+    };
+    // Back to radiances: R_ji = R~_ji t_i / t_j, by columns i of R.
+    let mut r = Mat::<f64>::zeros(n, n);
+    let mut tr = Mat::<f64>::zeros(n, n);
+    let mut finite = true;
+    for i in 0..n {
+        let (xpc, xmc) = (&xp[i * n..(i + 1) * n], &xm[i * n..(i + 1) * n]);
+        let (rc, tc) = (r.col_as_slice_mut(i), tr.col_as_slice_mut(i));
+        for j in 0..n {
+            let f = t[i] / t[j];
+            let rv = 0.5 * (xpc[j] + xmc[j]) * f;
+            let tv = if half { 0.0 } else { 0.5 * (xpc[j] - xmc[j]) * f };
+            finite &= rv.is_finite() && tv.is_finite();
+            rc[j] = rv;
+            tc[j] = tv;
+        }
+    }
+    finite.then_some((r, tr))
 }
 
 /// `sum_i a_i b_i` with four partial sums (lets the compiler use SIMD; the
