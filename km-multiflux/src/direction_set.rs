@@ -392,19 +392,7 @@ impl MatchedSets {
         }
 
         // The incidence node: its panel and cosine in that panel's medium.
-        let mut fixed: Option<(usize, f64)> = None;
-        if let Some(inc) = incidence {
-            if !(0.0..90.0).contains(&inc.theta_deg) {
-                return Err(invalid("theta_deg", inc.theta_deg, "must lie in [0, 90)"));
-            }
-            if !media.iter().any(|&m| (m - inc.n).abs() <= 1e-12 * m) {
-                return Err(invalid("incidence n", inc.n, "not one of the media"));
-            }
-            let h0 = inc.n * inc.theta_deg.to_radians().sin();
-            let k = media.iter().position(|&m| h0 < m).unwrap_or(media.len() - 1);
-            let s = h0 / media[k];
-            fixed = Some((k, (1.0 - s * s).max(0.0).sqrt()));
-        }
+        let fixed = incidence_node(&media, incidence)?;
 
         // Nodes of every panel, in increasing Snell invariant h.
         struct Node {
@@ -424,26 +412,8 @@ impl MatchedSets {
         }
 
         // Azimuth counts m = max(1, round(C sin theta)), C fitted on panel 0.
-        let count =
-            |c: f64, mu: f64| ((c * (1.0 - mu * mu).max(0.0).sqrt()).round() as usize).max(1);
-        let total0 = |c: f64| -> usize {
-            nodes.iter().filter(|nd| nd.panel == 0).map(|nd| count(c, nd.mu)).sum()
-        };
-        let (mut lo, mut hi) = (0.0, 4.0 * half + 4.0);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if (total0(mid) as f64) < half {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        let c = if (total0(lo) as f64 - half).abs() <= (total0(hi) as f64 - half).abs() {
-            lo
-        } else {
-            hi
-        };
-        let counts: Vec<usize> = nodes.iter().map(|nd| count(c, nd.mu)).collect();
+        let pm: Vec<(usize, f64)> = nodes.iter().map(|nd| (nd.panel, nd.mu)).collect();
+        let counts = ring_counts(&pm, half);
 
         // One set per medium: the rings of panels 0..=j, mapped into medium j.
         let mut sets = Vec::with_capacity(media.len());
@@ -498,4 +468,43 @@ impl MatchedSets {
     pub fn sets(&self) -> &[DirectionSet] {
         &self.sets
     }
+}
+
+/// The node of a collimated beam: the panel of the medium where its Snell
+/// invariant first propagates and its cosine there (`None` without a beam).
+fn incidence_node(media: &[f64], incidence: Option<Incidence>) -> Result<Option<(usize, f64)>> {
+    if let Some(inc) = incidence {
+        if !(0.0..90.0).contains(&inc.theta_deg) {
+            return Err(invalid("theta_deg", inc.theta_deg, "must lie in [0, 90)"));
+        }
+        if !media.iter().any(|&m| (m - inc.n).abs() <= 1e-12 * m) {
+            return Err(invalid("incidence n", inc.n, "not one of the media"));
+        }
+        let h0 = inc.n * inc.theta_deg.to_radians().sin();
+        let k = media.iter().position(|&m| h0 < m).unwrap_or(media.len() - 1);
+        let s = h0 / media[k];
+        return Ok(Some((k, (1.0 - s * s).max(0.0).sqrt())));
+    }
+    Ok(None)
+}
+
+/// Azimuths per ring, `m = max(1, round(C sin theta))`, with `C` fitted so
+/// that the rings of panel 0 hold about `half` directions; `nodes` are
+/// `(panel, mu)`.
+fn ring_counts(nodes: &[(usize, f64)], half: f64) -> Vec<usize> {
+    let count = |c: f64, mu: f64| ((c * (1.0 - mu * mu).max(0.0).sqrt()).round() as usize).max(1);
+    let total0 =
+        |c: f64| -> usize { nodes.iter().filter(|nd| nd.0 == 0).map(|nd| count(c, nd.1)).sum() };
+    let (mut lo, mut hi) = (0.0, 4.0 * half + 4.0);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if (total0(mid) as f64) < half {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let c =
+        if (total0(lo) as f64 - half).abs() <= (total0(hi) as f64 - half).abs() { lo } else { hi };
+    nodes.iter().map(|nd| count(c, nd.1)).collect()
 }

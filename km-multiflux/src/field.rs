@@ -77,36 +77,8 @@ pub fn internal_field(
             .map(|&(s, beam)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg: 0.0 })
             .collect()
     };
-    // Find the layer holding z and split it.
-    let (mut i_cut, mut z_top) = (0, 0.0);
-    for (i, l) in scene.layers.iter().enumerate() {
-        i_cut = i;
-        if z <= z_top + l.thickness {
-            break;
-        }
-        z_top += l.thickness;
-    }
+    let (i_cut, above, below) = split_at_depth(scene, &layers, z);
     let lc = &scene.layers[i_cut];
-    let frac_tau = |tau: f64| if lc.thickness > 0.0 { tau / lc.thickness } else { 0.0 };
-    let dz = (z - z_top).max(0.0);
-    let mut upper = layers[i_cut].clone();
-    let mut lower = layers[i_cut].clone();
-    // Piece above the cut: optical thickness (z - z_top) sigma_t (scaled and true).
-    let (per_len, per_len_true) = if lc.thickness.is_infinite() {
-        (lc.sigma_t() * layers[i_cut].factor, lc.sigma_t())
-    } else {
-        (frac_tau(layers[i_cut].tau), frac_tau(layers[i_cut].tau_true))
-    };
-    upper.tau = per_len * dz;
-    upper.tau_true = per_len_true * dz;
-    let rest = lc.thickness - dz;
-    lower.tau = if rest.is_infinite() { f64::INFINITY } else { per_len * rest };
-    lower.tau_true = if rest.is_infinite() { f64::INFINITY } else { per_len_true * rest };
-    let mut above: Vec<Scaled> = layers[..i_cut].to_vec();
-    above.push(upper);
-    let mut below = vec![lower];
-    below.extend_from_slice(&layers[i_cut + 1..]);
-
     let n_cut = lc.n;
     let mut scene_above = scene.clone();
     scene_above.substrate = Substrate::Transparent { n: n_cut };
@@ -175,4 +147,45 @@ pub fn internal_field(
         });
     }
     Ok(out)
+}
+
+/// The stack cut at depth `z` (inside it): the index of the layer holding
+/// `z`, the scaled layers above the cut (that layer's upper piece last) and
+/// below it (its lower piece first), each piece with its share of the
+/// optical thickness (scaled and true).
+fn split_at_depth(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    z: f64,
+) -> (usize, Vec<Scaled>, Vec<Scaled>) {
+    // Find the layer holding z and split it.
+    let (mut i_cut, mut z_top) = (0, 0.0);
+    for (i, l) in scene.layers.iter().enumerate() {
+        i_cut = i;
+        if z <= z_top + l.thickness {
+            break;
+        }
+        z_top += l.thickness;
+    }
+    let lc = &scene.layers[i_cut];
+    let frac_tau = |tau: f64| if lc.thickness > 0.0 { tau / lc.thickness } else { 0.0 };
+    let dz = (z - z_top).max(0.0);
+    let mut upper = layers[i_cut].clone();
+    let mut lower = layers[i_cut].clone();
+    // Piece above the cut: optical thickness (z - z_top) sigma_t (scaled and true).
+    let (per_len, per_len_true) = if lc.thickness.is_infinite() {
+        (lc.sigma_t() * layers[i_cut].factor, lc.sigma_t())
+    } else {
+        (frac_tau(layers[i_cut].tau), frac_tau(layers[i_cut].tau_true))
+    };
+    upper.tau = per_len * dz;
+    upper.tau_true = per_len_true * dz;
+    let rest = lc.thickness - dz;
+    lower.tau = if rest.is_infinite() { f64::INFINITY } else { per_len * rest };
+    lower.tau_true = if rest.is_infinite() { f64::INFINITY } else { per_len_true * rest };
+    let mut above: Vec<Scaled> = layers[..i_cut].to_vec();
+    above.push(upper);
+    let mut below = vec![lower];
+    below.extend_from_slice(&layers[i_cut + 1..]);
+    (i_cut, above, below)
 }
