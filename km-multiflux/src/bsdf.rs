@@ -59,8 +59,8 @@ use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, slab_operators};
 use crate::solver::{
-    FOURIER_TOL, MultifluxOptions, Scaled, default_streams, flux, media_grid, planned_cutoff,
-    resolve_streams, scale_layers,
+    FOURIER_TOL, MultifluxOptions, Scaled, default_streams, flux, last_moment, media_grid,
+    planned_cutoff, resolve_streams, scale_layers,
 };
 use crate::stack::{StackPieces, add_stack, delta_parts};
 use build::channel;

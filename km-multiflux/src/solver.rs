@@ -371,6 +371,12 @@ fn last_order(layers: &[Scaled], opts: &MultifluxOptions, angles: bool, streams:
     if !angles {
         return 0;
     }
+    last_moment(layers).min(bound)
+}
+
+/// The last non-negligible (`> 1e-12`) scaled moment over the scattering
+/// layers: the last Fourier order a BRDF needs.
+pub(crate) fn last_moment(layers: &[Scaled]) -> usize {
     let mut m = 0;
     for l in layers {
         if l.omega > 0.0
@@ -379,7 +385,7 @@ fn last_order(layers: &[Scaled], opts: &MultifluxOptions, angles: bool, streams:
             m = m.max(last);
         }
     }
-    m.min(bound)
+    m
 }
 
 /// A layer alone in the ambient medium under a beam (no interface, nothing

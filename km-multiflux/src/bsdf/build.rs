@@ -52,20 +52,7 @@ pub(super) fn channel(
     theta_o: &[f64],
     opts: &MultifluxOptions,
 ) -> Result<(ChannelBsdf, Option<f64>), BsdfError> {
-    // Streams: as `km solve` would choose for the most demanding incidence.
-    let streams = match opts.streams {
-        Some(_) => resolve_streams(scene, opts)?,
-        None => {
-            let mut s = scene.clone();
-            s.directions_deg = vec![[0.0, 0.0]];
-            let mut best = 0;
-            for &t in theta_i {
-                s.light = Light::Collimated { theta_deg: t };
-                best = best.max(default_streams(&s));
-            }
-            best
-        }
-    };
+    let streams = bsdf_streams(scene, theta_i, opts)?;
     let opts = MultifluxOptions { streams: Some(streams), ..opts.clone() };
     let (cut, _) = planned_cutoff(scene, &opts);
     let scene = cut.as_ref().unwrap_or(scene);
@@ -74,21 +61,7 @@ pub(super) fn channel(
     let layers = scale_layers(scene, &opts, 2 * streams);
     let (ni, no) = (theta_i.len(), theta_o.len());
 
-    // Which layers carry a single-scattering correction: scattering ones
-    // whose phase function the kept moments do not represent exactly.
-    let tms_layers: Vec<usize> = if opts.delta_m {
-        (0..layers.len())
-            .filter(|&l| {
-                let s = &layers[l];
-                s.omega > 0.0
-                    && s.tau > 0.0
-                    && !matches!(s.phase, km_core::phase::Phase::Isotropic)
-                    && !matches!(s.phase, km_core::phase::Phase::HenyeyGreenstein { g } if g == 0.0)
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let tms_layers = corrected_layers(&layers, opts.delta_m);
 
     // Extras: beams, BRDF probes, BTDF probes, then (for m = 0) markers.
     let mut ex: Vec<(f64, Kind)> = Vec::new();
@@ -154,15 +127,7 @@ pub(super) fn channel(
     };
 
     // Fourier orders (as the solver: up to the last non-negligible moment).
-    let mut m_max = 0;
-    for l in &layers {
-        if l.omega > 0.0
-            && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
-        {
-            m_max = m_max.max(last);
-        }
-    }
-    let m_max = m_max.min(opts.max_fourier_order.unwrap_or(usize::MAX));
+    let m_max = last_moment(&layers).min(opts.max_fourier_order.unwrap_or(usize::MAX));
 
     let nodes0 = grid.medium(n0);
     let na0 = nodes0.mu.len();
@@ -278,14 +243,8 @@ pub(super) fn channel(
     }
     let orders = coefs_r.len();
     out.orders = orders;
-    out.coef_r = vec![0.0; ni * no * orders];
-    out.coef_t = vec![0.0; ni * no * orders];
-    for (m, (cr, ct)) in coefs_r.iter().zip(&coefs_t).enumerate() {
-        for k in 0..ni * no {
-            out.coef_r[k * orders + m] = cr[k];
-            out.coef_t[k * orders + m] = ct[k];
-        }
-    }
+    out.coef_r = by_pair(&coefs_r, ni * no);
+    out.coef_t = by_pair(&coefs_t, ni * no);
     let finite =
         out.coef_r.iter().chain(&out.coef_t).chain(&out.reflectance).all(|x| x.is_finite());
     if !finite {
@@ -363,4 +322,57 @@ fn stack(
     };
     let pieces = StackPieces { interface: &interface, layer: &layer, lambertian: &lambertian };
     add_stack(scene, layers, n_sub, neumann, false, &pieces)
+}
+
+/// The stream count: the options', or as `km solve` would choose it for the
+/// most demanding incidence of `theta_i`.
+fn bsdf_streams(
+    scene: &MonoScene,
+    theta_i: &[f64],
+    opts: &MultifluxOptions,
+) -> Result<usize, BsdfError> {
+    Ok(match opts.streams {
+        Some(_) => resolve_streams(scene, opts)?,
+        None => {
+            let mut s = scene.clone();
+            s.directions_deg = vec![[0.0, 0.0]];
+            let mut best = 0;
+            for &t in theta_i {
+                s.light = Light::Collimated { theta_deg: t };
+                best = best.max(default_streams(&s));
+            }
+            best
+        }
+    })
+}
+
+/// Which layers carry a single-scattering correction: scattering ones whose
+/// phase function the kept moments do not represent exactly.
+fn corrected_layers(layers: &[Scaled], delta_m: bool) -> Vec<usize> {
+    if delta_m {
+        (0..layers.len())
+            .filter(|&l| {
+                let s = &layers[l];
+                s.omega > 0.0
+                    && s.tau > 0.0
+                    && !matches!(s.phase, km_core::phase::Phase::Isotropic)
+                    && !matches!(s.phase, km_core::phase::Phase::HenyeyGreenstein { g } if g == 0.0)
+            })
+            .collect()
+    } else {
+        Vec::new()
+    }
+}
+
+/// Per-order coefficients (`coefs[m][k]`) reordered by pair, orders
+/// contiguous: `out[k * orders + m]`.
+fn by_pair(coefs: &[Vec<f64>], pairs: usize) -> Vec<f64> {
+    let orders = coefs.len();
+    let mut out = vec![0.0; pairs * orders];
+    for (m, c) in coefs.iter().enumerate() {
+        for k in 0..pairs {
+            out[k * orders + m] = c[k];
+        }
+    }
+    out
 }
