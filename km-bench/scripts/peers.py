@@ -23,6 +23,18 @@ tool at a setting where it is converged to about 1e-4 on these cases
 km 16 streams, its default), and the differences are reported so the match
 can be checked.
 
+`--brdf` runs the BRDF case instead: one slab in air (tau = 1, albedo 0.9,
+Henyey-Greenstein g = 0.5, 0.8, 0.9, black below), light at 30 degrees, 30
+exit directions (theta 10..60 step 10 x phi 0..180 step 45). Reference:
+C DISORT at NSTR = 128 with 1000 moments and its intensity correction
+(km at 64 streams is listed against it). Each tool runs at the cheapest
+setting of its ladder whose largest relative BRDF error is within 1 %
+(DISORT: NSTR with 128 moments and the intensity correction; km: streams,
+its defaults otherwise); times are best of --repeats in-process calls (DISORT:
+`solve()` on an allocated state; km: `km solve --repeat K`, `seconds_best`),
+alternated per case, and the ratio km / DISORT is printed per g. Writes
+out/peers-brdf.md.
+
 Peers' known limits (checked on their releases, 2026-11): iadpython treats
 normal incidence only and fails with 32 or more points; PythonicDISORT
 refuses albedo 1; neither DISORT treats refractive boundaries, so the case
@@ -31,6 +43,7 @@ with an index mismatch is run by iadpython and km only.
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -167,6 +180,146 @@ def run_km_cli(km: Path, scene: Path, repeats: int):
     return out["reflectance"], out["transmittance"], min(seconds), min(walls)
 
 
+# --- The BRDF case (--brdf) -------------------------------------------------
+
+BRDF_G = [0.5, 0.8, 0.9]
+BRDF_THETA0 = 30.0
+BRDF_THETA = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0]
+BRDF_PHI = [0.0, 45.0, 90.0, 135.0, 180.0]
+BRDF_TOL = 0.01
+KM_LADDER = [2, 3, 4, 5, 6, 8, 10, 12, 16, 24, 32]
+DISORT_LADDER = [4, 6, 8, 10, 12, 16, 20, 24, 32, 48, 64]
+
+
+def brdf_scene_toml(g):
+    dirs = ", ".join(f"[{t!r}, {p!r}]" for t in BRDF_THETA for p in BRDF_PHI)
+    return (
+        f'[light]\nkind = "collimated"\ntheta_deg = {BRDF_THETA0!r}\n\n'
+        "[ambient]\nn = 1.0\n\n"
+        f"[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = {g!r}\nn = 1.0\n\n"
+        '[substrate]\nkind = "black"\n\n'
+        f"[output]\ndirections_deg = [{dirs}]\n"
+    )
+
+
+# C DISORT at one (g, nstr, nmom): the 30 BRDF values (km's order: theta-major,
+# azimuth as km) and the best-of-`repeats` time of `solve()`; DISORT's
+# azimuth 0 is km's 180 (forward half-plane), umu > 0 is up-going.
+BRDF_RUNNER = r"""
+import json, math, sys, time
+import nanodisort as nd
+from nanodisort.utils.phase_functions import henyey_greenstein
+g, nstr, nmom, repeats, theta0, thetas, phis = json.load(sys.stdin)
+s = nd.DisortState()
+s.nstr = nstr; s.nmom = nmom; s.nlyr = 1; s.ntau = 1
+mus = sorted(math.cos(math.radians(t)) for t in thetas)
+s.numu = len(mus); s.nphi = len(phis)
+s.usrtau = True; s.usrang = True; s.onlyfl = False; s.lamber = True; s.planck = False
+s.quiet = True; s.intensity_correction = True; s.old_intensity_correction = True
+s.allocate()
+s.dtauc[:] = [1.0]; s.ssalb[:] = [0.9]; s.pmom[:, 0] = henyey_greenstein(g, nmom)
+s.utau[:] = [0.0]; s.umu[:] = mus; s.phi[:] = [(p - 180.0) % 360.0 for p in phis]
+mu0 = math.cos(math.radians(theta0))
+s.umu0 = mu0; s.phi0 = 0.0; s.fbeam = 1.0; s.fisot = 0.0; s.albedo = 0.0
+try:
+    s.solve()
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter(); s.solve(); ts.append(time.perf_counter() - t)
+except RuntimeError as e:
+    print(json.dumps({"error": str(e)})); sys.exit(0)
+brdf = []
+for t in thetas:
+    iu = min(range(len(mus)), key=lambda k: abs(mus[k] - math.cos(math.radians(t))))
+    brdf += [float(s.uu[iu, 0, j]) / mu0 for j in range(len(phis))]
+print(json.dumps({"brdf": brdf, "seconds": min(ts)}))
+"""
+
+
+def disort_brdf(py: Path, g, nstr, nmom, repeats):
+    payload = json.dumps([g, nstr, nmom, repeats, BRDF_THETA0, BRDF_THETA, BRDF_PHI])
+    res = subprocess.run([str(py), "-c", BRDF_RUNNER], input=payload, capture_output=True,
+                         text=True, check=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def km_brdf(km: Path, scene: Path, streams, repeats):
+    res = subprocess.run([str(km), "solve", str(scene), "--method", "multiflux", "--streams",
+                          str(streams), "--repeat", str(max(1, repeats)), "--json"],
+                         capture_output=True, text=True, check=True)
+    d = json.loads(res.stdout)
+    return {"brdf": d["brdf"], "seconds": d.get("seconds_best", d["seconds"]), "first": d["seconds"]}
+
+
+def max_rel(a, ref):
+    return max(abs(x - r) / abs(r) for x, r in zip(a, ref))
+
+
+def cheapest(ladder, run):
+    """The first setting of `ladder` whose run is within BRDF_TOL (run returns
+    (result, error) or None when refused)."""
+    for k in ladder:
+        res = run(k)
+        if res is not None and res[1] <= BRDF_TOL:
+            return k, res
+    return None, None
+
+
+def brdf_main(root: Path, out: Path, py: Path, profile: str, repeats: int, km: Path | None):
+    if km is None:
+        flag = ["--release"] if profile == "release" else ["--profile", profile]
+        subprocess.run(["cargo", "build", *flag, "-q", "-p", "km-cli"], cwd=root, check=True)
+        km = root / "target" / ("debug" if profile == "dev" else profile) / "km"
+    scenes = out / "peers"
+    scenes.mkdir(parents=True, exist_ok=True)
+    lines = ["# km and C DISORT, the BRDF at 30 exit directions", "",
+             f"Slab tau = 1, albedo 0.9, HG g, black below, light at {BRDF_THETA0} degrees; "
+             f"{len(BRDF_THETA) * len(BRDF_PHI)} exit directions. Reference: DISORT NSTR = 128, "
+             "1000 moments, intensity correction. Each tool at the cheapest setting of its ladder "
+             f"within {BRDF_TOL:.0%} (largest relative BRDF error); best of {repeats} "
+             "in-process calls.", "",
+             "| g | km streams | km error | km warm | km first call | DISORT NSTR | DISORT error "
+             "| DISORT | km warm / DISORT | km 64 vs reference |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    ratios = []
+    for g in BRDF_G:
+        scene = scenes / f"brdf-g{g}.toml"
+        scene.write_text(brdf_scene_toml(g))
+        ref = disort_brdf(py, g, 128, 1000, 1)["brdf"]
+        km64 = max_rel(km_brdf(km, scene, 64, 1)["brdf"], ref)
+
+        def run_km(n, reps=1):
+            r = km_brdf(km, scene, n, reps)
+            return r, max_rel(r["brdf"], ref)
+
+        def run_disort(n, reps=1):
+            r = disort_brdf(py, g, n, 128, reps)
+            return None if "error" in r else (r, max_rel(r["brdf"], ref))
+
+        nk, _ = cheapest(KM_LADDER, run_km)
+        nd_, _ = cheapest(DISORT_LADDER, run_disort)
+        if nk is None or nd_ is None:
+            lines.append(f"| {g} | {nk} | | | | {nd_} | | | not reached | {km64:.1e} |")
+            continue
+        # Timing, alternated: three rounds, best of each tool.
+        kt, dt = [], []
+        for _ in range(3):
+            rk, ek = run_km(nk, repeats)
+            kt.append(rk["seconds"])
+            rd, ed = run_disort(nd_, repeats)
+            dt.append(rd["seconds"])
+        ratio = min(kt) / min(dt)
+        ratios.append(ratio)
+        lines.append(f"| {g} | {nk} | {ek:.1e} | {min(kt) * 1e6:.1f} µs | "
+                     f"{rk['first'] * 1e6:.0f} µs | {nd_} | {ed:.1e} | {min(dt) * 1e6:.1f} µs | "
+                     f"{ratio:.2f} | {km64:.1e} |")
+    if ratios:
+        geo = math.exp(sum(math.log(r) for r in ratios) / len(ratios))
+        lines += ["", f"Geometric mean km warm / DISORT: {geo:.2f}"]
+    (out / "peers-brdf.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
 def fmt(x):
     return f"{x:.6f}" if isinstance(x, float) else str(x)
 
@@ -178,9 +331,17 @@ def main():
     ap.add_argument("--profile", default="release", help="cargo profile of the km binaries")
     ap.add_argument("--python", default=None,
                     help="interpreter whose installed peers are used (no virtual environment)")
+    ap.add_argument("--brdf", action="store_true",
+                    help="the BRDF case against C DISORT at 1 %% equal accuracy instead")
+    ap.add_argument("--km", default=None,
+                    help="with --brdf: this km binary instead of building one")
     args = ap.parse_args()
     root = Path(__file__).resolve().parents[2]
     out = (root / args.out).resolve()
+    if args.brdf:
+        out.mkdir(parents=True, exist_ok=True)
+        return brdf_main(root, out, ensure_venv(out, args.python), args.profile, args.repeats,
+                         Path(args.km) if args.km else None)
     scenes = out / "peers"
     scenes.mkdir(parents=True, exist_ok=True)
 

@@ -36,7 +36,7 @@
 use km_core::{Light, MonoScene, Scene, Substrate};
 
 use crate::error::MultifluxError;
-use crate::solver::MultifluxOptions;
+use crate::options::MultifluxOptions;
 
 /// Default work budget of one solve (eq. W1 units): 10^10, 7 to 25 s.
 pub const DEFAULT_MAX_WORK: f64 = 1e10;
@@ -97,7 +97,7 @@ pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
 }
 
 fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
-    let streams = opts.streams.unwrap_or_else(|| crate::solver::default_streams(scene)) as f64;
+    let streams = opts.streams.unwrap_or_else(|| crate::options::default_streams(scene)) as f64;
     // Media top to bottom; the substrate is a medium when it is transparent.
     let mut media: Vec<f64> = vec![scene.ambient_n];
     media.extend(scene.layers.iter().map(|l| l.n));

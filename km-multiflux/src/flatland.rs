@@ -93,7 +93,7 @@ impl CircleSet {
 
     /// The rescaled discrete phase blocks `P++_ij = p2(cos(theta_i - theta_j)) dtheta`,
     /// `P+-_ij = p2(cos(theta_i - pi + theta_j)) dtheta`, rows of `[P++ P+-]`
-    /// summing to 1 (same symmetric rescaling as the sphere, docs eq. D3).
+    /// summing to 1 (same symmetric rescaling as the sphere, docs eq. DS3).
     ///
     /// # Errors
     /// `|g| >= 1` or non-finite.
@@ -117,7 +117,7 @@ impl CircleSet {
         DiscreteModes::new(&self.mu, &self.w, &pp, &pm, sigma_a, sigma_s)
     }
 
-    /// Slab operators on this set (docs eq. D8–D10); no eigen-solve without scattering.
+    /// Slab operators on this set (docs eq. DS8–DS10); no eigen-solve without scattering.
     ///
     /// # Errors
     /// Those of [`CircleSet::modes`] and a negative thickness.
@@ -225,7 +225,7 @@ pub struct DepthProfile {
 /// half-space) on `n_dirs = 4m + 2` directions.
 ///
 /// The field at depth `z` follows from the operators of the two sub-slabs
-/// `[0, z]` (a) and `[z, z0]` (b) (docs eq. D14):
+/// `[0, z]` (a) and `[z, z0]` (b) (docs eq. DS14):
 /// `I+(z) = (1 - R_a R_b)^-1 T_a I_inc`, `I-(z) = R_b I+(z)`; this is seed
 /// eq. 19 with every exponential bounded. The unscattered beam is reported
 /// separately (`direct`); `diffuse` is the rest.

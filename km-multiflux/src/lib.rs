@@ -29,12 +29,15 @@ pub mod budget;
 pub mod correction;
 pub mod direction_set;
 pub mod error;
+pub mod field;
 pub mod flatland;
 pub mod interface;
 pub mod legendre;
+pub mod options;
 pub mod quadrature;
 pub mod slab;
 pub mod solver;
+mod stack;
 
 pub use error::MultifluxError;
 pub use solver::{

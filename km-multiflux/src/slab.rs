@@ -48,13 +48,19 @@
 //! (Stamnes et al. 1988 §3.6), done analytically per mode (eq. 14 in
 //! `docs/multiflux.md`).
 
-use faer::linalg::solvers::Solve;
+mod beam;
+mod field;
+mod lu;
+mod operators;
+mod probe;
+
 use faer::{Mat, Side};
 
 use crate::MultifluxError;
-use crate::adding::LayerOperators;
-use crate::correction::{e2, phi};
+use crate::correction::phi;
 use crate::legendre::LegendreRecurrence;
+use lu::{Lu, solve_right};
+pub use operators::{absorber_operators, slab_beam_response, slab_operators};
 
 /// An extra direction carried besides the quadrature nodes, in one medium.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,183 +92,6 @@ pub struct SlabOrder<'a> {
     pub chi: &'a [f64],
     /// Fourier order.
     pub m: usize,
-}
-
-/// `X = B C^-1` for square `C`, `B`, column-major (`x[j * n + i] = X_ij`):
-/// for small `C` from its LU factors `lu` (already needed by the probes and
-/// the beam, [`Lu::right_solve`]); larger (`n > 32`), faer's blocked LU
-/// wins. A singular `C` gives non-finite entries, which the caller refuses.
-fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
-    let n = c.nrows();
-    let mut x = vec![0.0; n * n];
-    if n > 32 {
-        // X^T = C^-T B^T.
-        let s = c.partial_piv_lu().solve_transpose(b.transpose());
-        for j in 0..n {
-            for (i, v) in s.col_as_slice(j).iter().enumerate() {
-                x[i * n + j] = *v;
-            }
-        }
-        return x;
-    }
-    for j in 0..n {
-        x[j * n..(j + 1) * n].copy_from_slice(b.col_as_slice(j));
-    }
-    lu.right_solve(&mut x);
-    x
-}
-
-/// LU factors with partial pivoting of a small square matrix `C`
-/// (`P C = L U`, unit lower `L`), column-major in one contiguous buffer,
-/// for the vector solves `C x = b` and `C^T x = b` of the probes, the
-/// beam and the internal field (Golub & Van Loan 2013, alg. 3.4.1). A
-/// singular `C` gives non-finite solutions, which the callers refuse.
-struct Lu {
-    n: usize,
-    /// `L` below and `U` on and above the diagonal: `lu[col * n + row]`.
-    lu: Vec<f64>,
-    /// Row exchanged with row `k` at elimination step `k`.
-    piv: Vec<usize>,
-}
-
-impl Lu {
-    fn new(c: &Mat<f64>) -> Self {
-        let n = c.nrows();
-        let mut lu = vec![0.0; n * n];
-        for j in 0..n {
-            lu[j * n..(j + 1) * n].copy_from_slice(c.col_as_slice(j));
-        }
-        let mut piv = vec![0; n];
-        for k in 0..n {
-            // Pivot: largest |C(r, k)| for r >= k.
-            let col = &lu[k * n..(k + 1) * n];
-            let p = (k..n).fold(k, |b, r| if col[r].abs() > col[b].abs() { r } else { b });
-            piv[k] = p;
-            if p != k {
-                for j in 0..n {
-                    lu.swap(j * n + k, j * n + p);
-                }
-            }
-            // Multipliers of column k, then the rank-one update of the rest.
-            let inv = 1.0 / lu[k * n + k];
-            for r in k + 1..n {
-                lu[k * n + r] *= inv;
-            }
-            let (left, right) = lu.split_at_mut((k + 1) * n);
-            let lk = &left[k * n + k + 1..k * n + n];
-            for j in 0..n - k - 1 {
-                let colj = &mut right[j * n..(j + 1) * n];
-                let ukj = colj[k];
-                if ukj != 0.0 {
-                    for (x, l) in colj[k + 1..].iter_mut().zip(lk) {
-                        *x -= l * ukj;
-                    }
-                }
-            }
-        }
-        Lu { n, lu, piv }
-    }
-
-    /// `x <- C^-1 x`.
-    fn solve(&self, x: &mut [f64]) {
-        let n = self.n;
-        for k in 0..n {
-            x.swap(k, self.piv[k]);
-        }
-        // L y = P b (unit diagonal), by columns.
-        for k in 0..n {
-            let xk = x[k];
-            if xk != 0.0 {
-                for (xi, l) in x[k + 1..].iter_mut().zip(&self.lu[k * n + k + 1..(k + 1) * n]) {
-                    *xi -= l * xk;
-                }
-            }
-        }
-        // U x = y, by columns from the last.
-        for k in (0..n).rev() {
-            let xk = x[k] / self.lu[k * n + k];
-            x[k] = xk;
-            for (xi, u) in x[..k].iter_mut().zip(&self.lu[k * n..k * n + k]) {
-                *xi -= u * xk;
-            }
-        }
-    }
-
-    /// `x <- C^-T x`.
-    fn solve_transpose(&self, x: &mut [f64]) {
-        let n = self.n;
-        // U^T y = b: row k of U^T is column k of U (contiguous).
-        for k in 0..n {
-            let d = dot(&self.lu[k * n..k * n + k], &x[..k]);
-            x[k] = (x[k] - d) / self.lu[k * n + k];
-        }
-        // L^T w = y: column k of L below the diagonal.
-        for k in (0..n).rev() {
-            x[k] -= dot(&self.lu[k * n + k + 1..(k + 1) * n], &x[k + 1..]);
-        }
-        // x = P^T w: undo the exchanges in reverse order.
-        for k in (0..n).rev() {
-            x.swap(k, self.piv[k]);
-        }
-    }
-
-    /// `X <- X C^-1` for an `n x n` block `X`, column-major (`x[j * n + i]`),
-    /// by whole columns (contiguous updates): with `C = P^T L U`, first
-    /// `W U = X` (columns left to right), then `Y L = W` (right to left),
-    /// then `X = Y P` (the column exchanges in reverse order).
-    fn right_solve(&self, x: &mut [f64]) {
-        let n = self.n;
-        // W U = B: W_j = (B_j - sum_{k<j} U_kj W_k) / U_jj.
-        for j in 0..n {
-            let (done, rest) = x.split_at_mut(j * n);
-            let xj = &mut rest[..n];
-            let uj = &self.lu[j * n..(j + 1) * n];
-            for (k, wk) in done.chunks_exact(n).enumerate() {
-                let u = uj[k];
-                if u != 0.0 {
-                    for (a, b) in xj.iter_mut().zip(wk) {
-                        *a -= u * b;
-                    }
-                }
-            }
-            let inv = 1.0 / uj[j];
-            xj.iter_mut().for_each(|a| *a *= inv);
-        }
-        // Y L = W (unit diagonal): Y_j = W_j - sum_{k>j} L_kj Y_k.
-        for j in (0..n).rev() {
-            let (head, done) = x.split_at_mut((j + 1) * n);
-            let yj = &mut head[j * n..];
-            let lj = &self.lu[j * n..(j + 1) * n];
-            for (k, yk) in done.chunks_exact(n).enumerate() {
-                let l = lj[j + 1 + k];
-                if l != 0.0 {
-                    for (a, b) in yj.iter_mut().zip(yk) {
-                        *a -= l * b;
-                    }
-                }
-            }
-        }
-        // X = Y P: exchange columns k and piv[k], last step first.
-        for k in (0..n).rev() {
-            let p = self.piv[k];
-            if p != k {
-                let (lo, hi) = x.split_at_mut(p * n);
-                lo[k * n..(k + 1) * n].swap_with_slice(&mut hi[..n]);
-            }
-        }
-    }
-}
-
-/// What a probe (a user direction of zero weight) needs from one layer and
-/// order: the mode coefficients of its rows `R_xq`, `T_xq` and, for the beam's source integral, its
-/// Legendre values and the even/odd kernels to the nodes.
-struct Probe {
-    /// Path integrals per mode (eq. 14): `R_xq = (us Cp^-1 + uy Cm^-1) T`.
-    us: Vec<f64>,
-    uy: Vec<f64>,
-    lam: Vec<f64>,
-    ev: Vec<f64>,
-    od: Vec<f64>,
 }
 
 /// `exp(-t / mu)`, 0 for an infinite `t`.
@@ -348,78 +177,9 @@ impl SlabSolution {
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
-        // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
-        // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
-        let mut ae = Mat::<f64>::zeros(n, nl);
-        let mut ao = Mat::<f64>::zeros(n, nl);
-        let mut lt = Mat::<f64>::zeros(nl, n);
-        for i in 0..n {
-            let c = lt.col_as_slice_mut(i);
-            c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
-        }
-        for l in m..nl {
-            let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
-            let even = (l + m).is_multiple_of(2);
-            for i in 0..n {
-                let x = chi[l] * lam[i * nl + l];
-                if even { ce[i] = x } else { co[i] = x }
-            }
-        }
-        let mut pe = &ae * &lt;
-        let mut po = &ao * &lt;
-        // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
-        // (energy conservation of the discrete scattering; docs/multiflux.md). Symmetric
-        // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
+        let (pe, po) = phase_blocks(w, m, &chi, &lam, n);
         let renorm_m0 = m == 0;
-        if renorm_m0 {
-            let mut d = vec![1.0; n];
-            let mut r = vec![0.0; n];
-            for _ in 0..60 {
-                r.iter_mut().for_each(|x| *x = 0.0);
-                for j in 0..n {
-                    let c = pe.col_as_slice(j);
-                    let f = w[j] * d[j];
-                    for i in 0..n {
-                        r[i] += c[i] * f;
-                    }
-                }
-                let mut worst = 0.0f64;
-                for i in 0..n {
-                    r[i] *= d[i];
-                    worst = worst.max((r[i] - 1.0).abs());
-                }
-                if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
-                    break;
-                }
-                for i in 0..n {
-                    d[i] /= r[i].sqrt();
-                }
-            }
-            for j in 0..n {
-                let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
-                for i in 0..n {
-                    ce[i] *= d[i] * d[j];
-                    co[i] *= d[i] * d[j];
-                }
-            }
-        }
-        // H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)   (eq. S3).
-        let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
-        let mut hp = Mat::<f64>::zeros(n, n);
-        let mut hm = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
-            let hpc = hp.col_as_slice_mut(j);
-            for i in 0..n {
-                hpc[i] = -omega * sq[i] * co[i] * sq[j];
-            }
-            hpc[j] += 1.0 / mu[j];
-            let hmc = hm.col_as_slice_mut(j);
-            for i in 0..n {
-                hmc[i] = -omega * sq[i] * ce[i] * sq[j];
-            }
-            hmc[j] += 1.0 / mu[j];
-        }
+        let (hp, hm) = h_matrices(mu, w, omega, &pe, &po);
 
         let fail = |what: &'static str| MultifluxError::Numerical {
             what,
@@ -448,65 +208,13 @@ impl SlabSolution {
 
         // Eq. S4-S5, column by column.
         let half = tau.is_infinite();
-        let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
-        let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
-        let mut cp = Mat::<f64>::zeros(n, n);
-        let mut cp_out = Mat::<f64>::zeros(n, n);
-        let mut cm = Mat::<f64>::zeros(n, n);
-        let mut cm_out = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
-            let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
-            let c = cp.col_as_slice_mut(j);
-            for i in 0..n {
-                c[i] = a * vc[i] + b * zc[i];
-            }
-            let c = cp_out.col_as_slice_mut(j);
-            for i in 0..n {
-                c[i] = a * vc[i] - b * zc[i];
-            }
-            if !half {
-                let (a, b) = (0.5 * ph[j], 0.5 * (1.0 + e[j]));
-                let c = cm.col_as_slice_mut(j);
-                for i in 0..n {
-                    c[i] = a * vc[i] + b * zc[i];
-                }
-                let c = cm_out.col_as_slice_mut(j);
-                for i in 0..n {
-                    c[i] = a * vc[i] - b * zc[i];
-                }
-            }
-        }
+        let (e, [cp, cp_out, cm, cm_out]) = boundary_matrices(&v, &z, &k, tau);
         // LU factors of Cp and Cm: every later use is a solve, never an inverse.
         let lu_p = Lu::new(&cp);
         let lu_m = (!half).then(|| Lu::new(&cm));
         let (r, tr) = if full {
-            // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
-            let xp = solve_right(&lu_p, &cp, &cp_out);
-            let xm = match &lu_m {
-                Some(lu) => solve_right(lu, &cm, &cm_out),
-                None => xp.clone(),
-            };
-            // Back to radiances: R_ji = R~_ji t_i / t_j, by columns i of R.
-            let mut r = Mat::<f64>::zeros(n, n);
-            let mut tr = Mat::<f64>::zeros(n, n);
-            let mut finite = true;
-            for i in 0..n {
-                let (xpc, xmc) = (&xp[i * n..(i + 1) * n], &xm[i * n..(i + 1) * n]);
-                let (rc, tc) = (r.col_as_slice_mut(i), tr.col_as_slice_mut(i));
-                for j in 0..n {
-                    let f = t[i] / t[j];
-                    let rv = 0.5 * (xpc[j] + xmc[j]) * f;
-                    let tv = if half { 0.0 } else { 0.5 * (xpc[j] - xmc[j]) * f };
-                    finite &= rv.is_finite() && tv.is_finite();
-                    rc[j] = rv;
-                    tc[j] = tv;
-                }
-            }
-            if !finite {
-                return Err(fail("layer operators (non-finite)"));
-            }
-            (r, tr)
+            node_rt(&lu_p, lu_m.as_ref(), [&cp, &cp_out, &cm, &cm_out], &t)
+                .ok_or_else(|| fail("layer operators (non-finite)"))?
         } else {
             // Only the factors are kept: check that they are usable.
             let finite = lu_p.lu.iter().all(|x| x.is_finite())
@@ -570,500 +278,172 @@ impl SlabSolution {
     pub fn t(&self) -> &Mat<f64> {
         &self.tr
     }
+}
 
-    /// `Lambda_l^m(mu)` for this order.
-    fn lam_at(&self, mu: f64) -> Vec<f64> {
-        let mut b = vec![0.0; self.chi.len()];
-        self.rec.eval(mu, &mut b);
-        b
+/// The even and odd (in `l + m`) parts of the phase matrix between the
+/// nodes, `P(mu_i, mu_j) ± P(mu_i, -mu_j) = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j)`
+/// (`c_l = (2l+1) chi_l`, Legendre table `lam` node-major), for `m = 0`
+/// renormalised symmetrically so every row integrates to 1 over the nodes.
+fn phase_blocks(w: &[f64], m: usize, chi: &[f64], lam: &[f64], n: usize) -> (Mat<f64>, Mat<f64>) {
+    let nl = chi.len();
+    // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
+    // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
+    let mut ae = Mat::<f64>::zeros(n, nl);
+    let mut ao = Mat::<f64>::zeros(n, nl);
+    let mut lt = Mat::<f64>::zeros(nl, n);
+    for i in 0..n {
+        let c = lt.col_as_slice_mut(i);
+        c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
     }
-
-    /// Even and odd (in l+m) kernels between direction `mu` and every node:
-    /// `sum_{l+m even/odd} (2l+1) chi_l Lambda_l(mu) Lambda_l(mu_j)`.
-    fn kernels(&self, lam_x: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let nl = self.chi.len();
-        // The weights split by parity of l + m (zero elsewhere), then dot products.
-        let (mut we, mut wo) = (vec![0.0; nl], vec![0.0; nl]);
-        for l in self.m..nl {
-            let x = self.chi[l] * lam_x[l];
-            if (l + self.m).is_multiple_of(2) { we[l] = x } else { wo[l] = x }
-        }
-        let (mut ev, mut od) = (vec![0.0; self.n], vec![0.0; self.n]);
-        for j in 0..self.n {
-            let row = &self.lam[j * nl..(j + 1) * nl];
-            ev[j] = dot(&we, row);
-            od[j] = dot(&wo, row);
-        }
-        (ev, od)
-    }
-
-    /// Particular solution for a beam of unit horizontal irradiance entering
-    /// at the top at `mu_b` (eq. S6): `(Z+, Z-)` in radiances at the nodes.
-    fn particular(&self, mu_b: f64) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
-        let lam_b = self.lam_at(mu_b);
-        let (mut ev, mut od) = self.kernels(&lam_b);
-        let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
-        if self.renorm_m0 {
-            // Make the scattered beam integrate to omega exactly over the nodes.
-            let s: f64 = (0..n).map(|j| ev[j] * self.w[j]).sum();
-            if s > 0.0 {
-                ev.iter_mut().for_each(|x| *x /= s);
-                od.iter_mut().for_each(|x| *x /= s);
-            }
-        }
-        // s+ + s- = omega c_m / mu_b * ev ; s+ - s- = omega c_m / mu_b * od.
-        let f = self.omega * cm / mu_b;
-        // sigma~± = T M^-1 (s+ ± s-) = sqrt(w/mu) (s+ ± s-).
-        let sp: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * ev[i]).collect();
-        let sm: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * od[i]).collect();
-        // rhs = sigma+ / mu_b + H- sigma-.
-        let rhs: Vec<f64> = (0..n)
-            // H- is symmetric: row i is column i.
-            .map(|i| sp[i] / mu_b + dot(self.hm.col_as_slice(i), &sm))
-            .collect();
-        // Delta = sum_j z_j (v_j . rhs) / (k_j^2 - mu_b^-2).
-        let lb = 1.0 / (mu_b * mu_b);
-        let mut delta = vec![0.0; n];
-        for j in 0..n {
-            let c: f64 = dot(self.v.col_as_slice(j), &rhs) / (self.k[j] * self.k[j] - lb);
-            for i in 0..n {
-                delta[i] += c * self.z[(i, j)];
-            }
-        }
-        // Sigma = mu_b (H+ Delta - sigma-).
-        let sigma: Vec<f64> =
-            (0..n).map(|i| mu_b * (dot(self.hp.col_as_slice(i), &delta) - sm[i])).collect();
-        let zp = (0..n).map(|i| 0.5 * (sigma[i] + delta[i]) / self.t[i]).collect();
-        let zm = (0..n).map(|i| 0.5 * (sigma[i] - delta[i]) / self.t[i]).collect();
-        (zp, zm)
-    }
-
-    /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
-    /// at `mu_x` leaving the top per unit down-going radiance at each node
-    /// entering at the top, and the same from the bottom (eq. 14 of docs/multiflux.md).
-    fn probe_rows(&self, mu_x: f64) -> Probe {
-        let n = self.n;
-        let lam_x = self.lam_at(mu_x);
-        let (ev, od) = self.kernels(&lam_x);
-        let beta = 1.0 / mu_x;
-        let eb = atten(self.tau, mu_x);
-        // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
-        let fe: Vec<f64> = (0..n).map(|i| self.omega * self.w[i] / self.t[i] * ev[i]).collect();
-        let fo: Vec<f64> = (0..n).map(|i| self.omega * self.w[i] / self.t[i] * od[i]).collect();
-        let mut us = vec![0.0; n];
-        let mut uy = vec![0.0; n];
-        for j in 0..n {
-            let a = dot(&fe, self.v.col_as_slice(j));
-            let b = -dot(&fo, self.z.col_as_slice(j));
-            let k = self.k[j];
-            if self.tau.is_infinite() {
-                // Only top-anchored modes: out = 1/2 (a + b k) beta/(k + beta) c, c = s.
-                us[j] = 0.5 * (a + b * k) * beta / (k + beta);
-                continue;
-            }
-            let t0 = self.tau;
-            // phi(k + beta) and e2(k, beta) of the path integral, from the
-            // exponentials of the mode and of the probe when no cancellation
-            // threatens (exponent differences above 1/2: at most ~4 ulp lost),
-            // else by expm1.
-            let ek = self.ek[j];
-            let k1 = if (k + beta) * t0 > 0.5 {
-                beta * (1.0 - ek * eb) / (k + beta)
-            } else {
-                beta * phi(k + beta, t0)
-            };
-            let k2 = if (beta - k).abs() * t0 > 0.5 {
-                beta * (ek - eb) / (beta - k)
-            } else {
-                beta * e2(k, beta, t0)
-            };
-            let kd = if k > 0.0 {
-                (k1 - k2) / k
-            } else {
-                // limit: beta int_0^t0 e^{-beta t} (t0 - 2 t) dt
-                let x = beta * t0;
-                let om = -(-x).exp_m1();
-                t0 * om - 2.0 * (om - x * (-x).exp()) / beta
-            };
-            us[j] = 0.25 * (a * (k1 + k2) + b * k * (k1 - k2));
-            uy[j] = 0.25 * (a * kd + b * (k1 + k2));
-        }
-        if self.tau.is_infinite() {
-            uy.iter_mut().for_each(|x| *x = 0.0);
-        }
-        Probe { us, uy, lam: lam_x, ev, od }
-    }
-
-    /// `(R_xq, T_xq)` of a probe: `R_xq = (us Cp^-1 + uy Cm^-1) T`,
-    /// `T_xq = (us Cp^-1 - uy Cm^-1) T`, the row vectors by transposed solves
-    /// `Cp^-T us`, `Cm^-T uy`.
-    fn probe_row_vectors(&self, pr: &Probe) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
-        let (mut p, mut q) = (pr.us.clone(), pr.uy.clone());
-        self.lu_p.solve_transpose(&mut p);
-        match &self.lu_m {
-            Some(lu) => lu.solve_transpose(&mut q),
-            None => q.iter_mut().for_each(|x| *x = 0.0),
-        }
-        let mut rx = vec![0.0; n];
-        let mut tx = vec![0.0; n];
+    for l in m..nl {
+        let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
+        let even = (l + m).is_multiple_of(2);
         for i in 0..n {
-            rx[i] = (p[i] + q[i]) * self.t[i];
-            tx[i] = (p[i] - q[i]) * self.t[i];
+            let x = chi[l] * lam[i * nl + l];
+            if even { ce[i] = x } else { co[i] = x }
         }
-        if self.tau.is_infinite() {
-            tx.iter_mut().for_each(|x| *x = 0.0);
-        }
-        (rx, tx)
     }
-
-    /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 and eq. 14 of docs/multiflux.md):
-    /// particular solution, homogeneous part fixed by the boundary values
-    /// `-Z+` at the top and `-Z- e^{-tau/mu_b}` at the bottom, and the source
-    /// integral along each probe.
-    fn beam_columns(
-        &self,
-        mu_b: f64,
-        extras: &[Extra],
-        rows: &[Option<Probe>],
-        tms: Option<&Tms>,
-    ) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
-        let dim = n + extras.len();
-        let (mut cr, mut ct) = (vec![0.0; dim], vec![0.0; dim]);
-        let (zp, zm) = self.particular(mu_b);
-        let eb_att = atten(self.tau, mu_b);
-        // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
-        let a: Vec<f64> = zp.iter().map(|x| -x).collect();
-        let b: Vec<f64> = zm.iter().map(|x| -x * eb_att).collect();
-        let (hs, hd, sp, sm) = self.homogeneous_out(&a, &b);
-        for i in 0..n {
-            cr[i] = zm[i] + hs[i];
-            ct[i] = zp[i] * eb_att + hd[i];
-        }
-        // Beam -> probes: homogeneous rows plus the particular source integral.
-        let lam_b = self.lam_at(mu_b);
-        let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
-        for (ex_i, exx) in extras.iter().enumerate() {
-            let (Some(pr), Some(mu_x)) = (&rows[ex_i], exx.mu) else { continue };
-            let (us, uy, lam_x, ev, od) = (&pr.us, &pr.uy, &pr.lam, &pr.ev, &pr.od);
-            // Direct single scattering of the beam into ±mu_x.
-            let (mut se, mut so) = (0.0, 0.0);
-            for l in self.m..self.chi.len() {
-                let x = self.chi[l] * lam_x[l] * lam_b[l];
-                if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
-            }
-            // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
-            let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
-            let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
-            // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
-            let (mut up, mut dn) = (direct_up, direct_dn);
+    let mut pe = &ae * &lt;
+    let mut po = &ao * &lt;
+    // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
+    // (energy conservation of the discrete scattering; docs/multiflux.md). Symmetric
+    // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
+    if m == 0 {
+        let mut d = vec![1.0; n];
+        let mut r = vec![0.0; n];
+        for _ in 0..60 {
+            r.iter_mut().for_each(|x| *x = 0.0);
             for j in 0..n {
-                let f = self.omega * self.w[j] * 0.5;
-                // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
-                up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
-                dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
-            }
-            let beta = 1.0 / mu_x;
-            let kb = 1.0 / mu_b;
-            let mut out_up = up * beta * phi(kb + beta, self.tau);
-            let mut out_dn = dn * beta * e2(kb, beta, self.tau);
-            if let (Some(t), 0) = (tms, self.m) {
-                // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
-                // (TMS) and the forward peak's second order (IMS), real space.
-                let (du, dd) = t.radiance(mu_b, mu_x, exx.phi_deg, self.tau);
-                out_up += du;
-                out_dn += dd;
-            }
-            // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b), and
-            // T_xq a + R_xq b with the sign of the second term flipped
-            // (nothing leaves the bottom of a half-space).
-            let (hp, hm) = (dot(us, &sp), dot(uy, &sm));
-            out_up += hp + hm;
-            if !self.tau.is_infinite() {
-                out_dn += hp - hm;
-            }
-            cr[n + ex_i] = out_up;
-            ct[n + ex_i] = out_dn;
-        }
-        (cr, ct)
-    }
-
-    /// The radiance field inside the layer at optical depth `tau` (seed 000
-    /// eq. 19, in the scaled form S4): down-going `I+` and up-going `I-` at
-    /// the nodes, for down-going radiances `top_in` entering at the top,
-    /// up-going `bottom_in` entering at the bottom, and optionally a beam
-    /// `(mu_b, F)` of horizontal irradiance `F` entering at the top. Radiances
-    /// are the Fourier component of order `m` of this solution.
-    ///
-    /// ```text
-    ///   I~± = 1/2 v [s (e1+e2)/2 + y D/2] ± 1/2 z [s k (e1-e2)/2 + y (e1+e2)/2]
-    ///   e1 = e^{-k tau}, e2 = e^{-k (tau0 - tau)}, D = (e1 - e2)/k (-> tau0 - 2 tau)
-    /// ```
-    ///
-    /// plus the particular solution `Z± F e^{-tau/mu_b}` (eq. S6).
-    ///
-    /// # Errors
-    /// [`MultifluxError::Shape`] if the inputs do not have one value per node,
-    /// [`MultifluxError::Option`] if `tau` lies outside `[0, tau0]`.
-    pub fn field(
-        &self,
-        tau: f64,
-        top_in: &[f64],
-        bottom_in: &[f64],
-        beam: Option<(f64, f64)>,
-    ) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
-        let n = self.n;
-        if top_in.len() != n || bottom_in.len() != n {
-            return Err(MultifluxError::Shape {
-                what: "field",
-                detail: format!("{n} nodes, inputs {} and {}", top_in.len(), bottom_in.len()),
-            });
-        }
-        if !(0.0..=self.tau).contains(&tau) || tau.is_infinite() {
-            return Err(MultifluxError::Option {
-                name: "tau",
-                value: tau,
-                reason: "depth must lie in [0, tau0] and be finite",
-            });
-        }
-        // Boundary values of the homogeneous part (transformed coordinates).
-        let (mut a, mut b) = (top_in.to_vec(), bottom_in.to_vec());
-        let mut part = None;
-        if let Some((mu_b, f)) = beam {
-            let (zp, zm) = self.particular(mu_b);
-            let eb = atten(self.tau, mu_b);
-            for i in 0..n {
-                a[i] -= f * zp[i];
-                b[i] -= f * zm[i] * eb;
-            }
-            let e = (-tau / mu_b).exp() * f;
-            part = Some((
-                zp.iter().map(|x| x * e).collect::<Vec<_>>(),
-                zm.iter().map(|x| x * e).collect::<Vec<_>>(),
-            ));
-        }
-        let at: Vec<f64> = (0..n).map(|i| a[i] * self.t[i]).collect();
-        let bt: Vec<f64> = (0..n).map(|i| b[i] * self.t[i]).collect();
-        let half = self.tau.is_infinite();
-        // s = Cp^-1 (a~ + b~), y = Cm^-1 (a~ - b~) (eq. S4).
-        let mut s: Vec<f64> = (0..n).map(|i| at[i] + if half { 0.0 } else { bt[i] }).collect();
-        self.lu_p.solve(&mut s);
-        let mut y: Vec<f64> = (0..n).map(|i| at[i] - bt[i]).collect();
-        match &self.lu_m {
-            Some(lu) => lu.solve(&mut y),
-            None => y.iter_mut().for_each(|x| *x = 0.0),
-        }
-        let (mut dn, mut up) = (vec![0.0; n], vec![0.0; n]);
-        for j in 0..n {
-            let k = self.k[j];
-            let e1 = (-k * tau).exp();
-            let (cv, cz) = if half {
-                // Only top-anchored modes: c = s.
-                (0.5 * s[j] * e1, 0.5 * s[j] * k * e1)
-            } else {
-                let e2 = (-k * (self.tau - tau)).exp();
-                let d = if k > 0.0 { (e1 - e2) / k } else { self.tau - 2.0 * tau };
-                (
-                    0.5 * (0.5 * s[j] * (e1 + e2) + 0.5 * y[j] * d),
-                    0.5 * (0.5 * s[j] * k * (e1 - e2) + 0.5 * y[j] * (e1 + e2)),
-                )
-            };
-            for i in 0..n {
-                dn[i] += cv * self.v[(i, j)] + cz * self.z[(i, j)];
-                up[i] += cv * self.v[(i, j)] - cz * self.z[(i, j)];
-            }
-        }
-        for i in 0..n {
-            dn[i] /= self.t[i];
-            up[i] /= self.t[i];
-        }
-        if let Some((zp, zm)) = part {
-            for i in 0..n {
-                dn[i] += zp[i];
-                up[i] += zm[i];
-            }
-        }
-        Ok((dn, up))
-    }
-
-    /// The operators on the augmented space `[nodes, extras]` (same layout for
-    /// down- and up-going vectors; the layer is symmetric, so `r_bottom = r_top`
-    /// and `t_up = t_down`).
-    pub fn operators(&self, extras: &[Extra], tms: Option<&Tms>) -> LayerOperators {
-        let n = self.n;
-        let dim = n + extras.len();
-        let mut rr = Mat::<f64>::zeros(dim, dim);
-        let mut tt = Mat::<f64>::zeros(dim, dim);
-        let lazy;
-        let (r, tr) = if self.r.nrows() == n {
-            (&self.r, &self.tr)
-        } else {
-            // Built without `full`: the node operators from the factors.
-            lazy = self.node_operators();
-            (&lazy.0, &lazy.1)
-        };
-        for j in 0..n {
-            rr.col_as_slice_mut(j)[..n].copy_from_slice(r.col_as_slice(j));
-            tt.col_as_slice_mut(j)[..n].copy_from_slice(tr.col_as_slice(j));
-        }
-        // Probe rows first (needed by the beam columns).
-        let rows = self.probe_rows_all(extras);
-        for (e, ex) in extras.iter().enumerate() {
-            if let Some(mu_x) = ex.mu {
-                tt[(n + e, n + e)] = atten(self.tau, mu_x);
-            }
-            if let Some(pr) = &rows[e] {
-                let (rx, tx) = self.probe_row_vectors(pr);
+                let c = pe.col_as_slice(j);
+                let f = w[j] * d[j];
                 for i in 0..n {
-                    rr[(n + e, i)] = rx[i];
-                    tt[(n + e, i)] = tx[i];
+                    r[i] += c[i] * f;
                 }
             }
-        }
-        for (eb, ex) in extras.iter().enumerate() {
-            let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
-            let (cr, ct) = self.beam_response_rows(mu_b, extras, &rows, tms);
-            for i in 0..dim {
-                if i < n || rows[i - n].is_some() {
-                    rr[(i, n + eb)] = cr[i];
-                    tt[(i, n + eb)] = ct[i];
-                }
+            let mut worst = 0.0f64;
+            for i in 0..n {
+                r[i] *= d[i];
+                worst = worst.max((r[i] - 1.0).abs());
+            }
+            if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
+                break;
+            }
+            for i in 0..n {
+                d[i] /= r[i].sqrt();
             }
         }
-        LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt }
-    }
-
-    /// The column of the beam `extras[eb]` in the `r_top` and `t_down` of
-    /// [`SlabSolution::operators`], computed without the node-to-node
-    /// operators: all a layer alone under a collimated beam needs.
-    pub fn beam_response(
-        &self,
-        extras: &[Extra],
-        eb: usize,
-        tms: Option<&Tms>,
-    ) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
-        let dim = n + extras.len();
-        let (mut cr, mut ct) = (vec![0.0; dim], vec![0.0; dim]);
-        let (true, Some(mu_b)) = (extras[eb].beam, extras[eb].mu) else {
-            return (cr, ct);
-        };
-        let rows = self.probe_rows_all(extras);
-        let (r, t) = self.beam_response_rows(mu_b, extras, &rows, tms);
-        for i in 0..dim {
-            if i < n || rows[i - n].is_some() {
-                cr[i] = r[i];
-                ct[i] = t[i];
-            }
-        }
-        // The unscattered beam itself.
-        ct[n + eb] = atten(self.tau, mu_b);
-        (cr, ct)
-    }
-
-    /// `(R_xq, T_xq)` of every probe (`None` for the beam and for directions
-    /// absent from this medium).
-    fn probe_rows_all(&self, extras: &[Extra]) -> Vec<Option<Probe>> {
-        extras
-            .iter()
-            .map(|ex| match (ex.beam, ex.mu) {
-                (false, Some(mu_x)) => Some(self.probe_rows(mu_x)),
-                _ => None,
-            })
-            .collect()
-    }
-
-    /// The beam's columns (nodes and probes) with the resonance guard.
-    fn beam_response_rows(
-        &self,
-        mu_b: f64,
-        extras: &[Extra],
-        rows: &[Option<Probe>],
-        tms: Option<&Tms>,
-    ) -> (Vec<f64>, Vec<f64>) {
-        // Eq. S6 is singular at k_j mu_b = 1 (the full response is not): at
-        // an exact resonance (|k mu_b - 1| < 1e-9, a set of measure zero)
-        // the response is the mean at mu_b (1 ± 1e-6) (error ~1e-12; one-sided
-        // 1e-6 at mu_b = 1). Near it, the cancellation costs only
-        // log10(1/|k mu_b - 1|) digits.
-        let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-9);
-        if !near {
-            self.beam_columns(mu_b, extras, rows, tms)
-        } else if mu_b * (1.0 + 1e-6) < 1.0 {
-            let (a, b) = (
-                self.beam_columns(mu_b * (1.0 - 1e-6), extras, rows, tms),
-                self.beam_columns(mu_b * (1.0 + 1e-6), extras, rows, tms),
-            );
-            let avg = |x: &[f64], y: &[f64]| -> Vec<f64> {
-                x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect()
-            };
-            (avg(&a.0, &b.0), avg(&a.1, &b.1))
-        } else {
-            self.beam_columns(mu_b * (1.0 - 1e-6), extras, rows, tms)
-        }
-    }
-
-    /// `(R a + T b, T a + R b)` at the nodes (radiances), for down-going `a`
-    /// entering at the top and up-going `b` at the bottom, by two vector
-    /// solves (eq. S5): with `a~ = T a`, `b~ = T b`,
-    /// `R~ a~ + T~ b~ = 1/2 [Cp_out Cp^-1 (a~ + b~) + Cm_out Cm^-1 (a~ - b~)]`.
-    /// Also returns `Cp^-1 (a~ + b~)` and `Cm^-1 (a~ - b~)` (0 for a half-space).
-    fn homogeneous_out(&self, a: &[f64], b: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
-        let n = self.n;
-        // Half-space: R~ = Cp_out Cp^-1, T~ = 0 (nothing enters from below).
-        let half = self.lu_m.is_none();
-        let bh = |i: usize| if half { 0.0 } else { b[i] };
-        let mut s: Vec<f64> = (0..n).map(|i| self.t[i] * (a[i] + bh(i))).collect();
-        let mut d: Vec<f64> = (0..n).map(|i| self.t[i] * (a[i] - bh(i))).collect();
-        self.lu_p.solve(&mut s);
-        let hp = mat_vec(&self.cp_out, &s);
-        let hm = match &self.lu_m {
-            Some(lu) => {
-                lu.solve(&mut d);
-                mat_vec(&self.cm_out, &d)
-            }
-            None => {
-                d.iter_mut().for_each(|x| *x = 0.0);
-                hp.clone()
-            }
-        };
-        let rs = (0..n).map(|i| 0.5 * (hp[i] + hm[i]) / self.t[i]).collect();
-        let td =
-            (0..n).map(|i| if half { 0.0 } else { 0.5 * (hp[i] - hm[i]) / self.t[i] }).collect();
-        (rs, td, s, d)
-    }
-
-    /// The node-to-node `R` and `T` (eq. S5) from the kept factors.
-    fn node_operators(&self) -> (Mat<f64>, Mat<f64>) {
-        let n = self.n;
-        let mut r = Mat::<f64>::zeros(n, n);
-        let mut tr = Mat::<f64>::zeros(n, n);
-        let (mut xp, mut xm) = (vec![0.0; n], vec![0.0; n]);
         for j in 0..n {
-            // Row j of X = C_out C^-1 is C^-T applied to row j of C_out.
+            let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
             for i in 0..n {
-                xp[i] = self.cp_out[(j, i)];
-            }
-            self.lu_p.solve_transpose(&mut xp);
-            match &self.lu_m {
-                Some(lu) => {
-                    for i in 0..n {
-                        xm[i] = self.cm_out[(j, i)];
-                    }
-                    lu.solve_transpose(&mut xm);
-                }
-                None => xm.copy_from_slice(&xp),
-            }
-            for i in 0..n {
-                let f = self.t[i] / self.t[j];
-                r[(j, i)] = 0.5 * (xp[i] + xm[i]) * f;
-                tr[(j, i)] = if self.lu_m.is_none() { 0.0 } else { 0.5 * (xp[i] - xm[i]) * f };
+                ce[i] *= d[i] * d[j];
+                co[i] *= d[i] * d[j];
             }
         }
-        (r, tr)
     }
+    (pe, po)
+}
+
+/// `H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)` (eq. S3).
+fn h_matrices(
+    mu: &[f64],
+    w: &[f64],
+    omega: f64,
+    pe: &Mat<f64>,
+    po: &Mat<f64>,
+) -> (Mat<f64>, Mat<f64>) {
+    let n = mu.len();
+    let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
+    let mut hp = Mat::<f64>::zeros(n, n);
+    let mut hm = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
+        let hpc = hp.col_as_slice_mut(j);
+        for i in 0..n {
+            hpc[i] = -omega * sq[i] * co[i] * sq[j];
+        }
+        hpc[j] += 1.0 / mu[j];
+        let hmc = hm.col_as_slice_mut(j);
+        for i in 0..n {
+            hmc[i] = -omega * sq[i] * ce[i] * sq[j];
+        }
+        hmc[j] += 1.0 / mu[j];
+    }
+    (hp, hm)
+}
+
+/// The boundary matrices of eq. S4–S5 from the modes `v~`, `z~`, `k`:
+/// `e = exp(-k tau0)` and `[Cp, Cp_out, Cm, Cm_out]` (the `Cm` pair zero for
+/// a half-space).
+fn boundary_matrices(v: &Mat<f64>, z: &Mat<f64>, k: &[f64], tau: f64) -> (Vec<f64>, [Mat<f64>; 4]) {
+    let n = k.len();
+    let half = tau.is_infinite();
+    let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
+    let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
+    let mut cp = Mat::<f64>::zeros(n, n);
+    let mut cp_out = Mat::<f64>::zeros(n, n);
+    let mut cm = Mat::<f64>::zeros(n, n);
+    let mut cm_out = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
+        let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
+        let c = cp.col_as_slice_mut(j);
+        for i in 0..n {
+            c[i] = a * vc[i] + b * zc[i];
+        }
+        let c = cp_out.col_as_slice_mut(j);
+        for i in 0..n {
+            c[i] = a * vc[i] - b * zc[i];
+        }
+        if !half {
+            let (a, b) = (0.5 * ph[j], 0.5 * (1.0 + e[j]));
+            let c = cm.col_as_slice_mut(j);
+            for i in 0..n {
+                c[i] = a * vc[i] + b * zc[i];
+            }
+            let c = cm_out.col_as_slice_mut(j);
+            for i in 0..n {
+                c[i] = a * vc[i] - b * zc[i];
+            }
+        }
+    }
+    (e, [cp, cp_out, cm, cm_out])
+}
+
+/// The node-to-node `R` and `T` (eq. S5): `R~ ± T~ = C_out C^-1` from the
+/// factors of `Cp`, `Cm` (`lu_m = None`: a half-space), back to radiances
+/// with `t = sqrt(w mu)`; `None` if not finite.
+fn node_rt(
+    lu_p: &Lu,
+    lu_m: Option<&Lu>,
+    c: [&Mat<f64>; 4],
+    t: &[f64],
+) -> Option<(Mat<f64>, Mat<f64>)> {
+    let [cp, cp_out, cm, cm_out] = c;
+    let n = t.len();
+    let half = lu_m.is_none();
+    // R~ ± T~ = C_out C^-1 (eq. S5); transposed: C^-T C_out^T.
+    let xp = solve_right(lu_p, cp, cp_out);
+    let xm = match lu_m {
+        Some(lu) => solve_right(lu, cm, cm_out),
+        None => xp.clone(),
+    };
+    // Back to radiances: R_ji = R~_ji t_i / t_j, by columns i of R.
+    let mut r = Mat::<f64>::zeros(n, n);
+    let mut tr = Mat::<f64>::zeros(n, n);
+    let mut finite = true;
+    for i in 0..n {
+        let (xpc, xmc) = (&xp[i * n..(i + 1) * n], &xm[i * n..(i + 1) * n]);
+        let (rc, tc) = (r.col_as_slice_mut(i), tr.col_as_slice_mut(i));
+        for j in 0..n {
+            let f = t[i] / t[j];
+            let rv = 0.5 * (xpc[j] + xmc[j]) * f;
+            let tv = if half { 0.0 } else { 0.5 * (xpc[j] - xmc[j]) * f };
+            finite &= rv.is_finite() && tv.is_finite();
+            rc[j] = rv;
+            tc[j] = tv;
+        }
+    }
+    finite.then_some((r, tr))
 }
 
 /// `sum_i a_i b_i` with four partial sums (lets the compiler use SIMD; the
@@ -1093,111 +473,4 @@ fn mat_vec(m: &Mat<f64>, x: &[f64]) -> Vec<f64> {
         }
     }
     y
-}
-
-/// Operators of a layer that does not scatter in this order (pure absorber,
-/// or an order above the phase function's last moment): `R = 0`,
-/// `T = diag(exp(-tau/mu))` (Beer–Lambert), no eigen-solve.
-pub fn absorber_operators(mu: &[f64], extras: &[Extra], tau: f64) -> LayerOperators {
-    let n = mu.len();
-    let dim = n + extras.len();
-    let mut tt = Mat::<f64>::zeros(dim, dim);
-    for i in 0..n {
-        tt[(i, i)] = atten(tau, mu[i]);
-    }
-    for (e, ex) in extras.iter().enumerate() {
-        if let Some(mu_x) = ex.mu {
-            tt[(n + e, n + e)] = atten(tau, mu_x);
-        }
-    }
-    LayerOperators {
-        r_top: Mat::zeros(dim, dim),
-        t_down: tt.clone(),
-        r_bottom: Mat::zeros(dim, dim),
-        t_up: tt,
-    }
-}
-
-/// Operators of one layer and order on the augmented space, choosing the
-/// absorber shortcut when nothing scatters.
-///
-/// # Errors
-/// Those of [`SlabSolution::new`].
-pub fn slab_operators(
-    mu: &[f64],
-    w: &[f64],
-    extras: &[Extra],
-    p: &SlabOrder<'_>,
-    tms: Option<&Tms>,
-) -> Result<LayerOperators, MultifluxError> {
-    let scatters =
-        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
-    if !scatters {
-        return Ok(absorber_operators(mu, extras, p.tau));
-    }
-    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
-}
-
-/// The column of the beam `extras[eb]` in the `r_top` and `t_down` of
-/// [`slab_operators`] (the same numbers up to rounding), without the
-/// node-to-node operators (eq. S5 by vector solves, eq. S6 and eq. 14 of
-/// `docs/multiflux.md`): the whole answer for a layer alone under a
-/// collimated beam, at about half the cost per Fourier order.
-///
-/// # Errors
-/// Those of [`SlabSolution::new`].
-pub fn slab_beam_response(
-    mu: &[f64],
-    w: &[f64],
-    extras: &[Extra],
-    eb: usize,
-    p: &SlabOrder<'_>,
-    tms: Option<&Tms>,
-) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
-    let scatters =
-        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
-    if !scatters {
-        // Beer–Lambert: only the unscattered beam.
-        let dim = mu.len() + extras.len();
-        let mut ct = vec![0.0; dim];
-        if let Some(mu_b) = extras[eb].mu {
-            ct[mu.len() + eb] = atten(p.tau, mu_b);
-        }
-        return Ok((vec![0.0; dim], ct));
-    }
-    Ok(SlabSolution::build(mu, w, p, false)?.beam_response(extras, eb, tms))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `X = B C^-1` by the LU factors (column updates) and by faer's LU
-    /// agree, and `X C` gives back `B`: a matrix that needs pivoting (zero
-    /// and small leading entries) at sizes on both sides of the switch.
-    #[test]
-    fn right_solve_inverts_from_the_right() {
-        for n in [1usize, 2, 5, 17, 32, 40] {
-            let mut s = 12345u64 + n as u64;
-            let mut rnd = move || {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-            };
-            let c = Mat::from_fn(n, n, |i, j| if i == j { 1e-3 * rnd() } else { rnd() });
-            let b = Mat::from_fn(n, n, |_, _| rnd());
-            let lu = Lu::new(&c);
-            let x = solve_right(&lu, &c, &b);
-            let xm = Mat::from_fn(n, n, |i, j| x[j * n + i]);
-            let back = &xm * &c;
-            let reference = c.partial_piv_lu().solve_transpose(b.transpose());
-            for j in 0..n {
-                for i in 0..n {
-                    // Backward error of a pivoted LU: a few hundred ulps here.
-                    assert!((back[(i, j)] - b[(i, j)]).abs() < 1e-11, "n = {n}");
-                    let r = reference[(j, i)];
-                    assert!((xm[(i, j)] - r).abs() < 1e-9 * (1.0 + r.abs()), "n = {n}");
-                }
-            }
-        }
-    }
 }

@@ -21,123 +21,17 @@ use km_core::phase::PhaseFunction;
 use km_core::{ChannelResult, Light, MonoScene, Scene, Solution, Substrate};
 
 use crate::MultifluxError;
-use crate::adding::{LayerOperators, add, add_truncated};
+use crate::adding::LayerOperators;
+pub use crate::field::{InternalField, internal_field};
 use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::legendre::delta_m;
+pub use crate::options::{
+    DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED,
+    FOURIER_TOL, MultifluxOptions, default_streams,
+};
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_beam_response, slab_operators};
-
-/// Default number of Gauss nodes per hemisphere (per Snell segment): meets
-/// the 1e-4 accuracy target on the reference cases (see `docs/multiflux.md`).
-pub const DEFAULT_STREAMS: usize = 16;
-
-/// Default for the slow corners of the hard-case grid (`docs/multiflux.md` §8):
-/// a strongly peaked phase function (`|g| > 0.8`) inside a layer whose index
-/// differs from the ambient's, or incidence beyond 80 degrees.
-pub const DEFAULT_STREAMS_HARD: usize = 32;
-
-/// Default for totals with a nearly singular forward peak (`|g| > 0.95`) at
-/// incidence beyond 80 degrees on an index-matched stack; see
-/// [`default_streams`].
-pub const DEFAULT_STREAMS_PEAKED: usize = 128;
-
-/// Default when exit directions are asked for in a layer with `|g| > 0.9`
-/// (BRDF/BTDF within 1 % up to g = 0.95; see [`default_streams`]).
-pub const DEFAULT_STREAMS_ANGULAR: usize = 48;
-
-/// The stream count used when the options give none: [`DEFAULT_STREAMS`], or
-/// [`DEFAULT_STREAMS_HARD`] for the slow corners (measured: |g| = 0.9 in an
-/// index of 1.5 or 2.5 is 1.2e-3 from converged at 16 streams, 3e-5 at 32;
-/// 89 degrees with g = 0.9, 1e-3 and 7e-6).
-///
-/// A scattering layer with `|g| > 0.95` needs more (`docs/multiflux.md` §8,
-/// measured at g = 0.99 against 256 streams): 32 streams at least (in air
-/// up to 75 degrees 16 streams miss by 1.5e-4, 32 by 2e-5), and for totals
-/// at incidence beyond 80 degrees on an index-matched stack
-/// [`DEFAULT_STREAMS_PEAKED`] (89 degrees: 2e-2 at 16 streams, 2e-3 at 32,
-/// 1.5e-3 at 64, 9e-5 at 128 for w = 0.99, 1.5e-4 for w = 0.5; 4.5 ms).
-/// With BRDF/BTDF directions the answer is the angular distribution and the
-/// rule follows its convergence (measured against DISORT at 256 streams, the
-/// worst value of 48 slabs at 30-85 degrees, `docs/multiflux.md` §8): 32
-/// streams for `0.8 < |g| <= 0.9`, [`DEFAULT_STREAMS_ANGULAR`] beyond; totals
-/// alone keep the rules above. [`DEFAULT_STREAMS_PEAKED`] is not taken with
-/// directions (all `2N` Fourier orders are
-/// needed there: 1 s at 128 streams), nor with refractive interfaces, where 128 streams (2-4 N
-/// nodes per medium) lose energy balance to 1e-8..4e-7, beyond the
-/// 1e-9 the solver otherwise keeps (g = 0.99 in n = 1.5 stays ~1e-3 off at
-/// 32 streams; ask for `streams` explicitly to trade).
-pub fn default_streams(scene: &MonoScene) -> usize {
-    let grazing = scene.light.mu0().is_some_and(|mu0| mu0 < 80f64.to_radians().cos());
-    let peaked_mismatch = scene
-        .layers
-        .iter()
-        .any(|l| l.g().abs() > 0.8 && l.albedo() > 0.0 && l.n != scene.ambient_n);
-    let very_peaked = scene.layers.iter().any(|l| l.g().abs() > 0.95 && l.albedo() > 0.0);
-    let matched = scene.layers.iter().all(|l| l.n == scene.ambient_n)
-        && !matches!(scene.substrate, Substrate::Transparent { n } if n != scene.ambient_n);
-    // Exit directions asked for (BRDF/BTDF within 1 % or 1e-4 for |g| <= 0.95
-    // up to 85 degrees; `docs/multiflux.md` §8, table 8b): 48 streams beyond
-    // |g| = 0.9 (g = 0.95: 1.0e-2 worst at 32, 1.2e-3 at 48), 32 beyond 0.8
-    // (g = 0.9: 8.3e-4 at 24, 1.0e-4 at 32; g = 0.8: 6.9e-5 at 16).
-    let angles = !scene.directions_deg.is_empty();
-    let max_g =
-        scene.layers.iter().filter(|l| l.albedo() > 0.0).fold(0.0f64, |a, l| a.max(l.g().abs()));
-    if angles && max_g > 0.9 {
-        DEFAULT_STREAMS_ANGULAR
-    } else if very_peaked && grazing && matched && !angles {
-        DEFAULT_STREAMS_PEAKED
-    } else if grazing || peaked_mismatch || very_peaked || (angles && max_g > 0.8) {
-        DEFAULT_STREAMS_HARD
-    } else {
-        DEFAULT_STREAMS
-    }
-}
-
-/// Relative size below which two consecutive Fourier orders end the azimuthal
-/// series of the BRDF/BTDF (DISORT's azimuthal convergence test, ACCUR).
-pub const FOURIER_TOL: f64 = 1e-9;
-
-/// Options of the Fourier–Gauss solver.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MultifluxOptions {
-    /// Gauss nodes per hemisphere and per Snell segment (`None`: [`default_streams`]).
-    pub streams: Option<usize>,
-    /// Truncate the adding of layers after this many round trips (seed eq. 21);
-    /// `None` = exact adding.
-    pub neumann_order: Option<usize>,
-    /// Upper bound on the Fourier order used for BRDF/BTDF (`None`: as needed).
-    pub max_fourier_order: Option<usize>,
-    /// Delta-M scaling of the phase function (Wiscombe 1977); default true.
-    pub delta_m: bool,
-    /// Switch the planner ([`km_core::plan::Plan`]) off: build every interface
-    /// (also between equal indices, where it is the identity), eigen-solve
-    /// every layer (also those that only absorb), compute every Fourier order
-    /// the streams resolve (`2N - 1`) even for totals, and never cut a thick
-    /// layer (`docs/planner.md`). Default false: the plan is obeyed.
-    pub all_effects: bool,
-    /// The second-order (IMS) part of the intensity correction at user exit
-    /// directions (`docs/multiflux.md` eq. 5a–5e; Nakajima & Tanaka 1988);
-    /// default true. The single-scattering part (TMS) comes with `delta_m`.
-    pub secondary_correction: bool,
-    /// Work budget of one solve (eq. W1 of [`crate::budget`]; `None`:
-    /// [`crate::budget::DEFAULT_MAX_WORK`]). A solve estimated above it is refused before
-    /// it starts.
-    pub max_work: Option<f64>,
-}
-
-impl Default for MultifluxOptions {
-    fn default() -> Self {
-        MultifluxOptions {
-            streams: None,
-            neumann_order: None,
-            max_fourier_order: None,
-            delta_m: true,
-            all_effects: false,
-            secondary_correction: true,
-            max_work: None,
-        }
-    }
-}
+use crate::stack::{StackPieces, add_stack, delta_parts};
 
 /// Solve every channel of a scene (Fourier–Gauss mode).
 ///
@@ -324,66 +218,15 @@ fn solve_mono_residual(
     let (n_sub, grid) = media_grid(scene, streams);
     // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
     let n_keep = 2 * streams;
-
-    // Extras: the beam, then probes (by Snell invariant s).
-    // (s, is_beam, phi): probes share an extra when s (and, for the
-    // single-scattering correction of a beam, phi) agree.
-    let mut ex_s: Vec<(f64, bool, f64)> = Vec::new();
-    let beam = match scene.light {
-        Light::Collimated { theta_deg } => {
-            ex_s.push((n0 * theta_deg.to_radians().sin(), true, 0.0));
-            Some(0)
-        }
-        Light::Diffuse => None,
-    };
+    let ex = ChannelExtras::new(scene, n_sub, opts.delta_m);
+    let beam = ex.beam;
     let tms_on = opts.delta_m && beam.is_some();
-    let probe = |s: f64, phi: f64, ex_s: &mut Vec<(f64, bool, f64)>| -> usize {
-        let phi = if tms_on { phi } else { 0.0 };
-        if let Some(i) = ex_s.iter().position(|&(t, b, p)| !b && t == s && p == phi) {
-            return i;
-        }
-        ex_s.push((s, false, phi));
-        ex_s.len() - 1
-    };
-    let dirs = &scene.directions_deg;
-    let brdf_ix: Vec<usize> =
-        dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
-    let btdf_ix: Vec<usize> = match n_sub {
-        Some(ns) => {
-            dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), d[1], &mut ex_s)).collect()
-        }
-        None => Vec::new(),
-    };
-    let extras_in = |n: f64| -> Vec<Extra> {
-        ex_s.iter()
-            .map(|&(s, beam, phi_deg)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg })
-            .collect()
-    };
+    let extras_in = |n: f64| ex.in_medium(n);
 
     // Delta-M scaling of each layer.
     let layers = scale_layers(scene, opts, n_keep);
-
-    // Fourier orders: 0 for totals; up to the last non-negligible moment for angles.
-    let need_angles = !dirs.is_empty();
-    let m_max = if need_angles && beam.is_some() {
-        let mut m = 0;
-        for l in &layers {
-            if l.omega > 0.0
-                && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
-            {
-                m = m.max(last);
-            }
-        }
-        m.min(opts.max_fourier_order.unwrap_or(usize::MAX))
-    } else {
-        0
-    };
-    // Everything on: every order the streams resolve, even for totals.
-    let m_max = if all {
-        (2 * streams - 1).min(opts.max_fourier_order.unwrap_or(usize::MAX))
-    } else {
-        m_max
-    };
+    let dirs = &scene.directions_deg;
+    let m_max = last_order(&layers, opts, !dirs.is_empty() && beam.is_some(), streams);
 
     let nodes0 = grid.medium(n0);
     let e0 = extras_in(n0);
@@ -402,21 +245,7 @@ fn solve_mono_residual(
     // `FOURIER_TOL` times the largest BRDF/BTDF value so far.
     let mut small_orders = 0;
     let mut m_used = 0;
-    // A layer alone in the ambient medium under a beam (no interface, nothing
-    // below it): the answer is one column of its operators, computed without
-    // the node-to-node operators (`slab_beam_response`). Never with all effects.
-    let lone = match (beam, &layers[..]) {
-        (Some(b), [l]) if !all && l.n == n0 => {
-            let floor_free = l.tau.is_infinite()
-                || match scene.substrate {
-                    Substrate::Black => true,
-                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == n0),
-                    Substrate::Lambertian { .. } => false,
-                };
-            floor_free.then_some((b, l))
-        }
-        _ => None,
-    };
+    let lone = lone_layer(scene, &layers, beam, n_sub, all);
     for m in 0..=m_max {
         m_used = m;
         let (up, down) = if let Some((b, l)) = lone {
@@ -437,49 +266,20 @@ fn solve_mono_residual(
                 tms_on && !dirs.is_empty(),
                 all,
             )?;
-            // Input at the top.
-            let a = {
-                let mut a = vec![0.0; na0 + e0.len()];
-                match beam {
-                    Some(b) => a[na0 + b] = 1.0,
-                    None if m == 0 => {
-                        // Uniform radiance 1/pi (unit irradiance) in every down-going
-                        // direction: the nodes and the probes (whose direct
-                        // transmission and mirror reflection are smooth in angle
-                        // for diffuse light, so they belong to the BRDF/BTDF).
-                        for (i, x) in a.iter_mut().enumerate() {
-                            if i < na0 || e0[i - na0].mu.is_some() {
-                                *x = 1.0 / std::f64::consts::PI;
-                            }
-                        }
-                    }
-                    None => {}
-                }
-                a
-            };
+            let a = top_input(na0, &e0, beam, m);
             let down = if nodes_sub.is_some() { apply(&ops.t_down, &a) } else { Vec::new() };
             (apply(&ops.r_top, &a), down)
         };
-        let cosm = |phi_deg: f64| (m as f64 * (phi_deg - 180.0).to_radians()).cos();
         if m == 0 {
             r_tot = flux(&nodes0, &up[..na0]) + beam.map_or(0.0, |b| up[na0 + b]);
         }
-        let mut term = 0.0f64;
-        for (k, d) in dirs.iter().enumerate() {
-            let x = up[na0 + brdf_ix[k]];
-            out.brdf[k] += x * cosm(d[1]);
-            term = term.max(x.abs());
-        }
+        let mut term = add_order(&mut out.brdf, dirs, &up[na0..], &ex.brdf_ix, m);
         if let Some(ns) = &nodes_sub {
             let nb = ns.mu.len();
             if m == 0 {
                 t_tot = flux(ns, &down[..nb]) + beam.map_or(0.0, |b| down[nb + b]);
             }
-            for (k, d) in dirs.iter().enumerate() {
-                let x = down[nb + btdf_ix[k]];
-                out.btdf[k] += x * cosm(d[1]);
-                term = term.max(x.abs());
-            }
+            term = term.max(add_order(&mut out.btdf, dirs, &down[nb..], &ex.btdf_ix, m));
         }
         if m > 0 && !all {
             let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
@@ -489,15 +289,171 @@ fn solve_mono_residual(
             }
         }
     }
+    finish(scene, &layers, n_sub, &ex, &nodes0, (r_tot, t_tot), &mut out, out_residual)?;
+    Ok((out, m_used + 1))
+}
 
-    // Delta parts with the true (unscaled) optical thicknesses.
-    let (spec, direct) = match beam {
-        Some(b) => delta_parts(scene, &layers, n_sub, ex_s[b].0),
+/// Add Fourier order `m` of the exit radiances (`x[ix[k]]` for direction
+/// `k`) to `vals`: `I^m cos m(phi - 180 deg)`; returns the largest `|I^m|`.
+fn add_order(vals: &mut [f64], dirs: &[[f64; 2]], x: &[f64], ix: &[usize], m: usize) -> f64 {
+    let mut term = 0.0f64;
+    for (k, d) in dirs.iter().enumerate() {
+        let v = x[ix[k]];
+        vals[k] += v * (m as f64 * (d[1] - 180.0).to_radians()).cos();
+        term = term.max(v.abs());
+    }
+    term
+}
+
+/// The extra directions of a channel besides the nodes: the beam, then the
+/// probes by Snell invariant `s`, as `(s, is_beam, phi)`; probes share an
+/// extra when `s` (and, for the beam's single-scattering correction, `phi`)
+/// agree.
+struct ChannelExtras {
+    ex_s: Vec<(f64, bool, f64)>,
+    /// The beam's extra (`None` for diffuse light).
+    beam: Option<usize>,
+    /// The extra of each exit direction above (BRDF) and below (BTDF).
+    brdf_ix: Vec<usize>,
+    btdf_ix: Vec<usize>,
+}
+
+impl ChannelExtras {
+    fn new(scene: &MonoScene, n_sub: Option<f64>, delta_m: bool) -> Self {
+        let n0 = scene.ambient_n;
+        let mut ex_s: Vec<(f64, bool, f64)> = Vec::new();
+        let beam = match scene.light {
+            Light::Collimated { theta_deg } => {
+                ex_s.push((n0 * theta_deg.to_radians().sin(), true, 0.0));
+                Some(0)
+            }
+            Light::Diffuse => None,
+        };
+        let tms_on = delta_m && beam.is_some();
+        let probe = |s: f64, phi: f64, ex_s: &mut Vec<(f64, bool, f64)>| -> usize {
+            let phi = if tms_on { phi } else { 0.0 };
+            if let Some(i) = ex_s.iter().position(|&(t, b, p)| !b && t == s && p == phi) {
+                return i;
+            }
+            ex_s.push((s, false, phi));
+            ex_s.len() - 1
+        };
+        let dirs = &scene.directions_deg;
+        let brdf_ix: Vec<usize> =
+            dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
+        let btdf_ix: Vec<usize> = match n_sub {
+            Some(ns) => {
+                dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), d[1], &mut ex_s)).collect()
+            }
+            None => Vec::new(),
+        };
+        ChannelExtras { ex_s, beam, brdf_ix, btdf_ix }
+    }
+
+    /// The extras as directions in the medium of index `n`.
+    fn in_medium(&self, n: f64) -> Vec<Extra> {
+        self.ex_s
+            .iter()
+            .map(|&(s, beam, phi_deg)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg })
+            .collect()
+    }
+}
+
+/// The last Fourier order: 0 for totals; with exit directions under a beam
+/// (`angles`), up to the last non-negligible moment; every order the streams
+/// resolve (`2N - 1`) with all effects; never above the options' bound.
+fn last_order(layers: &[Scaled], opts: &MultifluxOptions, angles: bool, streams: usize) -> usize {
+    let bound = opts.max_fourier_order.unwrap_or(usize::MAX);
+    if opts.all_effects {
+        return (2 * streams - 1).min(bound);
+    }
+    if !angles {
+        return 0;
+    }
+    last_moment(layers).min(bound)
+}
+
+/// The last non-negligible (`> 1e-12`) scaled moment over the scattering
+/// layers: the last Fourier order a BRDF needs.
+pub(crate) fn last_moment(layers: &[Scaled]) -> usize {
+    let mut m = 0;
+    for l in layers {
+        if l.omega > 0.0
+            && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
+        {
+            m = m.max(last);
+        }
+    }
+    m
+}
+
+/// A layer alone in the ambient medium under a beam (no interface, nothing
+/// below it): the answer is one column of its operators, computed without
+/// the node-to-node operators (`slab_beam_response`). Never with all effects.
+fn lone_layer<'a>(
+    scene: &MonoScene,
+    layers: &'a [Scaled],
+    beam: Option<usize>,
+    n_sub: Option<f64>,
+    all: bool,
+) -> Option<(usize, &'a Scaled)> {
+    match (beam, layers) {
+        (Some(b), [l]) if !all && l.n == scene.ambient_n => {
+            let floor_free = l.tau.is_infinite()
+                || match scene.substrate {
+                    Substrate::Black => true,
+                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == scene.ambient_n),
+                    Substrate::Lambertian { .. } => false,
+                };
+            floor_free.then_some((b, l))
+        }
+        _ => None,
+    }
+}
+
+/// The input at the top for order `m`: the beam's unit irradiance, or for
+/// diffuse light (order 0 only) uniform radiance 1/pi (unit irradiance) in
+/// every down-going direction: the nodes and the probes (whose direct
+/// transmission and mirror reflection are smooth in angle for diffuse light,
+/// so they belong to the BRDF/BTDF).
+fn top_input(na0: usize, e0: &[Extra], beam: Option<usize>, m: usize) -> Vec<f64> {
+    let mut a = vec![0.0; na0 + e0.len()];
+    match beam {
+        Some(b) => a[na0 + b] = 1.0,
+        None if m == 0 => {
+            for (i, x) in a.iter_mut().enumerate() {
+                if i < na0 || e0[i - na0].mu.is_some() {
+                    *x = 1.0 / std::f64::consts::PI;
+                }
+            }
+        }
+        None => {}
+    }
+    a
+}
+
+/// The channel's totals: the delta parts with the true (unscaled) optical
+/// thicknesses, exact conservation (eq. 18a), and a refusal of non-finite
+/// results; `(r_tot, t_tot)` are the diffuse-and-all totals from order 0.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+    ex: &ChannelExtras,
+    nodes0: &MediumNodes,
+    (r_tot, t_tot): (f64, f64),
+    out: &mut ChannelResult,
+    out_residual: &std::cell::Cell<f64>,
+) -> Result<(), MultifluxError> {
+    let n0 = scene.ambient_n;
+    let (spec, direct) = match ex.beam {
+        Some(b) => delta_parts(scene, layers, n_sub, ex.ex_s[b].0),
         None => {
             let (mut s, mut d) = (0.0, 0.0);
-            for i in 0..na0 {
+            for i in 0..nodes0.mu.len() {
                 let sx = n0 * (1.0 - nodes0.mu[i] * nodes0.mu[i]).max(0.0).sqrt();
-                let (si, di) = delta_parts(scene, &layers, n_sub, sx);
+                let (si, di) = delta_parts(scene, layers, n_sub, sx);
                 let f = 2.0 * nodes0.w[i] * nodes0.mu[i];
                 s += f * si;
                 d += f * di;
@@ -529,7 +485,7 @@ fn solve_mono_residual(
             detail: "non-finite result".into(),
         });
     }
-    Ok((out, m_used + 1))
+    Ok(())
 }
 
 /// Totals that obey the bounds exactly (eq. 18a of `docs/multiflux.md`):
@@ -587,173 +543,6 @@ pub(crate) fn scale_layers(
         .collect()
 }
 
-/// The radiance field at one depth of a stack, for one Fourier order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct InternalField {
-    /// Refractive index of the medium at that depth.
-    pub n: f64,
-    /// Node cosines `mu > 0` of that medium.
-    pub mu: Vec<f64>,
-    /// Node weights (`integral_0^1 dmu`).
-    pub w: Vec<f64>,
-    /// Down-going radiance at the nodes (Fourier order `m`, per unit incident irradiance).
-    pub down: Vec<f64>,
-    /// Up-going radiance at the nodes.
-    pub up: Vec<f64>,
-    /// Irradiance on a horizontal plane of the down-going collimated beam
-    /// (delta-M scaled: the forward peak travels with it); 0 for diffuse light.
-    pub beam_down: f64,
-    /// The same for the beam reflected by interfaces below, going up.
-    pub beam_up: f64,
-}
-
-impl InternalField {
-    /// Net downward flux `2 pi sum w mu (down - up) + beam_down - beam_up` (order 0).
-    pub fn net_flux(&self) -> f64 {
-        let diffuse: f64 =
-            (0..self.mu.len()).map(|i| self.w[i] * self.mu[i] * (self.down[i] - self.up[i])).sum();
-        2.0 * std::f64::consts::PI * diffuse + self.beam_down - self.beam_up
-    }
-}
-
-/// The radiance field `I(z, mu)` at geometric depth `z` (length units from
-/// the top of the first layer, inside the stack) for Fourier order `m`
-/// (`m = 0`: the azimuthal mean), at the nodes of the medium there (seed 000
-/// eq. 19 generalised to the stack). The stack is cut at `z` into the part
-/// above and the part below (each layer piece is a layer of its own optical
-/// thickness); with their operators `A` and `B`,
-/// `d = (I - A.r_bottom B.r_top)^-1 A.t_down a` and `u = B.r_top d` (eq. 19').
-///
-/// # Errors
-/// A depth outside the stack ([`MultifluxError::Option`]), and those of [`solve`].
-pub fn internal_field(
-    scene: &MonoScene,
-    opts: &MultifluxOptions,
-    z: f64,
-    m: usize,
-) -> Result<InternalField, MultifluxError> {
-    scene.validate()?;
-    let streams = resolve_streams(scene, opts)?;
-    let total: f64 = scene.layers.iter().map(|l| l.thickness).sum();
-    if !(z >= 0.0 && z <= total && z.is_finite()) {
-        return Err(MultifluxError::Option {
-            name: "z",
-            value: z,
-            reason: "depth must lie in the stack",
-        });
-    }
-    let n0 = scene.ambient_n;
-    let (n_sub, grid) = media_grid(scene, streams);
-    let layers = scale_layers(scene, opts, 2 * streams);
-    let ex_s: Vec<(f64, bool)> = match scene.light {
-        Light::Collimated { theta_deg } => vec![(n0 * theta_deg.to_radians().sin(), true)],
-        Light::Diffuse => Vec::new(),
-    };
-    let extras_in = |n: f64| -> Vec<Extra> {
-        ex_s.iter()
-            .map(|&(s, beam)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg: 0.0 })
-            .collect()
-    };
-    // Find the layer holding z and split it.
-    let (mut i_cut, mut z_top) = (0, 0.0);
-    for (i, l) in scene.layers.iter().enumerate() {
-        i_cut = i;
-        if z <= z_top + l.thickness {
-            break;
-        }
-        z_top += l.thickness;
-    }
-    let lc = &scene.layers[i_cut];
-    let frac_tau = |tau: f64| if lc.thickness > 0.0 { tau / lc.thickness } else { 0.0 };
-    let dz = (z - z_top).max(0.0);
-    let mut upper = layers[i_cut].clone();
-    let mut lower = layers[i_cut].clone();
-    // Piece above the cut: optical thickness (z - z_top) sigma_t (scaled and true).
-    let (per_len, per_len_true) = if lc.thickness.is_infinite() {
-        (lc.sigma_t() * layers[i_cut].factor, lc.sigma_t())
-    } else {
-        (frac_tau(layers[i_cut].tau), frac_tau(layers[i_cut].tau_true))
-    };
-    upper.tau = per_len * dz;
-    upper.tau_true = per_len_true * dz;
-    let rest = lc.thickness - dz;
-    lower.tau = if rest.is_infinite() { f64::INFINITY } else { per_len * rest };
-    lower.tau_true = if rest.is_infinite() { f64::INFINITY } else { per_len_true * rest };
-    let mut above: Vec<Scaled> = layers[..i_cut].to_vec();
-    above.push(upper);
-    let mut below = vec![lower];
-    below.extend_from_slice(&layers[i_cut + 1..]);
-
-    let n_cut = lc.n;
-    let mut scene_above = scene.clone();
-    scene_above.substrate = Substrate::Transparent { n: n_cut };
-    let mut scene_below = scene.clone();
-    scene_below.ambient_n = n_cut;
-    let tms = false;
-    let a_ops = stack_operators(
-        &scene_above,
-        &grid,
-        &above,
-        Some(n_cut),
-        &extras_in,
-        m,
-        opts.neumann_order,
-        tms,
-        opts.all_effects,
-    )?;
-    let b_ops = stack_operators(
-        &scene_below,
-        &grid,
-        &below,
-        n_sub,
-        &extras_in,
-        m,
-        opts.neumann_order,
-        tms,
-        opts.all_effects,
-    )?;
-
-    // Input at the top.
-    let nodes0 = grid.medium(n0);
-    let na0 = nodes0.mu.len();
-    let mut a = Mat::<f64>::zeros(na0 + ex_s.len(), 1);
-    if ex_s.is_empty() {
-        if m == 0 {
-            for i in 0..na0 {
-                a[(i, 0)] = 1.0 / std::f64::consts::PI;
-            }
-        }
-    } else {
-        a[(na0, 0)] = 1.0;
-    }
-    // Eq. 19': the streams at the cut.
-    let dim = b_ops.r_top.ncols();
-    let mut x = Mat::<f64>::identity(dim, dim);
-    x -= &a_ops.r_bottom * &b_ops.r_top;
-    use faer::linalg::solvers::Solve;
-    let d = x.partial_piv_lu().solve(&a_ops.t_down * &a);
-    let u = &b_ops.r_top * &d;
-    let nodes = grid.medium(n_cut);
-    let nn = nodes.mu.len();
-    let out = InternalField {
-        n: n_cut,
-        down: (0..nn).map(|i| d[(i, 0)]).collect(),
-        up: (0..nn).map(|i| u[(i, 0)]).collect(),
-        beam_down: if ex_s.is_empty() { 0.0 } else { d[(nn, 0)] },
-        beam_up: if ex_s.is_empty() { 0.0 } else { u[(nn, 0)] },
-        mu: nodes.mu,
-        w: nodes.w,
-    };
-    let finite = out.down.iter().chain(&out.up).all(|v| v.is_finite());
-    if !finite {
-        return Err(MultifluxError::Numerical {
-            what: "internal_field",
-            detail: format!("z = {z}"),
-        });
-    }
-    Ok(out)
-}
-
 /// `2 pi sum_i w_i mu_i I_i`: the flux of a radiance vector at the nodes.
 pub(crate) fn flux(nodes: &MediumNodes, i: &[f64]) -> f64 {
     2.0 * std::f64::consts::PI
@@ -764,23 +553,9 @@ fn apply(m: &Mat<f64>, a: &[f64]) -> Vec<f64> {
     (0..m.nrows()).map(|i| (0..m.ncols()).map(|j| m[(i, j)] * a[j]).sum()).collect()
 }
 
-pub(crate) fn combine(
-    acc: Option<LayerOperators>,
-    next: LayerOperators,
-    neumann: Option<usize>,
-) -> Result<LayerOperators, MultifluxError> {
-    match acc {
-        None => Ok(next),
-        Some(a) => match neumann {
-            None => add(&a, &next),
-            Some(k) => add_truncated(&a, &next, k),
-        },
-    }
-}
-
 /// The operators of the whole stack for Fourier order `m`, substrate included.
 #[allow(clippy::too_many_arguments)]
-fn stack_operators(
+pub(crate) fn stack_operators(
     scene: &MonoScene,
     grid: &AngularGrid,
     layers: &[Scaled],
@@ -791,17 +566,10 @@ fn stack_operators(
     tms: bool,
     all_effects: bool,
 ) -> Result<LayerOperators, MultifluxError> {
-    let mut acc: Option<LayerOperators> = None;
-    let mut n_above = scene.ambient_n;
     let interface = |na: f64, nb: f64| {
         fresnel_operators(&grid.medium(na), &grid.medium(nb), &extras_in(na), &extras_in(nb))
     };
-    for l in layers {
-        // The plan's `interface` rule: equal indices are no interface (the
-        // Fresnel operator would be the identity); built anyway with all effects.
-        if l.n != n_above || all_effects {
-            acc = Some(combine(acc, interface(n_above, l.n), neumann)?);
-        }
+    let layer = |_: usize, l: &Scaled| {
         let nodes = grid.medium(l.n);
         let ex = extras_in(l.n);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
@@ -810,133 +578,16 @@ fn stack_operators(
         // The plan's `scattering` rule lives in `slab_operators` (a layer that
         // does not scatter is Beer–Lambert attenuation); with all effects every
         // layer of finite positive thickness is eigen-solved.
-        let ops = if all_effects && l.tau > 0.0 {
-            eigen_operators(&nodes.mu, &nodes.w, &ex, &p, t)?
+        if all_effects && l.tau > 0.0 {
+            eigen_operators(&nodes.mu, &nodes.w, &ex, &p, t)
         } else {
-            slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)?
-        };
-        acc = Some(combine(acc, ops, neumann)?);
-        n_above = l.n;
-    }
-    let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
+            slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)
+        }
+    };
     let lambertian =
         |n: f64, albedo: f64| lambertian_reflection(&grid.medium(n), &extras_in(n), albedo, m);
-    let close = Closing { half_space, n_above, n_sub, all_effects, neumann };
-    close_stack(scene, acc, &close, &interface, &lambertian)
-}
-
-/// How a stack of layer operators ends (see [`close_stack`]).
-pub(crate) struct Closing {
-    /// The last layer is a half-space: nothing lies below it.
-    pub(crate) half_space: bool,
-    /// Refractive index of the last layer.
-    pub(crate) n_above: f64,
-    /// Index of a clear substrate (`None`: that of the last layer).
-    pub(crate) n_sub: Option<f64>,
-    /// Build the substrate's interface even between equal indices.
-    pub(crate) all_effects: bool,
-    /// Truncated adding (seed eq. 21), or exact.
-    pub(crate) neumann: Option<usize>,
-}
-
-/// Close the operators `acc` of a stack's layers: refuse an empty stack, stop
-/// at a half-space, then add the substrate (seed §3.4): the Fresnel interface
-/// into a clear half-space of another index, or the Lambertian floor
-/// `lambertian(n, albedo)` (its reflection operator), or nothing for a black one.
-pub(crate) fn close_stack(
-    scene: &MonoScene,
-    acc: Option<LayerOperators>,
-    close: &Closing,
-    interface: &dyn Fn(f64, f64) -> LayerOperators,
-    lambertian: &dyn Fn(f64, f64) -> Mat<f64>,
-) -> Result<LayerOperators, MultifluxError> {
-    let Some(mut acc) = acc else {
-        return Err(MultifluxError::Scene(km_core::CoreError::scene(
-            "layer",
-            None,
-            "the stack has no layer",
-        )));
-    };
-    if close.half_space {
-        return Ok(acc);
-    }
-    let (n_above, neumann) = (close.n_above, close.neumann);
-    match scene.substrate {
-        Substrate::Transparent { .. } => {
-            let ns = close.n_sub.unwrap_or(n_above);
-            if ns != n_above || close.all_effects {
-                acc = combine(Some(acc), interface(n_above, ns), neumann)?;
-            }
-        }
-        Substrate::Lambertian { albedo } => {
-            let g = lambertian(n_above, albedo);
-            let dim = g.nrows();
-            let floor = LayerOperators {
-                r_top: g,
-                t_down: Mat::zeros(0, dim),
-                r_bottom: Mat::zeros(0, 0),
-                t_up: Mat::zeros(dim, 0),
-            };
-            acc = combine(Some(acc), floor, neumann)?;
-        }
-        Substrate::Black => {}
-    }
-    Ok(acc)
-}
-
-/// Mirror reflectance and unscattered transmittance of a direction of Snell
-/// invariant `s` entering from above: a one-direction adding pass with the
-/// true optical thicknesses and flux (not radiance) Fresnel factors.
-pub(crate) fn delta_parts(
-    scene: &MonoScene,
-    layers: &[Scaled],
-    n_sub: Option<f64>,
-    s: f64,
-) -> (f64, f64) {
-    // Scalar operators (r_top, t_down, r_bottom, t_up) and their star product
-    // (eq. A4 of the adding module with 1 x 1 operators).
-    type Op = (f64, f64, f64, f64);
-    let star = |(r1, t1, r1p, t1p): Op, (r2, t2, r2p, t2p): Op| -> Op {
-        let x = 1.0 - r1p * r2;
-        if x == 0.0 {
-            // Facing total reflections with nothing between: nothing enters.
-            return (r1, 0.0, r2p, 0.0);
-        }
-        (r1 + t1p * r2 * t1 / x, t2 * t1 / x, r2p + t2 * r1p * t2p / x, t1p * t2p / x)
-    };
-    let iface = |na: f64, nb: f64| -> Op {
-        match (mu_of_invariant(s, na), mu_of_invariant(s, nb)) {
-            (Some(a), Some(b)) => {
-                let ra = km_core::fresnel::reflectance(a, na, nb);
-                let rb = km_core::fresnel::reflectance(b, nb, na);
-                (ra, 1.0 - ra, rb, 1.0 - rb)
-            }
-            (Some(_), None) => (1.0, 0.0, 0.0, 0.0),
-            (None, Some(_)) => (0.0, 0.0, 1.0, 0.0),
-            (None, None) => (0.0, 0.0, 0.0, 0.0),
-        }
-    };
-    let mut acc: Op = (0.0, 1.0, 0.0, 1.0);
-    let mut n_above = scene.ambient_n;
-    for l in layers {
-        if l.n != n_above {
-            acc = star(acc, iface(n_above, l.n));
-        }
-        let t = match mu_of_invariant(s, l.n) {
-            Some(mu) if l.tau_true.is_finite() => (-l.tau_true / mu).exp(),
-            _ => 0.0,
-        };
-        acc = star(acc, (0.0, t, 0.0, t));
-        n_above = l.n;
-    }
-    let mut transmits = false;
-    if let (Substrate::Transparent { .. }, Some(ns)) = (scene.substrate, n_sub) {
-        if ns != n_above {
-            acc = star(acc, iface(n_above, ns));
-        }
-        transmits = true;
-    }
-    (acc.0, if transmits { acc.1 } else { 0.0 })
+    let pieces = StackPieces { interface: &interface, layer: &layer, lambertian: &lambertian };
+    add_stack(scene, layers, n_sub, neumann, all_effects, &pieces)
 }
 
 /// The stream count of `opts`, or the scene's default; `1..=512`.

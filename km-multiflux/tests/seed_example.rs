@@ -19,15 +19,19 @@ fn grid() -> String {
     format!("[output]\ndirections_deg = [{}]\n", d.join(", "))
 }
 
-const SLAB: &str = "[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 1.0\nn = 1.3\n";
+/// The seed's scene file (defined once, in examples/).
+const SEED: &str = include_str!("../../examples/seed-three-layers.toml");
+
+/// The seed's scene up to `section` (light, ambient, the coating; with
+/// `[output]`, its substrate too).
+fn seed_up_to(section: &str) -> &'static str {
+    &SEED[..SEED.find(section).expect("the example has this section")]
+}
 
 #[test]
 fn seed_three_layer_example() {
     // thickness = 1 / (2 sigma_t) = 1 / (2 * 0.5) = 1: tau = 0.5, albedo 0.8.
-    let t = format!(
-        "[light]\ntheta_deg = 45.0\n{SLAB}[substrate]\nkind = \"lambertian\"\nalbedo = 0.8\n{}",
-        grid()
-    );
+    let t = format!("{}{}", seed_up_to("[output]"), grid());
     let c = run(&t, 16);
     println!(
         "seed 3-layer: R = {:.6} (specular {:.6}), A = {:.6}",
@@ -62,7 +66,8 @@ fn seed_fresnel_values_at_45_degrees() {
 #[test]
 fn seed_neumann_truncation_rms() {
     let t = format!(
-        "[light]\ntheta_deg = 45.0\n{SLAB}[substrate]\nkind = \"transparent\"\nn = 1.3\n{}",
+        "{}[substrate]\nkind = \"transparent\"\nn = 1.3\n{}",
+        seed_up_to("[substrate]"),
         grid()
     );
     let sc = common::scene(&t);

@@ -44,7 +44,7 @@ fn mu_weights(theta_o: &[f64]) -> Vec<f64> {
 /// totals per incidence.
 ///
 /// # Reference
-/// DESIGN.md §3 (`R(mu0) = integral f_r mu dw`).
+/// `docs/conventions.md` §3, eq. C3 (`R(mu0) = integral f_r mu dw`).
 pub fn energy(b: &Bsdf, n_phi: usize) -> Energy {
     energy_weighted(b, &mu_weights(&b.theta_o), n_phi)
 }

@@ -404,7 +404,14 @@ pub fn fourier(
         }
     }
     // Series length per pair: the tail rule on the largest channel.
-    let mut lengths = vec![0usize; n_mu * n_mu];
+    let lengths = series_lengths(&pairs, kmax, settings.tail);
+    Ok(scatfun_bytes(&nodes, &pairs, &lengths, nc, eta))
+}
+
+/// The series length of each pair of cosines: the shortest whose dropped
+/// tail `sum |a_k|` is within `tail_tol` of `|a_0|`, on the largest channel.
+fn series_lengths(pairs: &[Vec<Vec<f64>>], kmax: usize, tail_tol: f64) -> Vec<usize> {
+    let mut lengths = vec![0usize; pairs.len()];
     for (k, ch) in pairs.iter().enumerate() {
         let mut len = 0;
         for a in ch {
@@ -416,7 +423,7 @@ pub fn fourier(
             let mut tail = 0.0;
             for j in (1..kmax).rev() {
                 tail += a[j].abs();
-                if tail <= settings.tail * reference.max(f64::MIN_POSITIVE) {
+                if tail <= tail_tol * reference.max(f64::MIN_POSITIVE) {
                     l = j;
                 } else {
                     break;
@@ -426,6 +433,20 @@ pub fn fourier(
         }
         lengths[k] = len;
     }
+    lengths
+}
+
+/// The bytes of a Fourier BSDF file (`SCATFUN` version 1, as layerlab and
+/// pbrt-v3 read it): header, nodes, the luminance CDFs, offsets and lengths,
+/// and the coefficients of each pair (`pairs[o * n_mu + i][channel][k]`).
+fn scatfun_bytes(
+    nodes: &[f64],
+    pairs: &[Vec<Vec<f64>>],
+    lengths: &[usize],
+    nc: usize,
+    eta: f64,
+) -> Vec<u8> {
+    let n_mu = nodes.len();
     let m_max = lengths.iter().copied().max().unwrap_or(0);
     let n_coeffs: usize = lengths.iter().map(|l| l * nc).sum();
     let mut out = Vec::new();
@@ -436,19 +457,19 @@ pub fn fourier(
     for v in [eta as f32, 0.0, 0.0, 0.0, 0.0] {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    for &m in &nodes {
+    for &m in nodes {
         out.extend_from_slice(&(m as f32).to_le_bytes());
     }
     // CDF in mu_i per mu_o of the luminance a_0 (IntegrateCatmullRom).
     for jo in 0..n_mu {
         let a0: Vec<f64> =
             (0..n_mu).map(|ji| pairs[jo * n_mu + ji].first().map_or(0.0, |a| a[0])).collect();
-        for v in integrate_catmull_rom(&nodes, &a0) {
+        for v in integrate_catmull_rom(nodes, &a0) {
             out.extend_from_slice(&(v as f32).to_le_bytes());
         }
     }
     let mut offset = 0u32;
-    for &l in &lengths {
+    for &l in lengths {
         out.extend_from_slice(&offset.to_le_bytes());
         out.extend_from_slice(&(l as u32).to_le_bytes());
         offset += (l * nc) as u32;
@@ -460,5 +481,5 @@ pub fn fourier(
             }
         }
     }
-    Ok(out)
+    out
 }

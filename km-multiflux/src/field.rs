@@ -1,0 +1,191 @@
+//! The radiance field inside a stack at any depth, for one Fourier order
+//! (seed eq. 19 generalised to the stack, eq. 19' of `docs/multiflux.md`).
+
+use faer::Mat;
+use km_core::{Light, MonoScene, Substrate};
+
+use crate::MultifluxError;
+use crate::options::MultifluxOptions;
+use crate::quadrature::mu_of_invariant;
+use crate::slab::Extra;
+use crate::solver::{Scaled, media_grid, resolve_streams, scale_layers, stack_operators};
+
+/// The radiance field at one depth of a stack, for one Fourier order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InternalField {
+    /// Refractive index of the medium at that depth.
+    pub n: f64,
+    /// Node cosines `mu > 0` of that medium.
+    pub mu: Vec<f64>,
+    /// Node weights (`integral_0^1 dmu`).
+    pub w: Vec<f64>,
+    /// Down-going radiance at the nodes (Fourier order `m`, per unit incident irradiance).
+    pub down: Vec<f64>,
+    /// Up-going radiance at the nodes.
+    pub up: Vec<f64>,
+    /// Irradiance on a horizontal plane of the down-going collimated beam
+    /// (delta-M scaled: the forward peak travels with it); 0 for diffuse light.
+    pub beam_down: f64,
+    /// The same for the beam reflected by interfaces below, going up.
+    pub beam_up: f64,
+}
+
+impl InternalField {
+    /// Net downward flux `2 pi sum w mu (down - up) + beam_down - beam_up` (order 0).
+    pub fn net_flux(&self) -> f64 {
+        let diffuse: f64 =
+            (0..self.mu.len()).map(|i| self.w[i] * self.mu[i] * (self.down[i] - self.up[i])).sum();
+        2.0 * std::f64::consts::PI * diffuse + self.beam_down - self.beam_up
+    }
+}
+
+/// The radiance field `I(z, mu)` at geometric depth `z` (length units from
+/// the top of the first layer, inside the stack) for Fourier order `m`
+/// (`m = 0`: the azimuthal mean), at the nodes of the medium there (seed 000
+/// eq. 19 generalised to the stack). The stack is cut at `z` into the part
+/// above and the part below (each layer piece is a layer of its own optical
+/// thickness); with their operators `A` and `B`,
+/// `d = (I - A.r_bottom B.r_top)^-1 A.t_down a` and `u = B.r_top d` (eq. 19').
+///
+/// # Errors
+/// A depth outside the stack ([`MultifluxError::Option`]), and those of [`solve`].
+pub fn internal_field(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    z: f64,
+    m: usize,
+) -> Result<InternalField, MultifluxError> {
+    scene.validate()?;
+    let streams = resolve_streams(scene, opts)?;
+    let total: f64 = scene.layers.iter().map(|l| l.thickness).sum();
+    if !(z >= 0.0 && z <= total && z.is_finite()) {
+        return Err(MultifluxError::Option {
+            name: "z",
+            value: z,
+            reason: "depth must lie in the stack",
+        });
+    }
+    let n0 = scene.ambient_n;
+    let (n_sub, grid) = media_grid(scene, streams);
+    let layers = scale_layers(scene, opts, 2 * streams);
+    let ex_s: Vec<(f64, bool)> = match scene.light {
+        Light::Collimated { theta_deg } => vec![(n0 * theta_deg.to_radians().sin(), true)],
+        Light::Diffuse => Vec::new(),
+    };
+    let extras_in = |n: f64| -> Vec<Extra> {
+        ex_s.iter()
+            .map(|&(s, beam)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg: 0.0 })
+            .collect()
+    };
+    let (i_cut, above, below) = split_at_depth(scene, &layers, z);
+    let lc = &scene.layers[i_cut];
+    let n_cut = lc.n;
+    let mut scene_above = scene.clone();
+    scene_above.substrate = Substrate::Transparent { n: n_cut };
+    let mut scene_below = scene.clone();
+    scene_below.ambient_n = n_cut;
+    let tms = false;
+    let a_ops = stack_operators(
+        &scene_above,
+        &grid,
+        &above,
+        Some(n_cut),
+        &extras_in,
+        m,
+        opts.neumann_order,
+        tms,
+        opts.all_effects,
+    )?;
+    let b_ops = stack_operators(
+        &scene_below,
+        &grid,
+        &below,
+        n_sub,
+        &extras_in,
+        m,
+        opts.neumann_order,
+        tms,
+        opts.all_effects,
+    )?;
+
+    // Input at the top.
+    let nodes0 = grid.medium(n0);
+    let na0 = nodes0.mu.len();
+    let mut a = Mat::<f64>::zeros(na0 + ex_s.len(), 1);
+    if ex_s.is_empty() {
+        if m == 0 {
+            for i in 0..na0 {
+                a[(i, 0)] = 1.0 / std::f64::consts::PI;
+            }
+        }
+    } else {
+        a[(na0, 0)] = 1.0;
+    }
+    // Eq. 19': the streams at the cut.
+    let dim = b_ops.r_top.ncols();
+    let mut x = Mat::<f64>::identity(dim, dim);
+    x -= &a_ops.r_bottom * &b_ops.r_top;
+    use faer::linalg::solvers::Solve;
+    let d = x.partial_piv_lu().solve(&a_ops.t_down * &a);
+    let u = &b_ops.r_top * &d;
+    let nodes = grid.medium(n_cut);
+    let nn = nodes.mu.len();
+    let out = InternalField {
+        n: n_cut,
+        down: (0..nn).map(|i| d[(i, 0)]).collect(),
+        up: (0..nn).map(|i| u[(i, 0)]).collect(),
+        beam_down: if ex_s.is_empty() { 0.0 } else { d[(nn, 0)] },
+        beam_up: if ex_s.is_empty() { 0.0 } else { u[(nn, 0)] },
+        mu: nodes.mu,
+        w: nodes.w,
+    };
+    let finite = out.down.iter().chain(&out.up).all(|v| v.is_finite());
+    if !finite {
+        return Err(MultifluxError::Numerical {
+            what: "internal_field",
+            detail: format!("z = {z}"),
+        });
+    }
+    Ok(out)
+}
+
+/// The stack cut at depth `z` (inside it): the index of the layer holding
+/// `z`, the scaled layers above the cut (that layer's upper piece last) and
+/// below it (its lower piece first), each piece with its share of the
+/// optical thickness (scaled and true).
+fn split_at_depth(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    z: f64,
+) -> (usize, Vec<Scaled>, Vec<Scaled>) {
+    // Find the layer holding z and split it.
+    let (mut i_cut, mut z_top) = (0, 0.0);
+    for (i, l) in scene.layers.iter().enumerate() {
+        i_cut = i;
+        if z <= z_top + l.thickness {
+            break;
+        }
+        z_top += l.thickness;
+    }
+    let lc = &scene.layers[i_cut];
+    let frac_tau = |tau: f64| if lc.thickness > 0.0 { tau / lc.thickness } else { 0.0 };
+    let dz = (z - z_top).max(0.0);
+    let mut upper = layers[i_cut].clone();
+    let mut lower = layers[i_cut].clone();
+    // Piece above the cut: optical thickness (z - z_top) sigma_t (scaled and true).
+    let (per_len, per_len_true) = if lc.thickness.is_infinite() {
+        (lc.sigma_t() * layers[i_cut].factor, lc.sigma_t())
+    } else {
+        (frac_tau(layers[i_cut].tau), frac_tau(layers[i_cut].tau_true))
+    };
+    upper.tau = per_len * dz;
+    upper.tau_true = per_len_true * dz;
+    let rest = lc.thickness - dz;
+    lower.tau = if rest.is_infinite() { f64::INFINITY } else { per_len * rest };
+    lower.tau_true = if rest.is_infinite() { f64::INFINITY } else { per_len_true * rest };
+    let mut above: Vec<Scaled> = layers[..i_cut].to_vec();
+    above.push(upper);
+    let mut below = vec![lower];
+    below.extend_from_slice(&layers[i_cut + 1..]);
+    (i_cut, above, below)
+}

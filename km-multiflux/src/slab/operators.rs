@@ -1,0 +1,196 @@
+//! The layer's reflection and transmission operators on nodes plus extras
+//! (eq. S5, seed eq. 20), from the kept factors; the Beer–Lambert shortcut
+//! of a layer that does not scatter.
+
+use faer::Mat;
+
+use super::{Extra, SlabOrder, SlabSolution, Tms, atten, mat_vec};
+use crate::MultifluxError;
+use crate::adding::LayerOperators;
+
+impl SlabSolution {
+    /// The operators on the augmented space `[nodes, extras]` (same layout for
+    /// down- and up-going vectors; the layer is symmetric, so `r_bottom = r_top`
+    /// and `t_up = t_down`).
+    pub fn operators(&self, extras: &[Extra], tms: Option<&Tms>) -> LayerOperators {
+        let n = self.n;
+        let dim = n + extras.len();
+        let mut rr = Mat::<f64>::zeros(dim, dim);
+        let mut tt = Mat::<f64>::zeros(dim, dim);
+        let lazy;
+        let (r, tr) = if self.r.nrows() == n {
+            (&self.r, &self.tr)
+        } else {
+            // Built without `full`: the node operators from the factors.
+            lazy = self.node_operators();
+            (&lazy.0, &lazy.1)
+        };
+        for j in 0..n {
+            rr.col_as_slice_mut(j)[..n].copy_from_slice(r.col_as_slice(j));
+            tt.col_as_slice_mut(j)[..n].copy_from_slice(tr.col_as_slice(j));
+        }
+        // Probe rows first (needed by the beam columns), once per distinct cosine.
+        let probes = self.probes(extras);
+        let vectors: Vec<_> = probes.rows.iter().map(|pr| self.probe_row_vectors(pr)).collect();
+        for (e, ex) in extras.iter().enumerate() {
+            if let Some(mu_x) = ex.mu {
+                tt[(n + e, n + e)] = atten(self.tau, mu_x);
+            }
+            if let Some(p) = probes.of[e] {
+                let (rx, tx) = &vectors[p];
+                for i in 0..n {
+                    rr[(n + e, i)] = rx[i];
+                    tt[(n + e, i)] = tx[i];
+                }
+            }
+        }
+        for (eb, ex) in extras.iter().enumerate() {
+            let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
+            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms);
+            for i in 0..dim {
+                if i < n || probes.of[i - n].is_some() {
+                    rr[(i, n + eb)] = cr[i];
+                    tt[(i, n + eb)] = ct[i];
+                }
+            }
+        }
+        LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt }
+    }
+
+    /// `(R a + T b, T a + R b)` at the nodes (radiances), for down-going `a`
+    /// entering at the top and up-going `b` at the bottom, by two vector
+    /// solves (eq. S5): with `a~ = T a`, `b~ = T b`,
+    /// `R~ a~ + T~ b~ = 1/2 [Cp_out Cp^-1 (a~ + b~) + Cm_out Cm^-1 (a~ - b~)]`.
+    /// Also returns `Cp^-1 (a~ + b~)` and `Cm^-1 (a~ - b~)` (0 for a half-space).
+    pub(super) fn homogeneous_out(
+        &self,
+        a: &[f64],
+        b: &[f64],
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        // Half-space: R~ = Cp_out Cp^-1, T~ = 0 (nothing enters from below).
+        let half = self.lu_m.is_none();
+        let bh = |i: usize| if half { 0.0 } else { b[i] };
+        let mut s: Vec<f64> = (0..n).map(|i| self.t[i] * (a[i] + bh(i))).collect();
+        let mut d: Vec<f64> = (0..n).map(|i| self.t[i] * (a[i] - bh(i))).collect();
+        self.lu_p.solve(&mut s);
+        let hp = mat_vec(&self.cp_out, &s);
+        let hm = match &self.lu_m {
+            Some(lu) => {
+                lu.solve(&mut d);
+                mat_vec(&self.cm_out, &d)
+            }
+            None => {
+                d.iter_mut().for_each(|x| *x = 0.0);
+                hp.clone()
+            }
+        };
+        let rs = (0..n).map(|i| 0.5 * (hp[i] + hm[i]) / self.t[i]).collect();
+        let td =
+            (0..n).map(|i| if half { 0.0 } else { 0.5 * (hp[i] - hm[i]) / self.t[i] }).collect();
+        (rs, td, s, d)
+    }
+
+    /// The node-to-node `R` and `T` (eq. S5) from the kept factors.
+    pub(super) fn node_operators(&self) -> (Mat<f64>, Mat<f64>) {
+        let n = self.n;
+        let mut r = Mat::<f64>::zeros(n, n);
+        let mut tr = Mat::<f64>::zeros(n, n);
+        let (mut xp, mut xm) = (vec![0.0; n], vec![0.0; n]);
+        for j in 0..n {
+            // Row j of X = C_out C^-1 is C^-T applied to row j of C_out.
+            for i in 0..n {
+                xp[i] = self.cp_out[(j, i)];
+            }
+            self.lu_p.solve_transpose(&mut xp);
+            match &self.lu_m {
+                Some(lu) => {
+                    for i in 0..n {
+                        xm[i] = self.cm_out[(j, i)];
+                    }
+                    lu.solve_transpose(&mut xm);
+                }
+                None => xm.copy_from_slice(&xp),
+            }
+            for i in 0..n {
+                let f = self.t[i] / self.t[j];
+                r[(j, i)] = 0.5 * (xp[i] + xm[i]) * f;
+                tr[(j, i)] = if self.lu_m.is_none() { 0.0 } else { 0.5 * (xp[i] - xm[i]) * f };
+            }
+        }
+        (r, tr)
+    }
+}
+
+/// Operators of a layer that does not scatter in this order (pure absorber,
+/// or an order above the phase function's last moment): `R = 0`,
+/// `T = diag(exp(-tau/mu))` (Beer–Lambert), no eigen-solve.
+pub fn absorber_operators(mu: &[f64], extras: &[Extra], tau: f64) -> LayerOperators {
+    let n = mu.len();
+    let dim = n + extras.len();
+    let mut tt = Mat::<f64>::zeros(dim, dim);
+    for i in 0..n {
+        tt[(i, i)] = atten(tau, mu[i]);
+    }
+    for (e, ex) in extras.iter().enumerate() {
+        if let Some(mu_x) = ex.mu {
+            tt[(n + e, n + e)] = atten(tau, mu_x);
+        }
+    }
+    LayerOperators {
+        r_top: Mat::zeros(dim, dim),
+        t_down: tt.clone(),
+        r_bottom: Mat::zeros(dim, dim),
+        t_up: tt,
+    }
+}
+
+/// Operators of one layer and order on the augmented space, choosing the
+/// absorber shortcut when nothing scatters.
+///
+/// # Errors
+/// Those of [`SlabSolution::new`].
+pub fn slab_operators(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    p: &SlabOrder<'_>,
+    tms: Option<&Tms>,
+) -> Result<LayerOperators, MultifluxError> {
+    let scatters =
+        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
+    if !scatters {
+        return Ok(absorber_operators(mu, extras, p.tau));
+    }
+    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
+}
+
+/// The column of the beam `extras[eb]` in the `r_top` and `t_down` of
+/// [`slab_operators`] (the same numbers up to rounding), without the
+/// node-to-node operators (eq. S5 by vector solves, eq. S6 and eq. 14 of
+/// `docs/multiflux.md`): the whole answer for a layer alone under a
+/// collimated beam, at about half the cost per Fourier order.
+///
+/// # Errors
+/// Those of [`SlabSolution::new`].
+pub fn slab_beam_response(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    eb: usize,
+    p: &SlabOrder<'_>,
+    tms: Option<&Tms>,
+) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
+    let scatters =
+        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
+    if !scatters {
+        // Beer–Lambert: only the unscattered beam.
+        let dim = mu.len() + extras.len();
+        let mut ct = vec![0.0; dim];
+        if let Some(mu_b) = extras[eb].mu {
+            ct[mu.len() + eb] = atten(p.tau, mu_b);
+        }
+        return Ok((vec![0.0; dim], ct));
+    }
+    Ok(SlabSolution::build(mu, w, p, false)?.beam_response(extras, eb, tms))
+}

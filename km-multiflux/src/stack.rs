@@ -1,0 +1,184 @@
+//! A stack's operators for one Fourier order: its interfaces and layers added
+//! top to bottom (seed eq. 14, or the truncated Neumann series of eq. 21),
+//! closed by its substrate (seed §3.4); and the scalar pass of the delta
+//! parts. Shared by the scene solver ([`crate::solver`]) and the whole BSDF
+//! ([`crate::bsdf`]), which differ only in how they build one layer.
+
+use faer::Mat;
+use km_core::{MonoScene, Substrate};
+
+use crate::MultifluxError;
+use crate::adding::{LayerOperators, add, add_truncated};
+use crate::quadrature::mu_of_invariant;
+use crate::solver::Scaled;
+
+/// Add `next` below `acc` (exact adding, seed eq. 14, or its Neumann series
+/// truncated after `neumann` round trips, eq. 21); `acc = None` is the empty stack.
+pub(crate) fn combine(
+    acc: Option<LayerOperators>,
+    next: LayerOperators,
+    neumann: Option<usize>,
+) -> Result<LayerOperators, MultifluxError> {
+    match acc {
+        None => Ok(next),
+        Some(a) => match neumann {
+            None => add(&a, &next),
+            Some(k) => add_truncated(&a, &next, k),
+        },
+    }
+}
+
+/// How to build the pieces of a stack for [`add_stack`].
+pub(crate) struct StackPieces<'a> {
+    /// The Fresnel interface from index `n_a` above to `n_b` below.
+    pub(crate) interface: &'a dyn Fn(f64, f64) -> LayerOperators,
+    /// The operators of layer `i` (delta-M scaled).
+    pub(crate) layer: &'a dyn Fn(usize, &Scaled) -> Result<LayerOperators, MultifluxError>,
+    /// The reflection operator of a Lambertian floor of `albedo` under index `n`.
+    pub(crate) lambertian: &'a dyn Fn(f64, f64) -> Mat<f64>,
+}
+
+/// The operators of the whole stack for one Fourier order: interfaces (only
+/// between different indices, the plan's `interface` rule, unless
+/// `all_effects`) and layers added top to bottom, then closed by the
+/// substrate ([`close_stack`]).
+///
+/// # Errors
+/// Those of the pieces and of the adding; an empty stack.
+pub(crate) fn add_stack(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+    neumann: Option<usize>,
+    all_effects: bool,
+    pieces: &StackPieces<'_>,
+) -> Result<LayerOperators, MultifluxError> {
+    let mut acc: Option<LayerOperators> = None;
+    let mut n_above = scene.ambient_n;
+    for (i, l) in layers.iter().enumerate() {
+        // The plan's `interface` rule: equal indices are no interface (the
+        // Fresnel operator would be the identity); built anyway with all effects.
+        if l.n != n_above || all_effects {
+            acc = Some(combine(acc, (pieces.interface)(n_above, l.n), neumann)?);
+        }
+        acc = Some(combine(acc, (pieces.layer)(i, l)?, neumann)?);
+        n_above = l.n;
+    }
+    let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
+    let close = Closing { half_space, n_above, n_sub, all_effects, neumann };
+    close_stack(scene, acc, &close, pieces.interface, pieces.lambertian)
+}
+
+/// How a stack of layer operators ends (see [`close_stack`]).
+pub(crate) struct Closing {
+    /// The last layer is a half-space: nothing lies below it.
+    pub(crate) half_space: bool,
+    /// Refractive index of the last layer.
+    pub(crate) n_above: f64,
+    /// Index of a clear substrate (`None`: that of the last layer).
+    pub(crate) n_sub: Option<f64>,
+    /// Build the substrate's interface even between equal indices.
+    pub(crate) all_effects: bool,
+    /// Truncated adding (seed eq. 21), or exact.
+    pub(crate) neumann: Option<usize>,
+}
+
+/// Close the operators `acc` of a stack's layers: refuse an empty stack, stop
+/// at a half-space, then add the substrate (seed §3.4): the Fresnel interface
+/// into a clear half-space of another index, or the Lambertian floor
+/// `lambertian(n, albedo)` (its reflection operator), or nothing for a black one.
+pub(crate) fn close_stack(
+    scene: &MonoScene,
+    acc: Option<LayerOperators>,
+    close: &Closing,
+    interface: &dyn Fn(f64, f64) -> LayerOperators,
+    lambertian: &dyn Fn(f64, f64) -> Mat<f64>,
+) -> Result<LayerOperators, MultifluxError> {
+    let Some(mut acc) = acc else {
+        return Err(MultifluxError::Scene(km_core::CoreError::scene(
+            "layer",
+            None,
+            "the stack has no layer",
+        )));
+    };
+    if close.half_space {
+        return Ok(acc);
+    }
+    let (n_above, neumann) = (close.n_above, close.neumann);
+    match scene.substrate {
+        Substrate::Transparent { .. } => {
+            let ns = close.n_sub.unwrap_or(n_above);
+            if ns != n_above || close.all_effects {
+                acc = combine(Some(acc), interface(n_above, ns), neumann)?;
+            }
+        }
+        Substrate::Lambertian { albedo } => {
+            let g = lambertian(n_above, albedo);
+            let dim = g.nrows();
+            let floor = LayerOperators {
+                r_top: g,
+                t_down: Mat::zeros(0, dim),
+                r_bottom: Mat::zeros(0, 0),
+                t_up: Mat::zeros(dim, 0),
+            };
+            acc = combine(Some(acc), floor, neumann)?;
+        }
+        Substrate::Black => {}
+    }
+    Ok(acc)
+}
+
+/// Mirror reflectance and unscattered transmittance of a direction of Snell
+/// invariant `s` entering from above: a one-direction adding pass with the
+/// true optical thicknesses and flux (not radiance) Fresnel factors.
+pub(crate) fn delta_parts(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+    s: f64,
+) -> (f64, f64) {
+    // Scalar operators (r_top, t_down, r_bottom, t_up) and their star product
+    // (eq. A4 of the adding module with 1 x 1 operators).
+    type Op = (f64, f64, f64, f64);
+    let star = |(r1, t1, r1p, t1p): Op, (r2, t2, r2p, t2p): Op| -> Op {
+        let x = 1.0 - r1p * r2;
+        if x == 0.0 {
+            // Facing total reflections with nothing between: nothing enters.
+            return (r1, 0.0, r2p, 0.0);
+        }
+        (r1 + t1p * r2 * t1 / x, t2 * t1 / x, r2p + t2 * r1p * t2p / x, t1p * t2p / x)
+    };
+    let iface = |na: f64, nb: f64| -> Op {
+        match (mu_of_invariant(s, na), mu_of_invariant(s, nb)) {
+            (Some(a), Some(b)) => {
+                let ra = km_core::fresnel::reflectance(a, na, nb);
+                let rb = km_core::fresnel::reflectance(b, nb, na);
+                (ra, 1.0 - ra, rb, 1.0 - rb)
+            }
+            (Some(_), None) => (1.0, 0.0, 0.0, 0.0),
+            (None, Some(_)) => (0.0, 0.0, 1.0, 0.0),
+            (None, None) => (0.0, 0.0, 0.0, 0.0),
+        }
+    };
+    let mut acc: Op = (0.0, 1.0, 0.0, 1.0);
+    let mut n_above = scene.ambient_n;
+    for l in layers {
+        if l.n != n_above {
+            acc = star(acc, iface(n_above, l.n));
+        }
+        let t = match mu_of_invariant(s, l.n) {
+            Some(mu) if l.tau_true.is_finite() => (-l.tau_true / mu).exp(),
+            _ => 0.0,
+        };
+        acc = star(acc, (0.0, t, 0.0, t));
+        n_above = l.n;
+    }
+    let mut transmits = false;
+    if let (Substrate::Transparent { .. }, Some(ns)) = (scene.substrate, n_sub) {
+        if ns != n_above {
+            acc = star(acc, iface(n_above, ns));
+        }
+        transmits = true;
+    }
+    (acc.0, if transmits { acc.1 } else { 0.0 })
+}
