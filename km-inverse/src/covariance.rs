@@ -7,8 +7,8 @@
 use crate::InverseError;
 use crate::forward::Optical;
 use crate::linalg;
+use crate::measurement::model_with;
 use crate::search::Problem;
-use crate::slab::{Uncertainty, model_with};
 
 /// The albedo sits at a bound of the search (`a < 1e-9` or `1 - a < 1e-9`):
 /// the direction of an inward step in `a` (`+1` at 0, `-1` at 1).
@@ -217,4 +217,30 @@ pub(crate) fn covariance(
     }
     let ill = !reasons.is_empty();
     Uncertainty { ill_conditioned: ill, reasons, ..u }
+}
+
+/// Standard uncertainties of the fitted parameters (same keys as the result).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Uncertainty {
+    /// `u(a)`.
+    pub albedo: f64,
+    /// `u(b)`.
+    pub tau: f64,
+    /// `u(g)` (0 when `g` was fixed).
+    pub g: f64,
+    /// `u(mu_a)`, 1/length.
+    pub mu_a: f64,
+    /// `u(mu_s)`, 1/length.
+    pub mu_s: f64,
+    /// `u(mu_s')`, 1/length.
+    pub mu_s_prime: f64,
+    /// Correlation coefficients: `(name, value)` for the pairs
+    /// `albedo_tau`, `albedo_g`, `tau_g` (when `g` is fitted), `mu_a_mu_s_prime`.
+    pub correlation: Vec<(String, f64)>,
+    /// The problem is ill-conditioned at the answer (see `reasons`).
+    pub ill_conditioned: bool,
+    /// Why it is flagged.
+    pub reasons: Vec<String>,
+    /// The measurement uncertainties were given (`false`: [`DEFAULT_SIGMA`](crate::slab::DEFAULT_SIGMA) assumed).
+    pub sigma_given: bool,
 }

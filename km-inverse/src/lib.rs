@@ -43,6 +43,7 @@ pub mod error;
 pub mod forward;
 pub mod kubelka;
 pub mod linalg;
+mod measurement;
 pub mod rxt;
 mod search;
 pub mod slab;

@@ -6,7 +6,7 @@
 use crate::InverseError;
 use crate::forward::{Optical, tau_from_unscattered, unscattered_transmittance};
 use crate::linalg;
-use crate::slab::{Measurement, Setup, model, model_with};
+use crate::measurement::{Measurement, Setup, model, model_with};
 use crate::stack::StackModel;
 
 /// Bounds of the search variables: `|u| <= 36` keeps `a` within 2e-16 of

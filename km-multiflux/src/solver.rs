@@ -31,6 +31,7 @@ pub use crate::options::{
 };
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_beam_response, slab_operators};
+pub(crate) use crate::stack::Scaled;
 use crate::stack::{StackPieces, add_stack, delta_parts};
 
 /// Solve every channel of a scene (Fourier–Gauss mode).
@@ -155,30 +156,6 @@ pub fn assemble(
             ..Default::default()
         },
         ..Default::default()
-    }
-}
-
-/// One layer after delta-M scaling.
-#[derive(Clone)]
-pub(crate) struct Scaled {
-    pub(crate) tau: f64,
-    pub(crate) tau_true: f64,
-    pub(crate) omega: f64,
-    pub(crate) chi: Vec<f64>,
-    pub(crate) n: f64,
-    pub(crate) omega_true: f64,
-    pub(crate) phase: km_core::phase::Phase,
-    /// Delta-M factor on tau, `1 - omega f`.
-    pub(crate) factor: f64,
-    /// Apply the second-order (IMS) correction at exit directions.
-    pub(crate) secondary: bool,
-}
-
-impl Scaled {
-    /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
-    /// `n_keep` moments kept by delta-M.
-    pub(crate) fn correction(&self, n_keep: usize) -> Tms {
-        Tms::new(self.phase, self.omega_true, n_keep, self.secondary)
     }
 }
 

@@ -10,7 +10,7 @@ use km_core::{MonoScene, Substrate};
 use crate::MultifluxError;
 use crate::adding::{LayerOperators, add, add_truncated};
 use crate::quadrature::mu_of_invariant;
-use crate::solver::Scaled;
+use crate::slab::Tms;
 
 /// Add `next` below `acc` (exact adding, seed eq. 14, or its Neumann series
 /// truncated after `neumann` round trips, eq. 21); `acc = None` is the empty stack.
@@ -181,4 +181,28 @@ pub(crate) fn delta_parts(
         transmits = true;
     }
     (acc.0, if transmits { acc.1 } else { 0.0 })
+}
+
+/// One layer after delta-M scaling.
+#[derive(Clone)]
+pub(crate) struct Scaled {
+    pub(crate) tau: f64,
+    pub(crate) tau_true: f64,
+    pub(crate) omega: f64,
+    pub(crate) chi: Vec<f64>,
+    pub(crate) n: f64,
+    pub(crate) omega_true: f64,
+    pub(crate) phase: km_core::phase::Phase,
+    /// Delta-M factor on tau, `1 - omega f`.
+    pub(crate) factor: f64,
+    /// Apply the second-order (IMS) correction at exit directions.
+    pub(crate) secondary: bool,
+}
+
+impl Scaled {
+    /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
+    /// `n_keep` moments kept by delta-M.
+    pub(crate) fn correction(&self, n_keep: usize) -> Tms {
+        Tms::new(self.phase, self.omega_true, n_keep, self.secondary)
+    }
 }
