@@ -34,9 +34,7 @@ fn bench(c: &mut Criterion) {
 
     // 1,000 exit directions (one polar angle, 1,000 azimuths) for one incidence.
     let paint = Scene::from_toml_str(PAINT).expect("paint scene");
-    let mut red = paint.clone();
-    red.channels.truncate(1);
-    red.labels.truncate(1);
+    let red = paint.select(&[0]);
     let phi1000: Vec<f64> = (0..1000).map(|k| 0.36 * k as f64).collect();
     for (name, s) in [("paint 1 channel", &red), ("paint 3 channels", &paint)] {
         g.bench_function(format!("{name}: 1 incidence, 1000 azimuths"), |b| {

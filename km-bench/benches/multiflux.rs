@@ -43,7 +43,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("multiflux correction per exit direction");
     for n in [16usize, 48] {
         let pc = km_multiflux::correction::PeakCorrection::new(
-            km_core::phase::Phase::HenyeyGreenstein { g: 0.95 },
+            km_core::phase::Phase::henyey_greenstein(0.95).expect("|g| < 1"),
             0.9,
             2 * n,
             true,

@@ -16,23 +16,23 @@ fn bench(c: &mut Criterion) {
     });
 
     // Seed §4.4: n = 1.3, sigma_a = 0.1, sigma_s = 0.4, z0 = 1/(2 sigma_t), ground 0.8, 45 degrees.
-    let scene = MonoScene {
-        light: Light::Collimated { theta_deg: 45.0 },
-        ambient_n: 1.0,
-        layers: vec![Layer::new(0.1, 0.4, 1.0, 0.0, 1.3).expect("valid layer")],
-        substrate: Substrate::Lambertian { albedo: 0.8 },
-        directions_deg: vec![],
-    };
+    let scene = MonoScene::new(
+        Light::Collimated { theta_deg: 45.0 },
+        1.0,
+        vec![Layer::new(0.1, 0.4, 1.0, 0.0, 1.3).expect("valid layer")],
+        Substrate::Lambertian { albedo: 0.8 },
+        vec![],
+    )
+    .expect("valid scene");
     let opts = KmOptions::default();
     c.bench_function("km solve_mono seed 4.4 scene", |b| {
         b.iter(|| solve_mono(black_box(&scene), &opts))
     });
 
     // The same layer with the ambient's index: no Fresnel integrals.
-    let matched = MonoScene {
-        layers: vec![Layer::new(0.1, 0.4, 1.0, 0.0, 1.0).expect("valid layer")],
-        ..scene.clone()
-    };
+    let matched = scene
+        .with_layers(vec![Layer::new(0.1, 0.4, 1.0, 0.0, 1.0).expect("valid layer")])
+        .expect("valid scene");
     c.bench_function("km solve_mono index-matched scene", |b| {
         b.iter(|| solve_mono(black_box(&matched), &opts))
     });

@@ -177,9 +177,9 @@ pub fn solve_bounded(
 /// BRDF at the output directions).
 fn direction_set_solve(scene: &Scene, directions: usize) -> anyhow::Result<Solution> {
     let start = Instant::now();
-    let mut channels = Vec::with_capacity(scene.channels.len());
-    for mono in &scene.channels {
-        let c = match mono.light {
+    let mut channels = Vec::with_capacity(scene.channels().len());
+    for mono in scene.channels() {
+        let c = match mono.light() {
             Light::Collimated { .. } => {
                 let r = direction_set::brdf_for_incidence(mono, directions, Combine::Exact)?;
                 ChannelResult {
@@ -206,7 +206,7 @@ fn direction_set_solve(scene: &Scene, directions: usize) -> anyhow::Result<Solut
     Ok(Solution {
         method: "direction-set".into(),
         channels,
-        labels: scene.labels.clone(),
+        labels: scene.labels().to_vec(),
         seconds: start.elapsed().as_secs_f64(),
         ..Default::default()
     })

@@ -54,13 +54,8 @@ pub fn slab(
     directions_deg: Vec<[f64; 2]>,
 ) -> anyhow::Result<Scene> {
     let layer = Layer::new(1.0 - albedo, albedo, tau, g, n)?;
-    Ok(Scene::single(MonoScene {
-        light: Light::Collimated { theta_deg },
-        ambient_n: 1.0,
-        layers: vec![layer],
-        substrate,
-        directions_deg,
-    })?)
+    let light = Light::collimated(theta_deg)?;
+    Ok(Scene::single(MonoScene::new(light, 1.0, vec![layer], substrate, directions_deg)?))
 }
 
 /// The seed's §4.4 example (seed 000, §4.4 and fig. 8), as
@@ -74,10 +69,9 @@ pub fn slab(
 pub fn seed_three_layers(directions_deg: Vec<[f64; 2]>, lambertian: bool) -> anyhow::Result<Scene> {
     let mut mono = crate::seed::seed_scene();
     if !lambertian {
-        mono.substrate = Substrate::Transparent { n: mono.layers[0].n };
+        mono = mono.with_substrate(Substrate::Transparent { n: mono.layers()[0].n() })?;
     }
-    mono.directions_deg = directions_deg;
-    Ok(Scene::single(mono)?)
+    Ok(Scene::single(mono.with_directions(directions_deg)?))
 }
 
 /// A named scene of the accuracy-versus-time study.

@@ -30,27 +30,30 @@ pub fn seed_scene_file() -> Scene {
 
 /// The seed's §4.4 scene as one channel, without output directions.
 pub fn seed_scene() -> MonoScene {
-    let mut mono = seed_scene_file().channels.swap_remove(0);
-    mono.directions_deg.clear();
-    mono
+    let first = seed_scene_file().split_first().0.clone();
+    first.with_directions(Vec::new()).expect("no direction is a valid list")
 }
 
 /// The seed's coating layer (the scene file's only layer).
 pub fn seed_layer() -> Layer {
-    seed_scene().layers.swap_remove(0)
+    seed_scene().layers()[0]
 }
 
 /// The polar angle of the seed's light, degrees.
 pub fn seed_theta_deg() -> f64 {
-    match seed_scene().light {
+    match seed_scene().light() {
         Light::Collimated { theta_deg } => theta_deg,
         Light::Diffuse => unreachable!("the seed's light is collimated"),
     }
 }
 
 /// The seed's scene with another stack and substrate (light and ambient kept).
-fn with_stack(seed: &MonoScene, layers: Vec<Layer>, substrate: Substrate) -> MonoScene {
-    MonoScene { layers, substrate, directions_deg: Vec::new(), ..seed.clone() }
+fn with_stack(
+    seed: &MonoScene,
+    layers: Vec<Layer>,
+    substrate: Substrate,
+) -> Result<MonoScene, km_core::CoreError> {
+    MonoScene::new(seed.light(), seed.ambient_n(), layers, substrate, Vec::new())
 }
 
 /// The seed's example of §4.4 (fig. 8–9): each of its three "layers" lit
@@ -74,16 +77,15 @@ pub struct SeedExample {
 /// Numerical failure.
 pub fn seed_example_3_layers(n_target: usize) -> anyhow::Result<SeedExample> {
     let coat = seed_layer();
-    let mut matched = coat;
-    matched.n = 1.0;
+    let matched = coat.with_n(1.0)?;
     let seed = seed_scene();
-    let n = coat.n;
+    let n = coat.n();
     let clear = Layer::new(0.0, 0.0, 0.0, 0.0, n)?;
-    let interface = with_stack(&seed, vec![clear], Substrate::Transparent { n });
-    let layer = with_stack(&seed, vec![matched], Substrate::Transparent { n: 1.0 });
-    let ground = seed.substrate;
-    let lambertian = with_stack(&seed, vec![Layer::new(0.0, 0.0, 0.0, 0.0, 1.0)?], ground);
-    let combined = with_stack(&seed, vec![coat], ground);
+    let interface = with_stack(&seed, vec![clear], Substrate::Transparent { n })?;
+    let layer = with_stack(&seed, vec![matched], Substrate::Transparent { n: 1.0 })?;
+    let ground = seed.substrate();
+    let lambertian = with_stack(&seed, vec![Layer::new(0.0, 0.0, 0.0, 0.0, 1.0)?], ground)?;
+    let combined = with_stack(&seed, vec![coat], ground)?;
     Ok(SeedExample {
         interface: brdf_for_incidence(&interface, n_target, Combine::Exact)?,
         layer: brdf_for_incidence(&layer, n_target, Combine::Exact)?,
@@ -174,14 +176,14 @@ fn rms_error(a: &StackResponse, e: &StackResponse) -> RmsError {
 pub fn seed_truncation_study(n_target: usize) -> anyhow::Result<TruncationStudy> {
     let coat = seed_layer();
     let seed = seed_scene();
-    let (n, theta_deg) = (coat.n, seed_theta_deg());
-    let scene = with_stack(&seed, vec![coat], Substrate::Transparent { n });
+    let (n, theta_deg) = (coat.n(), seed_theta_deg());
+    let scene = with_stack(&seed, vec![coat], Substrate::Transparent { n })?;
     let exact = brdf_for_incidence(&scene, n_target, Combine::Exact)?;
     let order0 = brdf_for_incidence(&scene, n_target, Combine::Neumann(0))?;
     let order1 = brdf_for_incidence(&scene, n_target, Combine::Neumann(1))?;
     // R_rr = R21^(2) R12^(1): coating top reflection times interface inside reflection.
-    let inc = Incidence { n: scene.ambient_n, theta_deg };
-    let sets = MatchedSets::new(n_target, &[scene.ambient_n, n], Some(inc))?;
+    let inc = Incidence { n: scene.ambient_n(), theta_deg };
+    let sets = MatchedSets::new(n_target, &[scene.ambient_n(), n], Some(inc))?;
     let inside = sets.set(n)?;
     let iface = interface_operators(sets.set(1.0)?, inside)?;
     let slab = inside.layer_operators(&coat)?;
@@ -206,7 +208,7 @@ pub fn seed_truncation_study(n_target: usize) -> anyhow::Result<TruncationStudy>
         fresnel_45_outside: reflectance(c45, 1.0, n),
         fresnel_45_inside: reflectance(c45, n, 1.0),
         fresnel_diffuse_inside: diffuse_reflectance(n, 1.0),
-        km_reflectance: kubelka_munk_reflectance(coat.sigma_a, coat.sigma_s, coat.thickness),
+        km_reflectance: kubelka_munk_reflectance(coat.sigma_a(), coat.sigma_s(), coat.thickness()),
     })
 }
 

@@ -13,10 +13,13 @@ use km_multiflux::direction_set::{DirectionSet, Incidence, MatchedSets, interfac
 fn the_scene_file_is_the_seed_example() {
     // The numbers of seed 000 §4.4, read back from the one definition.
     let s = seed_scene_file();
-    let l = &s.channels[0].layers[0];
-    assert_eq!((l.sigma_a, l.sigma_s, l.thickness, l.n), (0.1, 0.4, 1.0 / (2.0 * 0.5), 1.3));
-    assert_eq!(s.channels[0].light, km_core::Light::Collimated { theta_deg: 45.0 });
-    assert_eq!(s.channels[0].substrate, km_core::Substrate::Lambertian { albedo: 0.8 });
+    let l = &s.channels()[0].layers()[0];
+    assert_eq!(
+        (l.sigma_a(), l.sigma_s(), l.thickness(), l.n()),
+        (0.1, 0.4, 1.0 / (2.0 * 0.5), 1.3)
+    );
+    assert_eq!(s.channels()[0].light(), km_core::Light::Collimated { theta_deg: 45.0 });
+    assert_eq!(s.channels()[0].substrate(), km_core::Substrate::Lambertian { albedo: 0.8 });
 }
 
 #[test]

@@ -42,7 +42,7 @@ fn scene_file(tag: &str, text: &str) -> String {
 /// of `km solve --json` ("plan.skipped"), and `--all-effects` names nothing.
 fn assert_named(tag: &str, text: &str, method: &str, name: &str) {
     let s = scene(text);
-    let req = Request::from_scene(&s.channels[0]);
+    let req = Request::from_scene(&s.channels()[0]);
     assert!(plan_scene(&s, req, false).for_method(method).skips(name), "{tag}: library plan");
     assert!(plan_scene(&s, req, true).skipped.is_empty(), "{tag}: all effects");
     let p = scene_file(tag, text);

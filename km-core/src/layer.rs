@@ -4,32 +4,37 @@
 //! infinite: a half-space), a phase function and a refractive index.
 //! Derived quantities (the conventions of docs/scene-file.md):
 //! `sigma_t = sigma_a + sigma_s`, `albedo = sigma_s / sigma_t`,
-//! `tau = sigma_t * thickness`.
+//! `tau = sigma_t * thickness`, `sigma_s' = sigma_s (1 - g)`.
+//!
+//! The fields are private: a [`Layer`] exists only through its checked
+//! constructors ([`Layer::new`], [`Layer::from_tau_albedo`], [`Layer::from_phase`]
+//! and the `with_*` variants), so every solver receives a valid one.
 
 use crate::error::CoreError;
-use crate::phase::Phase;
+use crate::phase::{Anisotropy, Phase};
 
 /// A validated homogeneous layer (one channel).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Layer {
     /// Absorption coefficient, 1/length, `>= 0`.
-    pub sigma_a: f64,
+    sigma_a: f64,
     /// Scattering coefficient, 1/length, `>= 0`.
-    pub sigma_s: f64,
+    sigma_s: f64,
     /// Thickness, length, `>= 0`; `f64::INFINITY` for a half-space.
-    pub thickness: f64,
+    thickness: f64,
     /// Phase function of single scattering.
-    pub phase: Phase,
+    phase: Phase,
     /// Refractive index, `>= 1`.
-    pub n: f64,
+    n: f64,
 }
 
 impl Layer {
     /// A validated layer.
     ///
     /// # Errors
-    /// Negative or non-finite coefficients, negative or NaN thickness,
-    /// `|g| >= 1`, `n < 1` or non-finite `n`.
+    /// Negative or non-finite coefficients, `sigma_a + sigma_s` or
+    /// `(sigma_a + sigma_s) * thickness` not representable (overflow),
+    /// negative or NaN thickness, `|g| >= 1`, `n < 1` or non-finite `n`.
     ///
     /// ```
     /// let l = km_core::Layer::new(0.1, 0.4, 1.0, 0.0, 1.3).unwrap();
@@ -43,14 +48,85 @@ impl Layer {
         g: f64,
         n: f64,
     ) -> Result<Self, CoreError> {
-        check_coefficient("sigma_a", sigma_a)?;
-        check_coefficient("sigma_s", sigma_s)?;
-        if thickness.is_nan() || thickness < 0.0 {
-            return Err(CoreError::invalid("thickness", thickness, "must be >= 0 or inf"));
-        }
-        check_index("n", n)?;
+        check_fields(sigma_a, sigma_s, thickness, n)?;
         let phase = Phase::henyey_greenstein(g)?;
         Ok(Layer { sigma_a, sigma_s, thickness, phase, n })
+    }
+
+    /// A validated layer with a given phase function: every check of a layer
+    /// is written here, once.
+    ///
+    /// # Errors
+    /// Those of [`Layer::new`] except `g` (a [`Phase`] is valid by construction).
+    pub fn from_phase(
+        sigma_a: f64,
+        sigma_s: f64,
+        thickness: f64,
+        phase: Phase,
+        n: f64,
+    ) -> Result<Self, CoreError> {
+        check_fields(sigma_a, sigma_s, thickness, n)?;
+        Ok(Layer { sigma_a, sigma_s, thickness, phase, n })
+    }
+
+    /// This layer with another thickness (checked as in [`Layer::new`]).
+    ///
+    /// # Errors
+    /// A negative or NaN thickness, or an optical thickness that overflows.
+    pub fn with_thickness(&self, thickness: f64) -> Result<Self, CoreError> {
+        Layer::from_phase(self.sigma_a, self.sigma_s, thickness, self.phase, self.n)
+    }
+
+    /// This layer with another refractive index.
+    ///
+    /// # Errors
+    /// `n < 1` or non-finite.
+    pub fn with_n(&self, n: f64) -> Result<Self, CoreError> {
+        Layer::from_phase(self.sigma_a, self.sigma_s, self.thickness, self.phase, n)
+    }
+
+    /// This layer with other coefficients `sigma_a`, `sigma_s`.
+    ///
+    /// # Errors
+    /// Those of [`Layer::new`] on the coefficients.
+    pub fn with_coefficients(&self, sigma_a: f64, sigma_s: f64) -> Result<Self, CoreError> {
+        Layer::from_phase(sigma_a, sigma_s, self.thickness, self.phase, self.n)
+    }
+
+    /// This layer with another phase function (always valid).
+    pub fn with_phase(&self, phase: Phase) -> Self {
+        Layer { phase, ..*self }
+    }
+
+    /// Absorption coefficient `sigma_a`, 1/length, `>= 0`.
+    pub fn sigma_a(&self) -> f64 {
+        self.sigma_a
+    }
+
+    /// Scattering coefficient `sigma_s`, 1/length, `>= 0`.
+    pub fn sigma_s(&self) -> f64 {
+        self.sigma_s
+    }
+
+    /// Thickness, length, `>= 0`; `f64::INFINITY` for a half-space.
+    pub fn thickness(&self) -> f64 {
+        self.thickness
+    }
+
+    /// Phase function of single scattering.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Refractive index, finite and `>= 1`.
+    pub fn n(&self) -> f64 {
+        self.n
+    }
+
+    /// Reduced scattering coefficient `sigma_s' = sigma_s (1 - g)`, 1/length
+    /// ([`Anisotropy::reduced`]).
+    pub fn sigma_s_reduced(&self) -> f64 {
+        self.anisotropy().reduced(self.sigma_s)
     }
 
     /// A layer from optical thickness and single-scattering albedo, on a unit
@@ -95,6 +171,11 @@ impl Layer {
         self.phase.g()
     }
 
+    /// Asymmetry parameter as the checked type.
+    pub fn anisotropy(&self) -> Anisotropy {
+        self.phase.anisotropy()
+    }
+
     /// True for a half-space (`thickness = inf`).
     pub fn is_half_space(&self) -> bool {
         self.thickness.is_infinite()
@@ -108,8 +189,47 @@ pub(crate) fn check_coefficient(name: &str, v: f64) -> Result<(), CoreError> {
     Ok(())
 }
 
-pub(crate) fn check_index(name: &str, n: f64) -> Result<(), CoreError> {
-    if !n.is_finite() || n < 1.0 {
+/// Every check of a layer's numbers, once (the phase function is checked by its type).
+fn check_fields(sigma_a: f64, sigma_s: f64, thickness: f64, n: f64) -> Result<(), CoreError> {
+    check_coefficient("sigma_a", sigma_a)?;
+    check_coefficient("sigma_s", sigma_s)?;
+    if thickness.is_nan() || thickness < 0.0 {
+        return Err(CoreError::invalid("thickness", thickness, "must be >= 0 or inf"));
+    }
+    check_index("n", n)?;
+    // sigma_t and tau must be representable: 1e308 + 1e308 overflows, and
+    // the methods then disagree (R = 0 or R = 1) instead of failing.
+    let sigma_t = sigma_a + sigma_s;
+    if !sigma_t.is_finite() {
+        return Err(CoreError::invalid("sigma_a + sigma_s", sigma_t, "overflows"));
+    }
+    if thickness.is_finite() && !(sigma_t * thickness).is_finite() {
+        return Err(CoreError::invalid(
+            "thickness",
+            thickness,
+            "the optical thickness (sigma_a + sigma_s) * thickness overflows",
+        ));
+    }
+    Ok(())
+}
+
+/// True when `n` is a refractive index this project accepts: finite and `>= 1`
+/// (the one place this test is written; callers with their own message use it).
+pub fn is_refractive_index(n: f64) -> bool {
+    n.is_finite() && n >= 1.0
+}
+
+/// Check a refractive index (see [`is_refractive_index`]).
+///
+/// # Errors
+/// [`CoreError::Invalid`] on `name` when `n` is not finite or `n < 1`.
+///
+/// ```
+/// assert!(km_core::layer::check_index("n", 1.5).is_ok());
+/// assert!(km_core::layer::check_index("n", 0.9).is_err());
+/// ```
+pub fn check_index(name: &str, n: f64) -> Result<(), CoreError> {
+    if !is_refractive_index(n) {
         return Err(CoreError::invalid(name, n, "refractive index must be finite and >= 1"));
     }
     Ok(())

@@ -3,7 +3,13 @@
 //! * [`Scene`] / [`MonoScene`]: the scene file (docs/scene-file.md), validated, one
 //!   [`MonoScene`] per spectral channel; [`Light`], [`Substrate`].
 //! * [`Layer`]: one homogeneous layer (`sigma_a`, `sigma_s`, thickness, phase, `n`).
-//! * [`phase`]: phase functions ([`phase::Phase`], [`phase::PhaseFunction`]).
+//! * [`phase`]: phase functions ([`phase::Phase`], [`phase::PhaseFunction`]) and the
+//!   checked asymmetry [`phase::Anisotropy`].
+//!
+//! `Layer`, `MonoScene` and `Scene` have private fields: they are built only
+//! through checked constructors (`Layer::new`, `MonoScene::new`, `Scene::new`
+//! and their `with_*` variants), each check written once, so the solvers take
+//! them as valid and check nothing again (docs/architecture.md).
 //! * [`fresnel`]: Snell, unpolarised Fresnel, total internal reflection,
 //!   hemispherical averages, Gauss–Legendre quadrature.
 //! * [`two_flux`]: Kubelka–Munk (seed 000 §2).

@@ -38,6 +38,70 @@ pub trait PhaseFunction {
     }
 }
 
+/// A Henyey–Greenstein asymmetry parameter (mean cosine of scattering),
+/// checked once: finite with `|g| < 1` (the only place this check is written).
+///
+/// At `|g| = 1` eq. P3 degenerates to a delta in the forward (or backward)
+/// direction, `sigma_s (1 - g) = 0`, and no method of this project treats it.
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd)]
+pub struct Anisotropy(f64);
+
+impl Anisotropy {
+    /// No anisotropy, `g = 0`.
+    pub const ISOTROPIC: Anisotropy = Anisotropy(0.0);
+
+    /// A checked asymmetry parameter.
+    ///
+    /// # Errors
+    /// `g` must be finite with `|g| < 1` ([`CoreError::Invalid`] on `g`).
+    ///
+    /// ```
+    /// use km_core::phase::Anisotropy;
+    /// assert_eq!(Anisotropy::new(0.5).unwrap().get(), 0.5);
+    /// assert!(Anisotropy::new(-1.0).is_err() && Anisotropy::new(f64::NAN).is_err());
+    /// ```
+    pub fn new(g: f64) -> Result<Anisotropy, CoreError> {
+        if !Anisotropy::admits(g) {
+            return Err(CoreError::invalid("g", g, "must satisfy |g| < 1"));
+        }
+        Ok(Anisotropy(g))
+    }
+
+    /// True when `g` is a valid asymmetry parameter (finite, `|g| < 1`): the
+    /// test of [`Anisotropy::new`], for callers that word their own message.
+    pub fn admits(g: f64) -> bool {
+        g.is_finite() && g.abs() < 1.0
+    }
+
+    /// The value `g`.
+    pub fn get(self) -> f64 {
+        self.0
+    }
+
+    /// The reduced scattering coefficient `sigma_s' = sigma_s (1 - g)` of a
+    /// scattering coefficient `sigma_s` (docs/diffusion.md eq. D5; Jensen et
+    /// al. 2001, §2.3).
+    ///
+    /// ```
+    /// let g = km_core::phase::Anisotropy::new(0.5).unwrap();
+    /// assert_eq!(g.reduced(2.0), 1.0);
+    /// ```
+    pub fn reduced(self, sigma_s: f64) -> f64 {
+        sigma_s * (1.0 - self.0)
+    }
+
+    /// `g^2`, again a valid asymmetry (in `[0, 1)`).
+    pub fn squared(self) -> Anisotropy {
+        Anisotropy(self.0 * self.0)
+    }
+}
+
+impl PartialEq<f64> for Anisotropy {
+    fn eq(&self, other: &f64) -> bool {
+        self.0 == *other
+    }
+}
+
 /// The phase functions the project knows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Phase {
@@ -46,7 +110,7 @@ pub enum Phase {
     /// Henyey–Greenstein with asymmetry `g` in `(-1, 1)` (eq. P3).
     HenyeyGreenstein {
         /// Mean cosine of scattering, dimensionless, `-1 < g < 1`.
-        g: f64,
+        g: Anisotropy,
     },
 }
 
@@ -63,16 +127,23 @@ impl Phase {
     /// assert!(Phase::henyey_greenstein(1.0).is_err());
     /// ```
     pub fn henyey_greenstein(g: f64) -> Result<Phase, CoreError> {
-        if !g.is_finite() || g.abs() >= 1.0 {
-            return Err(CoreError::invalid("g", g, "must satisfy |g| < 1"));
-        }
-        Ok(if g == 0.0 { Phase::Isotropic } else { Phase::HenyeyGreenstein { g } })
+        Ok(Phase::from_anisotropy(Anisotropy::new(g)?))
+    }
+
+    /// Henyey–Greenstein with a checked asymmetry; `g = 0` gives [`Phase::Isotropic`].
+    pub fn from_anisotropy(g: Anisotropy) -> Phase {
+        if g == 0.0 { Phase::Isotropic } else { Phase::HenyeyGreenstein { g } }
     }
 
     /// Asymmetry parameter (mean cosine).
     pub fn g(&self) -> f64 {
+        self.anisotropy().get()
+    }
+
+    /// Asymmetry parameter as the checked type.
+    pub fn anisotropy(&self) -> Anisotropy {
         match *self {
-            Phase::Isotropic => 0.0,
+            Phase::Isotropic => Anisotropy::ISOTROPIC,
             Phase::HenyeyGreenstein { g } => g,
         }
     }
@@ -83,6 +154,7 @@ impl PhaseFunction for Phase {
         match *self {
             Phase::Isotropic => 1.0 / (4.0 * PI),
             Phase::HenyeyGreenstein { g } => {
+                let g = g.get();
                 let denom = 1.0 + g * g - 2.0 * g * cos_theta;
                 (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
             }
@@ -93,6 +165,7 @@ impl PhaseFunction for Phase {
         match *self {
             Phase::Isotropic => 1.0 - 2.0 * u,
             Phase::HenyeyGreenstein { g } => {
+                let g = g.get();
                 // Inverse of the HG cumulative distribution (Henyey & Greenstein 1941; pbrt-v4).
                 if g.abs() < 1e-6 {
                     return 1.0 - 2.0 * u;
@@ -112,7 +185,7 @@ impl PhaseFunction for Phase {
                     0.0
                 }
             }
-            Phase::HenyeyGreenstein { g } => g.powi(l as i32),
+            Phase::HenyeyGreenstein { g } => g.get().powi(l as i32),
         }
     }
 }

@@ -142,7 +142,7 @@ pub struct Request {
 impl Request {
     /// What a scene file asks for by itself (directions when `[output]` has any).
     pub fn from_scene(scene: &MonoScene) -> Request {
-        Request { directions: !scene.directions_deg.is_empty(), ..Request::default() }
+        Request { directions: !scene.directions_deg().is_empty(), ..Request::default() }
     }
 }
 
@@ -188,7 +188,7 @@ impl Plan {
     /// ```
     /// use km_core::{Scene, plan::{Plan, Request}};
     /// let s = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
-    /// let p = Plan::new(&s.channels[0], Request::default(), false);
+    /// let p = Plan::new(&s.channels()[0], Request::default(), false);
     /// assert!(p.skips("interface"));
     /// assert!(p.skips(km_core::plan::Simplification::Azimuth));
     /// ```
@@ -199,8 +199,8 @@ impl Plan {
         let active = thick_layers(&mut d, scene, &mut layers, all_effects);
         layers.truncate(active);
         let substrate_reached =
-            active == scene.layers.len() && layers.last().is_none_or(|l| !l.half_space);
-        match scene.substrate {
+            active == scene.layers().len() && layers.last().is_none_or(|l| !l.half_space);
+        match scene.substrate() {
             Substrate::Lambertian { .. } if substrate_reached => {
                 d.effects.push("lambertian-substrate".to_string())
             }
@@ -212,8 +212,8 @@ impl Plan {
         }
 
         // Azimuth: isotropic phase functions, diffuse light or totals only need m = 0.
-        let isotropic = scene.layers[..active].iter().all(|l| l.g() == 0.0 || l.sigma_s == 0.0);
-        let diffuse = scene.light == Light::Diffuse;
+        let isotropic = scene.layers()[..active].iter().all(|l| l.g() == 0.0 || l.sigma_s() == 0.0);
+        let diffuse = scene.light() == Light::Diffuse;
         let azimuth_independent =
             !all_effects && (!request.directions || isotropic || diffuse || !scattering);
         if azimuth_independent {
@@ -299,33 +299,33 @@ pub fn distinct_channels(scene: &Scene) -> Vec<usize> {
         use std::hash::{Hash, Hasher};
         let mut h = std::collections::hash_map::DefaultHasher::new();
         let mut f = |x: f64| (if x == 0.0 { 0u64 } else { x.to_bits() }).hash(&mut h);
-        match c.light {
+        match c.light() {
             Light::Collimated { theta_deg } => f(theta_deg),
             Light::Diffuse => f(f64::NAN),
         }
-        f(c.ambient_n);
-        for l in &c.layers {
-            for x in [l.sigma_a, l.sigma_s, l.thickness, l.g(), l.n] {
+        f(c.ambient_n());
+        for l in c.layers() {
+            for x in [l.sigma_a(), l.sigma_s(), l.thickness(), l.g(), l.n()] {
                 f(x);
             }
         }
-        match c.substrate {
+        match c.substrate() {
             Substrate::Transparent { n } => f(n),
             Substrate::Lambertian { albedo } => f(-1.0 - albedo),
             Substrate::Black => f(f64::INFINITY),
         }
-        for d in &c.directions_deg {
+        for d in c.directions_deg() {
             f(d[0]);
             f(d[1]);
         }
         h.finish()
     }
     let mut buckets: std::collections::HashMap<u64, Vec<usize>> =
-        std::collections::HashMap::with_capacity(scene.channels.len());
-    let mut first = Vec::with_capacity(scene.channels.len());
-    for (i, c) in scene.channels.iter().enumerate() {
+        std::collections::HashMap::with_capacity(scene.channels().len());
+    let mut first = Vec::with_capacity(scene.channels().len());
+    for (i, c) in scene.channels().iter().enumerate() {
         let bucket = buckets.entry(key(c)).or_default();
-        let j = bucket.iter().copied().find(|&j| scene.channels[j] == *c).unwrap_or(i);
+        let j = bucket.iter().copied().find(|&j| scene.channels()[j] == *c).unwrap_or(i);
         if j == i {
             bucket.push(i);
         }
@@ -340,7 +340,7 @@ pub fn distinct_channels(scene: &Scene) -> Vec<usize> {
 /// ```
 /// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = [1, 2, 1]\nalbedo = 0.5\n").unwrap();
 /// let (reduced, map) = km_core::plan::reduce_channels(&s);
-/// assert_eq!(reduced.channels.len(), 2);
+/// assert_eq!(reduced.channels().len(), 2);
 /// assert_eq!(map, vec![0, 1, 0]);
 /// ```
 pub fn reduce_channels(scene: &Scene) -> (Scene, Vec<usize>) {
@@ -354,14 +354,7 @@ pub fn reduce_channels(scene: &Scene) -> (Scene, Vec<usize>) {
         // `keep` is increasing: the rank of `f` by binary search (a linear search was quadratic).
         map.push(keep.partition_point(|&k| k < f));
     }
-    let reduced = Scene {
-        channels: keep.iter().map(|&i| scene.channels[i].clone()).collect(),
-        labels: keep.iter().map(|&i| scene.labels[i].clone()).collect(),
-        wavelengths_nm: scene
-            .wavelengths_nm
-            .as_ref()
-            .map(|w| keep.iter().filter_map(|&i| w.get(i).copied()).collect()),
-    };
+    let reduced = scene.select(&keep);
     (reduced, map)
 }
 
@@ -380,11 +373,10 @@ pub fn expand_channels(
 
 /// The plan of a whole scene: the union over channels, plus `duplicate-channels`.
 pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
-    let mut plans = scene.channels.iter().map(|c| Plan::new(c, request, all_effects));
-    let Some(mut p) = plans.next() else {
-        // No channel (a scene built in code without any): nothing to plan.
-        return Plan::new(&MonoScene::empty(), request, all_effects);
-    };
+    // A scene has at least one channel (its constructor's invariant).
+    let (first, rest) = scene.split_first();
+    let mut p = Plan::new(first, request, all_effects);
+    let plans = rest.iter().map(|c| Plan::new(c, request, all_effects));
     for q in plans {
         for e in q.effects {
             if !p.effects.contains(&e) {
@@ -399,30 +391,18 @@ pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
     p.reasons.retain(|k, _| p.skipped.contains(k));
     let first = distinct_channels(scene);
     let distinct = first.iter().enumerate().filter(|(i, j)| i == *j).count();
-    if distinct < scene.channels.len() && !all_effects {
+    if distinct < scene.channels().len() && !all_effects {
         p.skipped.push(Simplification::DuplicateChannels);
         p.reasons.insert(
             Simplification::DuplicateChannels,
             format!(
                 "{} of {} channels are distinct: each is solved once",
                 distinct,
-                scene.channels.len()
+                scene.channels().len()
             ),
         );
     }
     p
-}
-
-impl MonoScene {
-    fn empty() -> MonoScene {
-        MonoScene {
-            light: Light::Diffuse,
-            ambient_n: 1.0,
-            layers: Vec::new(),
-            substrate: Substrate::Black,
-            directions_deg: Vec::new(),
-        }
-    }
 }
 
 /// What a plan collects while it is drawn up: the effects present, the
@@ -447,29 +427,29 @@ impl Draft {
 /// reflection where light can meet a less dense medium): one [`LayerPlan`]
 /// per layer.
 fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerPlan> {
-    let mut layers = Vec::with_capacity(scene.layers.len());
-    let mut n_above = scene.ambient_n;
+    let mut layers = Vec::with_capacity(scene.layers().len());
+    let mut n_above = scene.ambient_n();
     let mut any_interface = false;
     let mut tir = false;
     let mut matched = Vec::new();
-    for (i, l) in scene.layers.iter().enumerate() {
-        let iface = l.n != n_above || all_effects;
-        if l.n != n_above {
+    for (i, l) in scene.layers().iter().enumerate() {
+        let iface = l.n() != n_above || all_effects;
+        if l.n() != n_above {
             any_interface = true;
             // Light inside the denser medium can be totally reflected.
-            tir |= l.n > scene.ambient_n || l.n > n_above;
+            tir |= l.n() > scene.ambient_n() || l.n() > n_above;
         } else {
             matched.push(format!("top of layer {}", i + 1));
         }
         layers.push(LayerPlan {
             interface_above: iface,
-            scatters: l.sigma_s > 0.0 || all_effects,
+            scatters: l.sigma_s() > 0.0 || all_effects,
             half_space: l.is_half_space(),
             cutoff_bound: None,
         });
-        n_above = l.n;
+        n_above = l.n();
     }
-    if let Substrate::Transparent { n } = scene.substrate {
+    if let Substrate::Transparent { n } = scene.substrate() {
         if n != n_above {
             any_interface = true;
             tir |= n_above > n;
@@ -493,15 +473,15 @@ fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerP
 /// closed form. Returns whether any layer scatters.
 fn scattering(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> bool {
     let scattering: Vec<usize> =
-        (0..scene.layers.len()).filter(|&i| scene.layers[i].sigma_s > 0.0).collect();
+        (0..scene.layers().len()).filter(|&i| scene.layers()[i].sigma_s() > 0.0).collect();
     if !scattering.is_empty() {
         d.effects.push("scattering".to_string());
     }
-    if scene.layers.iter().any(|l| l.sigma_s > 0.0 && l.g() != 0.0) {
+    if scene.layers().iter().any(|l| l.sigma_s() > 0.0 && l.g() != 0.0) {
         d.effects.push("anisotropy".to_string());
     }
-    let absorbers: Vec<String> = (0..scene.layers.len())
-        .filter(|&i| scene.layers[i].sigma_s == 0.0)
+    let absorbers: Vec<String> = (0..scene.layers().len())
+        .filter(|&i| scene.layers()[i].sigma_s() == 0.0)
         .map(|i| format!("layer {}", i + 1))
         .collect();
     if !absorbers.is_empty() && !all_effects {
@@ -521,8 +501,8 @@ fn thick_layers(
     layers: &mut [LayerPlan],
     all_effects: bool,
 ) -> usize {
-    let mut active = scene.layers.len();
-    for (i, l) in scene.layers.iter().enumerate() {
+    let mut active = scene.layers().len();
+    for (i, l) in scene.layers().iter().enumerate() {
         if l.is_half_space() {
             active = i + 1;
             break;

@@ -17,7 +17,7 @@
 use std::path::Path;
 
 use crate::error::CoreError;
-use crate::layer::Layer;
+use crate::layer::{Layer, is_refractive_index};
 
 mod parse;
 mod read;
@@ -94,6 +94,30 @@ pub enum Light {
 }
 
 impl Light {
+    /// A collimated beam at `theta_deg` (checked: `0 <= theta < 90`, finite, and at
+    /// least [`GRAZING_MARGIN_DEG`] from grazing).
+    ///
+    /// # Errors
+    /// A [`CoreError::Scene`] on `light.theta_deg`.
+    ///
+    /// ```
+    /// use km_core::Light;
+    /// assert!((Light::collimated(60.0).unwrap().mu0().unwrap() - 0.5).abs() < 1e-15);
+    /// assert!(Light::collimated(90.0).is_err());
+    /// ```
+    pub fn collimated(theta_deg: f64) -> Result<Light, CoreError> {
+        check_incidence(theta_deg, None)?;
+        Ok(Light::Collimated { theta_deg })
+    }
+
+    /// The checks of [`Light::collimated`] on any light (diffuse light has none).
+    fn check(&self) -> Result<(), CoreError> {
+        if let Light::Collimated { theta_deg } = *self {
+            check_incidence(theta_deg, None)?;
+        }
+        Ok(())
+    }
+
     /// `mu0 = cos(theta)` of a collimated beam; `None` for diffuse light.
     pub fn mu0(&self) -> Option<f64> {
         match *self {
@@ -121,23 +145,221 @@ pub enum Substrate {
     Black,
 }
 
+impl Substrate {
+    /// A clear half-space of index `n` (checked: finite, `>= 1`).
+    ///
+    /// # Errors
+    /// A [`CoreError::Scene`] on `substrate.n`.
+    ///
+    /// ```
+    /// assert!(km_core::Substrate::transparent(1.5).is_ok());
+    /// assert!(km_core::Substrate::transparent(0.5).is_err());
+    /// ```
+    pub fn transparent(n: f64) -> Result<Substrate, CoreError> {
+        let s = Substrate::Transparent { n };
+        s.check()?;
+        Ok(s)
+    }
+
+    /// An opaque Lambertian reflector (checked: `0 <= albedo <= 1`).
+    ///
+    /// # Errors
+    /// A [`CoreError::Scene`] on `substrate.albedo`.
+    ///
+    /// ```
+    /// assert!(km_core::Substrate::lambertian(0.8).is_ok());
+    /// assert!(km_core::Substrate::lambertian(1.2).is_err());
+    /// ```
+    pub fn lambertian(albedo: f64) -> Result<Substrate, CoreError> {
+        let s = Substrate::Lambertian { albedo };
+        s.check()?;
+        Ok(s)
+    }
+
+    /// The checks of a substrate, written once.
+    fn check(&self) -> Result<(), CoreError> {
+        match *self {
+            Substrate::Transparent { n } if !is_refractive_index(n) => {
+                Err(CoreError::scene("substrate.n", None, "must be finite and >= 1"))
+            }
+            Substrate::Lambertian { albedo } if !(0.0..=1.0).contains(&albedo) => {
+                Err(CoreError::scene("substrate.albedo", None, "must lie in [0, 1]"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
 /// One spectral channel of a scene: what every solver takes.
+///
+/// The fields are private: a [`MonoScene`] exists only through
+/// [`MonoScene::new`] (and the checked `with_*` variants), which holds every
+/// check of a scene once, so solvers receive a valid one and check nothing again.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MonoScene {
     /// Illumination.
-    pub light: Light,
+    light: Light,
     /// Refractive index of the clear medium above the stack, `>= 1`.
-    pub ambient_n: f64,
+    ambient_n: f64,
     /// Layers, top first (at least one).
-    pub layers: Vec<Layer>,
+    layers: Vec<Layer>,
     /// What lies below.
-    pub substrate: Substrate,
+    substrate: Substrate,
     /// Exit directions `[theta_deg, phi_deg]` for BRDF/BTDF samples
     /// (`theta` from the normal on the exit side, `0 <= theta < 90`).
-    pub directions_deg: Vec<[f64; 2]>,
+    directions_deg: Vec<[f64; 2]>,
 }
 
 impl MonoScene {
+    /// A checked channel: every invariant of a scene, written once.
+    ///
+    /// # Errors
+    /// Empty stack, a half-space that is not the last layer, invalid light
+    /// angle, ambient index, substrate or direction (a [`CoreError::Scene`]
+    /// naming the key).
+    ///
+    /// ```
+    /// use km_core::{Layer, Light, MonoScene, Substrate};
+    /// let layer = Layer::new(0.1, 1.0, 1.0, 0.0, 1.5).unwrap();
+    /// let s = MonoScene::new(Light::Diffuse, 1.0, vec![layer], Substrate::Black, vec![]).unwrap();
+    /// assert_eq!(s.layers().len(), 1);
+    /// assert!(MonoScene::new(Light::Diffuse, 0.5, vec![layer], Substrate::Black, vec![]).is_err());
+    /// ```
+    pub fn new(
+        light: Light,
+        ambient_n: f64,
+        layers: Vec<Layer>,
+        substrate: Substrate,
+        directions_deg: Vec<[f64; 2]>,
+    ) -> Result<MonoScene, CoreError> {
+        if layers.is_empty() {
+            return Err(CoreError::scene("layer", None, "the stack has no layer"));
+        }
+        light.check()?;
+        if !is_refractive_index(ambient_n) {
+            return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
+        }
+        // Each layer is valid by construction; only their order is checked here.
+        if let Some(i) = layers.iter().position(Layer::is_half_space)
+            && i + 1 != layers.len()
+        {
+            return Err(CoreError::scene(
+                format!("layer[{}].thickness", i + 1),
+                None,
+                "only the last layer may be a half-space",
+            ));
+        }
+        substrate.check()?;
+        for d in &directions_deg {
+            check_theta("output.directions_deg", d[0], None)?;
+            if !d[1].is_finite() {
+                return Err(CoreError::scene("output.directions_deg", None, "phi must be finite"));
+            }
+        }
+        Ok(MonoScene { light, ambient_n, layers, substrate, directions_deg })
+    }
+
+    /// This channel with other layers (checked as in [`MonoScene::new`]).
+    ///
+    /// # Errors
+    /// An empty stack, a half-space that is not last.
+    pub fn with_layers(&self, layers: Vec<Layer>) -> Result<MonoScene, CoreError> {
+        MonoScene::new(
+            self.light,
+            self.ambient_n,
+            layers,
+            self.substrate,
+            self.directions_deg.clone(),
+        )
+    }
+
+    /// This channel with another substrate.
+    ///
+    /// # Errors
+    /// An invalid substrate.
+    pub fn with_substrate(&self, substrate: Substrate) -> Result<MonoScene, CoreError> {
+        substrate.check()?;
+        Ok(MonoScene { substrate, ..self.clone() })
+    }
+
+    /// This channel with other output directions.
+    ///
+    /// # Errors
+    /// A direction outside `[0, 90)` degrees or a non-finite azimuth.
+    pub fn with_directions(&self, directions_deg: Vec<[f64; 2]>) -> Result<MonoScene, CoreError> {
+        MonoScene::new(
+            self.light,
+            self.ambient_n,
+            self.layers.clone(),
+            self.substrate,
+            directions_deg,
+        )
+    }
+
+    /// This channel cut below layer `i` (0-based): layers `0..=i`, the last
+    /// made a half-space (the planner's thick-layer cut, docs/planner.md).
+    ///
+    /// # Errors
+    /// `i` beyond the last layer.
+    pub fn cut_below(&self, i: usize) -> Result<MonoScene, CoreError> {
+        let Some(layer) = self.layers.get(i) else {
+            return Err(CoreError::scene(
+                format!("layer[{}]", i + 1),
+                None,
+                format!("the stack has {} layer(s)", self.layers.len()),
+            ));
+        };
+        let mut layers = self.layers[..i].to_vec();
+        layers.push(layer.with_thickness(f64::INFINITY)?);
+        self.with_layers(layers)
+    }
+
+    /// This channel under another light.
+    ///
+    /// # Errors
+    /// An invalid incidence angle.
+    pub fn with_light(&self, light: Light) -> Result<MonoScene, CoreError> {
+        light.check()?;
+        Ok(MonoScene { light, ..self.clone() })
+    }
+
+    /// This channel under another ambient index.
+    ///
+    /// # Errors
+    /// `n` not finite or `< 1`.
+    pub fn with_ambient_n(&self, ambient_n: f64) -> Result<MonoScene, CoreError> {
+        if !is_refractive_index(ambient_n) {
+            return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
+        }
+        Ok(MonoScene { ambient_n, ..self.clone() })
+    }
+
+    /// Illumination.
+    pub fn light(&self) -> Light {
+        self.light
+    }
+
+    /// Refractive index of the clear medium above the stack, finite and `>= 1`.
+    pub fn ambient_n(&self) -> f64 {
+        self.ambient_n
+    }
+
+    /// Layers, top first (at least one; only the last may be a half-space).
+    pub fn layers(&self) -> &[Layer] {
+        &self.layers
+    }
+
+    /// What lies below the stack.
+    pub fn substrate(&self) -> Substrate {
+        self.substrate
+    }
+
+    /// Exit directions `[theta_deg, phi_deg]` for BRDF/BTDF samples
+    /// (`theta` from the normal on the exit side, `0 <= theta < 90`).
+    pub fn directions_deg(&self) -> &[[f64; 2]] {
+        &self.directions_deg
+    }
+
     /// Index of the medium below the stack (`None` for opaque substrates).
     pub fn substrate_n(&self) -> Option<f64> {
         match self.substrate {
@@ -146,58 +368,14 @@ impl MonoScene {
         }
     }
 
-    /// Check the invariants that the parser guarantees, for scenes built in code.
-    ///
-    /// # Errors
-    /// Empty stack, invalid light angle, ambient index, substrate or direction.
-    pub fn validate(&self) -> Result<(), CoreError> {
-        if self.layers.is_empty() {
-            return Err(CoreError::scene("layer", None, "the stack has no layer"));
+    /// The Snell invariant of the collimated beam, `n0 sin(theta)` with `n0`
+    /// the ambient index (conserved across every interface of the stack);
+    /// `None` for diffuse light.
+    pub fn beam_invariant(&self) -> Option<f64> {
+        match self.light {
+            Light::Collimated { theta_deg } => Some(self.ambient_n * theta_deg.to_radians().sin()),
+            Light::Diffuse => None,
         }
-        if let Light::Collimated { theta_deg } = self.light {
-            check_incidence(theta_deg, None)?;
-        }
-        if !self.ambient_n.is_finite() || self.ambient_n < 1.0 {
-            return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
-        }
-        for (i, l) in self.layers.iter().enumerate() {
-            let ok = l.sigma_a.is_finite()
-                && l.sigma_a >= 0.0
-                && l.sigma_s.is_finite()
-                && l.sigma_s >= 0.0
-                && (l.sigma_a + l.sigma_s).is_finite()
-                && (l.thickness.is_infinite() || l.tau().is_finite())
-                && l.thickness >= 0.0
-                && l.n.is_finite()
-                && l.n >= 1.0
-                && l.g().abs() < 1.0;
-            if !ok {
-                return Err(CoreError::scene(format!("layer[{}]", i + 1), None, "invalid layer"));
-            }
-            if l.is_half_space() && i + 1 != self.layers.len() {
-                return Err(CoreError::scene(
-                    format!("layer[{}].thickness", i + 1),
-                    None,
-                    "only the last layer may be a half-space",
-                ));
-            }
-        }
-        match self.substrate {
-            Substrate::Transparent { n } if !n.is_finite() || n < 1.0 => {
-                return Err(CoreError::scene("substrate.n", None, "must be finite and >= 1"));
-            }
-            Substrate::Lambertian { albedo } if !(0.0..=1.0).contains(&albedo) => {
-                return Err(CoreError::scene("substrate.albedo", None, "must lie in [0, 1]"));
-            }
-            _ => {}
-        }
-        for d in &self.directions_deg {
-            check_theta("output.directions_deg", d[0], None)?;
-            if !d[1].is_finite() {
-                return Err(CoreError::scene("output.directions_deg", None, "phi must be finite"));
-            }
-        }
-        Ok(())
     }
 }
 
@@ -205,11 +383,11 @@ impl MonoScene {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
     /// The channels, in order (at least one).
-    pub channels: Vec<MonoScene>,
+    channels: Vec<MonoScene>,
     /// A label per channel (`"R"`, `"550 nm"`, or the channel number).
-    pub labels: Vec<String>,
+    labels: Vec<String>,
     /// Wavelengths in nm when the file gives them.
-    pub wavelengths_nm: Option<Vec<f64>>,
+    wavelengths_nm: Option<Vec<f64>>,
 }
 
 impl Scene {
@@ -229,8 +407,8 @@ impl Scene {
     /// tau = 1.0
     /// albedo = [0.5, 0.9]
     /// "#).unwrap();
-    /// assert_eq!(s.channels.len(), 2);
-    /// assert!((s.channels[1].layers[0].albedo() - 0.9).abs() < 1e-15);
+    /// assert_eq!(s.channels().len(), 2);
+    /// assert!((s.channels()[1].layers()[0].albedo() - 0.9).abs() < 1e-15);
     /// ```
     pub fn from_toml_str(text: &str) -> Result<Scene, CoreError> {
         Scene::from_toml_str_with(text, &SceneLimits::default())
@@ -268,14 +446,108 @@ impl Scene {
         Scene::from_toml_str_with(&text, limits)
     }
 
-    /// A one-channel scene from a [`MonoScene`] built in code (validated).
+    /// A one-channel scene labelled `"0"` (a [`MonoScene`] is valid by construction).
+    pub fn single(mono: MonoScene) -> Scene {
+        Scene { channels: vec![mono], labels: vec!["0".into()], wavelengths_nm: None }
+    }
+
+    /// A scene from its channels, a label per channel and, optionally, a
+    /// wavelength per channel.
     ///
     /// # Errors
-    /// Those of [`MonoScene::validate`].
-    pub fn single(mono: MonoScene) -> Result<Scene, CoreError> {
-        mono.validate()?;
-        Ok(Scene { channels: vec![mono], labels: vec!["0".into()], wavelengths_nm: None })
+    /// No channel, or `labels` (or `wavelengths_nm`) not of one length with
+    /// `channels`, or a wavelength not finite and `> 0` (a [`CoreError::Scene`]).
+    pub fn new(
+        channels: Vec<MonoScene>,
+        labels: Vec<String>,
+        wavelengths_nm: Option<Vec<f64>>,
+    ) -> Result<Scene, CoreError> {
+        if channels.is_empty() {
+            return Err(CoreError::scene("spectrum", None, "a scene needs at least one channel"));
+        }
+        if labels.len() != channels.len() {
+            return Err(CoreError::scene(
+                "spectrum.labels",
+                None,
+                format!("{} labels for {} channels", labels.len(), channels.len()),
+            ));
+        }
+        if let Some(w) = &wavelengths_nm {
+            if w.len() != channels.len() {
+                return Err(CoreError::scene(
+                    "spectrum.wavelengths_nm",
+                    None,
+                    format!("{} wavelengths for {} channels", w.len(), channels.len()),
+                ));
+            }
+            if w.iter().any(|&x| !is_wavelength(x)) {
+                return Err(CoreError::scene(
+                    "spectrum.wavelengths_nm",
+                    None,
+                    "wavelengths must be > 0",
+                ));
+            }
+        }
+        Ok(Scene { channels, labels, wavelengths_nm })
     }
+
+    /// This scene with other channels (same labels and wavelengths).
+    ///
+    /// # Errors
+    /// Those of [`Scene::new`] (a different number of channels).
+    pub fn with_channels(&self, channels: Vec<MonoScene>) -> Result<Scene, CoreError> {
+        Scene::new(channels, self.labels.clone(), self.wavelengths_nm.clone())
+    }
+
+    /// The channels, in order (at least one).
+    pub fn channels(&self) -> &[MonoScene] {
+        &self.channels
+    }
+
+    /// A label per channel (`"R"`, `"550 nm"`, or the channel number).
+    pub fn labels(&self) -> &[String] {
+        &self.labels
+    }
+
+    /// Wavelengths in nm when the file gives them (one per channel).
+    pub fn wavelengths_nm(&self) -> Option<&[f64]> {
+        self.wavelengths_nm.as_deref()
+    }
+
+    /// The first channel and the others (a scene has at least one channel).
+    pub fn split_first(&self) -> (&MonoScene, &[MonoScene]) {
+        let (first, rest) = self.channels.split_at(1);
+        (&first[0], rest)
+    }
+
+    /// The scene of some of this scene's channels, in the order of `keep`
+    /// (indices out of range are skipped; an empty selection keeps the first
+    /// channel, since a scene has at least one).
+    pub fn select(&self, keep: &[usize]) -> Scene {
+        let mut keep: Vec<usize> =
+            keep.iter().copied().filter(|&i| i < self.channels.len()).collect();
+        if keep.is_empty() {
+            keep.push(0);
+        }
+        Scene {
+            channels: keep.iter().map(|&i| self.channels[i].clone()).collect(),
+            labels: keep.iter().map(|&i| self.labels[i].clone()).collect(),
+            wavelengths_nm: self
+                .wavelengths_nm
+                .as_ref()
+                .map(|w| keep.iter().filter_map(|&i| w.get(i).copied()).collect()),
+        }
+    }
+
+    /// The channels, labels and wavelengths, taken apart.
+    pub fn into_parts(self) -> (Vec<MonoScene>, Vec<String>, Option<Vec<f64>>) {
+        (self.channels, self.labels, self.wavelengths_nm)
+    }
+}
+
+/// True for a wavelength the scene accepts: finite and `> 0` nm.
+pub(crate) fn is_wavelength(x: f64) -> bool {
+    x.is_finite() && x > 0.0
 }
 
 fn check_theta(key: &str, theta: f64, line: Option<usize>) -> Result<(), CoreError> {

@@ -132,7 +132,7 @@ impl Scene {
     /// let text = "[[layer]]\ntau = 1\nalbedo = 0.9\ng = 0.2\n";
     /// let edit = SetEdit::parse("layer[1].g=0.8").unwrap();
     /// let s = Scene::from_toml_str_edited(text, &[edit]).unwrap();
-    /// assert_eq!(s.channels[0].layers[0].g(), 0.8);
+    /// assert_eq!(s.channels()[0].layers()[0].g(), 0.8);
     /// let bad = SetEdit::parse("layer[1].g=2").unwrap();
     /// let e = Scene::from_toml_str_edited(text, &[bad]).unwrap_err().to_string();
     /// assert!(e.contains("layer[1].g") && e.contains("--set"), "{e}");

@@ -5,7 +5,7 @@ use km_core::plan::{Plan, Request, plan_scene};
 
 fn plan(text: &str, directions: bool) -> Plan {
     let s = Scene::from_toml_str(text).unwrap();
-    Plan::new(&s.channels[0], Request { directions, ..Request::default() }, false)
+    Plan::new(&s.channels()[0], Request { directions, ..Request::default() }, false)
 }
 
 #[test]
@@ -60,7 +60,7 @@ fn thick_absorbing_layers_become_half_spaces_conservative_never() {
 #[test]
 fn all_effects_skips_nothing() {
     let s = Scene::from_toml_str("[[layer]]\nsigma_a = 1\nsigma_s = 0\nthickness = 1e9\n").unwrap();
-    let p = Plan::new(&s.channels[0], Request::default(), true);
+    let p = Plan::new(&s.channels()[0], Request::default(), true);
     assert!(p.skipped.is_empty(), "{:?}", p.skipped);
     assert!(p.angular_tallies && !p.azimuth_independent);
 }

@@ -399,8 +399,7 @@ fn extreme_inputs_stay_finite() {
 }
 
 fn mono(layers: Vec<km_core::Layer>, light: Light, ambient_n: f64, substrate: Substrate) -> Scene {
-    Scene::single(MonoScene { light, ambient_n, layers, substrate, directions_deg: vec![] })
-        .unwrap()
+    Scene::single(MonoScene::new(light, ambient_n, layers, substrate, vec![]).unwrap())
 }
 
 #[test]

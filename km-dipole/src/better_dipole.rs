@@ -15,6 +15,8 @@
 
 use std::f64::consts::PI;
 
+use km_core::phase::Anisotropy;
+
 use crate::error::DipoleError;
 use crate::params::NEEDS_SCATTERING;
 
@@ -53,17 +55,16 @@ impl BetterDipole {
     /// From `sigma_a`, `sigma_s` (1/length), the asymmetry `g` and
     /// `eta = n_inside / n_outside`.
     ///
+    /// `g` is checked by its type ([`Anisotropy::new`]: `|g| < 1`).
+    ///
     /// # Errors
-    /// Negative or non-finite coefficients, `sigma_s = 0`, `|g| >= 1`,
+    /// Negative or non-finite coefficients, `sigma_s = 0`,
     /// `eta` not finite and positive.
-    pub fn new(sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> Result<Self, DipoleError> {
-        if !g.is_finite() || g.abs() >= 1.0 {
-            return Err(DipoleError::invalid("g", g, "must be finite with |g| < 1"));
-        }
+    pub fn new(sigma_a: f64, sigma_s: f64, g: Anisotropy, eta: f64) -> Result<Self, DipoleError> {
         if !sigma_s.is_finite() || sigma_s <= 0.0 {
             return Err(DipoleError::invalid("sigma_s", sigma_s, NEEDS_SCATTERING));
         }
-        Self::from_reduced(sigma_a, (1.0 - g) * sigma_s, eta)
+        Self::from_reduced(sigma_a, g.reduced(sigma_s), eta)
     }
 
     /// From `sigma_a` and the reduced scattering coefficient `sigma_s'`.

@@ -3,6 +3,7 @@
 //! scale `sigma_t = 1`, and radial profiles for the measured presets.
 
 use km_core::fresnel::reflectance;
+use km_core::phase::Anisotropy;
 use km_core::presets;
 
 use crate::dipole::{rd_radial, rd_total};
@@ -29,6 +30,7 @@ pub fn total_diffuse_reflectance(
     eta: f64,
     fdr: FdrModel,
 ) -> Result<f64, DipoleError> {
+    let g = Anisotropy::new(g)?;
     Ok(rd_total(&DiffusionParams::from_albedo(albedo, g, eta, fdr)?))
 }
 

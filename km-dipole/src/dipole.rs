@@ -31,8 +31,9 @@ use crate::params::DiffusionParams;
 /// diffusion equation and boundary condition.
 ///
 /// ```
+/// use km_core::phase::Anisotropy;
 /// use km_dipole::{DiffusionParams, FdrModel, dipole::fluence};
-/// let p = DiffusionParams::new(0.01, 1.0, 0.0, 1.3, FdrModel::Exact).unwrap();
+/// let p = DiffusionParams::new(0.01, 1.0, Anisotropy::ISOTROPIC, 1.3, FdrModel::Exact).unwrap();
 /// assert!(fluence(&p, 0.7, -p.z_b).abs() < 1e-15);
 /// ```
 pub fn fluence(p: &DiffusionParams, r: f64, z: f64) -> f64 {
@@ -69,8 +70,9 @@ pub(crate) fn dipole_difference(s: f64, d_r: f64, d_v: f64, diff_sq: f64) -> f64
 /// Jensen et al. 2001 §2.4, the dipole diffuse reflectance.
 ///
 /// ```
+/// use km_core::phase::Anisotropy;
 /// use km_dipole::{DiffusionParams, FdrModel, dipole::rd_radial};
-/// let p = DiffusionParams::new(0.01, 1.0, 0.0, 1.3, FdrModel::Exact).unwrap();
+/// let p = DiffusionParams::new(0.01, 1.0, Anisotropy::ISOTROPIC, 1.3, FdrModel::Exact).unwrap();
 /// assert!(rd_radial(&p, 0.0) > rd_radial(&p, 1.0));
 /// assert_eq!(rd_radial(&p, 1e300), 0.0);
 /// ```
@@ -179,8 +181,9 @@ pub enum BssrdfNormalisation {
 /// normalisation as in pbrt-v3 (`SeparableBSSRDF::Sw`, `c = 1 - 2 FresnelMoment1(1/eta)`).
 ///
 /// ```
+/// use km_core::phase::Anisotropy;
 /// use km_dipole::{DiffusionParams, FdrModel, dipole::*};
-/// let p = DiffusionParams::new(0.01, 1.0, 0.0, 1.3, FdrModel::Exact).unwrap();
+/// let p = DiffusionParams::new(0.01, 1.0, Anisotropy::ISOTROPIC, 1.3, FdrModel::Exact).unwrap();
 /// let a = bssrdf(&p, 0.5, 0.9, 0.3, BssrdfNormalisation::EnergyConserving);
 /// let b = bssrdf(&p, 0.5, 0.3, 0.9, BssrdfNormalisation::EnergyConserving);
 /// assert!((a - b).abs() < 1e-15 * a);

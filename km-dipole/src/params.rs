@@ -18,6 +18,8 @@
 use std::fmt;
 use std::str::FromStr;
 
+use km_core::phase::Anisotropy;
+
 use std::sync::OnceLock;
 
 use km_core::fresnel::{critical_cos, egan_hilgeman_fdr, gauss_legendre, reflectance};
@@ -197,13 +199,17 @@ impl DiffusionParams {
     /// From the transport coefficients `sigma_a`, `sigma_s` (1/length), the
     /// Henyey–Greenstein asymmetry `g` and the relative index `eta = n_inside / n_outside`.
     ///
+    /// `g` is checked by its type ([`Anisotropy::new`]: `|g| < 1`).
+    ///
     /// # Errors
     /// Negative or non-finite coefficients, `sigma_s = 0` (no diffusion),
-    /// `|g| >= 1`, and the errors of [`FdrModel::fdr`].
+    /// and the errors of [`FdrModel::fdr`].
     ///
     /// ```
+    /// use km_core::phase::Anisotropy;
     /// use km_dipole::{DiffusionParams, FdrModel};
-    /// let p = DiffusionParams::new(0.1, 2.0, 0.5, 1.0, FdrModel::Exact).unwrap();
+    /// let g = Anisotropy::new(0.5).unwrap();
+    /// let p = DiffusionParams::new(0.1, 2.0, g, 1.0, FdrModel::Exact).unwrap();
     /// assert!((p.sigma_s_prime - 1.0).abs() < 1e-15);
     /// assert!((p.d - 1.0 / 3.3).abs() < 1e-15);
     /// assert_eq!(p.a, 1.0); // matched boundary
@@ -211,17 +217,14 @@ impl DiffusionParams {
     pub fn new(
         sigma_a: f64,
         sigma_s: f64,
-        g: f64,
+        g: Anisotropy,
         eta: f64,
         fdr_model: FdrModel,
     ) -> Result<Self, DipoleError> {
-        if !g.is_finite() || g.abs() >= 1.0 {
-            return Err(DipoleError::invalid("g", g, "must be finite with |g| < 1"));
-        }
         if !sigma_s.is_finite() || sigma_s <= 0.0 {
             return Err(DipoleError::invalid("sigma_s", sigma_s, NEEDS_SCATTERING));
         }
-        Self::from_reduced(sigma_a, (1.0 - g) * sigma_s, eta, fdr_model)
+        Self::from_reduced(sigma_a, g.reduced(sigma_s), eta, fdr_model)
     }
 
     /// From `sigma_a` and the reduced scattering coefficient `sigma_s'`
@@ -292,7 +295,8 @@ impl DiffusionParams {
         ambient_n: f64,
         fdr_model: FdrModel,
     ) -> Result<Self, DipoleError> {
-        Self::new(layer.sigma_a, layer.sigma_s, layer.g(), layer.n / ambient_n, fdr_model)
+        let eta = layer.n() / ambient_n;
+        Self::new(layer.sigma_a(), layer.sigma_s(), layer.anisotropy(), eta, fdr_model)
     }
 
     /// From the single-scattering albedo `omega = sigma_s / sigma_t` on the
@@ -302,7 +306,7 @@ impl DiffusionParams {
     /// `omega` outside `(0, 1]`, and those of [`DiffusionParams::new`].
     pub fn from_albedo(
         omega: f64,
-        g: f64,
+        g: Anisotropy,
         eta: f64,
         fdr_model: FdrModel,
     ) -> Result<Self, DipoleError> {

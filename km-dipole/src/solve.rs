@@ -125,7 +125,7 @@ impl Medium {
         cache: &mut FresnelCache,
     ) -> Result<Self, DipoleError> {
         let layer = half_space(mono, channel)?;
-        let eta = layer.n / mono.ambient_n;
+        let eta = layer.n() / mono.ambient_n();
         let (fdr_exact, fdr, c2) = match opts.model {
             // The better dipole uses the exact moments only.
             DipoleModel::Better => {
@@ -136,14 +136,14 @@ impl Medium {
         };
         // D17: C = 1 - F_ext = eta^2 (1 - F_dr) with the exact F_dr.
         let c = exit_constant_from_fdr(eta, fdr_exact);
-        let sigma_s_prime = (1.0 - layer.g()) * layer.sigma_s;
+        let sigma_s_prime = layer.sigma_s_reduced();
         Ok(match opts.model {
             DipoleModel::Jensen2001 => Medium::Classic(
-                DiffusionParams::assemble(layer.sigma_a, sigma_s_prime, eta, fdr, opts.fdr),
+                DiffusionParams::assemble(layer.sigma_a(), sigma_s_prime, eta, fdr, opts.fdr),
                 c,
             ),
             DipoleModel::Better => Medium::Better(
-                BetterDipole::assemble(layer.sigma_a, sigma_s_prime, 0.5 * fdr_exact, c2),
+                BetterDipole::assemble(layer.sigma_a(), sigma_s_prime, 0.5 * fdr_exact, c2),
                 c,
             ),
         })
@@ -196,20 +196,20 @@ pub fn channel_params(
     opts: &DipoleOptions,
 ) -> Result<DiffusionParams, DipoleError> {
     let layer = half_space(mono, channel)?;
-    DiffusionParams::from_layer(layer, mono.ambient_n, opts.fdr)
+    DiffusionParams::from_layer(layer, mono.ambient_n(), opts.fdr)
 }
 
 /// The single half-space layer of a channel, or the reason it is not one.
 fn half_space(mono: &MonoScene, channel: usize) -> Result<&km_core::Layer, DipoleError> {
-    if mono.layers.len() != 1 {
-        return Err(DipoleError::LayerCount { count: mono.layers.len() });
+    if mono.layers().len() != 1 {
+        return Err(DipoleError::LayerCount { count: mono.layers().len() });
     }
-    let layer = &mono.layers[0];
+    let layer = &mono.layers()[0];
     if !layer.is_half_space() {
-        return Err(DipoleError::FiniteThickness { layer: 1, thickness: layer.thickness });
+        return Err(DipoleError::FiniteThickness { layer: 1, thickness: layer.thickness() });
     }
-    if layer.sigma_s <= 0.0 {
-        return Err(DipoleError::NoScattering { layer: 1, channel, sigma_s: layer.sigma_s });
+    if layer.sigma_s() <= 0.0 {
+        return Err(DipoleError::NoScattering { layer: 1, channel, sigma_s: layer.sigma_s() });
     }
     Ok(layer)
 }
@@ -235,8 +235,7 @@ fn half_space(mono: &MonoScene, channel: usize) -> Result<&km_core::Layer, Dipol
 /// ```
 pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleError> {
     // Check every channel before timing.
-    for (c, mono) in scene.channels.iter().enumerate() {
-        mono.validate()?;
+    for (c, mono) in scene.channels().iter().enumerate() {
         half_space(mono, c)?;
     }
 
@@ -245,13 +244,13 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
     let start = Instant::now();
     let mut cache = FresnelCache::default();
     let media = scene
-        .channels
+        .channels()
         .iter()
         .enumerate()
         .map(|(c, mono)| Medium::new(mono, c, opts, &mut cache))
         .collect::<Result<Vec<_>, _>>()?;
     let mut channels = Vec::with_capacity(media.len());
-    for (mono, m) in scene.channels.iter().zip(&media) {
+    for (mono, m) in scene.channels().iter().zip(&media) {
         channels.push(solve_channel(mono, m));
     }
     let seconds = start.elapsed().as_secs_f64();
@@ -273,7 +272,7 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
     Ok(Solution {
         method: "dipole".into(),
         channels,
-        labels: scene.labels.clone(),
+        labels: scene.labels().to_vec(),
         seconds,
         notes: notes(scene),
         diagnostics: km_core::solution::Diagnostics {
@@ -286,21 +285,21 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
 
 /// One channel (eq. D16, D18).
 fn solve_channel(mono: &MonoScene, m: &Medium) -> ChannelResult {
-    let n_layer = mono.layers[0].n;
+    let n_layer = mono.layers()[0].n();
     // Specular (delta) part and the fraction that enters the medium.
-    let r_spec = match mono.light {
+    let r_spec = match mono.light() {
         Light::Collimated { .. } => {
-            reflectance(mono.light.mu0().unwrap_or(1.0), mono.ambient_n, n_layer)
+            reflectance(mono.light().mu0().unwrap_or(1.0), mono.ambient_n(), n_layer)
         }
-        Light::Diffuse => diffuse_reflectance(mono.ambient_n, n_layer),
+        Light::Diffuse => diffuse_reflectance(mono.ambient_n(), n_layer),
     };
     // Multiple scattering that comes back out (normal-incidence dipole).
     let diffuse = (1.0 - r_spec) * m.rd_total();
     // Exit distribution F_t(cos theta_o) / (pi C), normalised to 1 over the hemisphere.
-    let eta = n_layer / mono.ambient_n;
+    let eta = n_layer / mono.ambient_n();
     let c = m.exit_c();
     let brdf = mono
-        .directions_deg
+        .directions_deg()
         .iter()
         .map(|d| diffuse * fresnel_transmittance(eta, d[0].to_radians().cos()) / (PI * c))
         .collect::<Vec<_>>();
@@ -333,9 +332,9 @@ fn notes(scene: &Scene) -> Vec<String> {
             .to_string(),
     ];
     if scene
-        .channels
+        .channels()
         .iter()
-        .any(|m| matches!(m.light, Light::Collimated { theta_deg } if theta_deg > 0.0))
+        .any(|m| matches!(m.light(), Light::Collimated { theta_deg } if theta_deg > 0.0))
     {
         notes.push(
             "oblique incidence: the dipole's source depth 1/sigma_t' is that of normal \
@@ -343,7 +342,7 @@ fn notes(scene: &Scene) -> Vec<String> {
                 .to_string(),
         );
     }
-    if scene.channels.iter().any(|m| m.light == Light::Diffuse) {
+    if scene.channels().iter().any(|m| m.light() == Light::Diffuse) {
         notes.push(
             "diffuse light: specular part = hemispherical Fresnel reflectance F_ext of the \
              interface; diffuse part = (1 - F_ext) * Rd"
@@ -374,10 +373,9 @@ pub fn profile(
     if let Some(&bad) = r.iter().find(|x| !x.is_finite() || **x < 0.0) {
         return Err(DipoleError::invalid("r", bad, "distances must be finite and >= 0"));
     }
-    let mut out = Vec::with_capacity(scene.channels.len());
+    let mut out = Vec::with_capacity(scene.channels().len());
     let mut cache = FresnelCache::default();
-    for (c, mono) in scene.channels.iter().enumerate() {
-        mono.validate()?;
+    for (c, mono) in scene.channels().iter().enumerate() {
         let m = Medium::new(mono, c, opts, &mut cache)?;
         out.push(r.iter().map(|&x| m.rd_radial(x)).collect());
     }

@@ -1,5 +1,6 @@
 //! The better dipole (d'Eon 2012): moments, energy, closed form.
 
+use km_core::phase::Anisotropy;
 use std::f64::consts::PI;
 
 use km_core::fresnel::{diffuse_reflectance, gauss_legendre};
@@ -37,7 +38,7 @@ fn fresnel_moments_against_pbrt_fits() {
     }
     // Matched index: no reflection.
     assert_eq!(fresnel_moment(1.0, 1), 0.0);
-    let b = BetterDipole::new(0.1, 1.0, 0.0, 1.0).unwrap();
+    let b = BetterDipole::new(0.1, 1.0, Anisotropy::ISOTROPIC, 1.0).unwrap();
     assert_eq!((b.a, b.c_phi, b.c_e), (1.0, 0.25, 0.5));
 }
 
@@ -45,7 +46,7 @@ fn fresnel_moments_against_pbrt_fits() {
 fn conservative_medium_returns_everything() {
     // 2 A C_phi + C_E = (1 + 3 C_2)/2 + (1 - 3 C_2)/2 = 1 for alpha' = 1.
     for eta in [1.0, 1.3, 1.5, 0.8] {
-        let b = BetterDipole::new(0.0, 1.0, 0.0, eta).unwrap();
+        let b = BetterDipole::new(0.0, 1.0, Anisotropy::ISOTROPIC, eta).unwrap();
         assert!((b.rd_total() - 1.0).abs() < 1e-14, "eta {eta}: {}", b.rd_total());
     }
 }
@@ -75,7 +76,7 @@ fn closed_form_total_equals_integral_of_the_profile() {
         (0.01, 10.0, 0.9, 1.4),
         (0.0, 1.0, 0.0, 1.3),
     ] {
-        let b = BetterDipole::new(sa, ss, g, eta).unwrap();
+        let b = BetterDipole::new(sa, ss, Anisotropy::new(g).unwrap(), eta).unwrap();
         let (q1, q2) = (quad(&b, 200), quad(&b, 400));
         assert!((q1 - q2).abs() < 1e-13, "{sa} {ss} {g} {eta}: {q1} {q2} closed {}", b.rd_total());
         assert!((b.rd_total() - q2).abs() < 1e-12, "{} vs {q2}", b.rd_total());
@@ -87,7 +88,7 @@ fn grosjean_diffusion_coefficient_by_hand() {
     // sigma_a = 0.5, sigma_s' = 1: sigma_t' = 1.5, D_G = (1 + 1) / (3 * 2.25) = 2 / 6.75
     // = 0.296296..., sigma_tr = sqrt(0.5 / 0.296296) = sqrt(1.6875) = 1.299038...
     // (classical D = 1/4.5 = 0.2222, sigma_tr = sqrt(2.25) = 1.5).
-    let b = BetterDipole::new(0.5, 1.0, 0.0, 1.3).unwrap();
+    let b = BetterDipole::new(0.5, 1.0, Anisotropy::ISOTROPIC, 1.3).unwrap();
     assert!((b.d_g - 2.0 / 6.75).abs() < 1e-15);
     assert!((b.sigma_tr - 1.6875f64.sqrt()).abs() < 1e-15);
 }
@@ -98,8 +99,12 @@ fn better_and_classical_dipoles_agree_at_high_albedo_and_part_at_low() {
     // Both are diffusion theory: for alpha' -> 1 they meet (both give 1 at
     // alpha' = 1); the difference grows as absorption grows.
     for albedo in [0.999, 0.99, 0.9, 0.5, 0.1] {
-        let c = rd_total(&DiffusionParams::from_albedo(albedo, 0.0, 1.3, FdrModel::Exact).unwrap());
-        let b = BetterDipole::new(1.0 - albedo, albedo, 0.0, 1.3).unwrap().rd_total();
+        let c = rd_total(
+            &DiffusionParams::from_albedo(albedo, Anisotropy::ISOTROPIC, 1.3, FdrModel::Exact)
+                .unwrap(),
+        );
+        let b =
+            BetterDipole::new(1.0 - albedo, albedo, Anisotropy::ISOTROPIC, 1.3).unwrap().rd_total();
         let rel = (b - c).abs() / c;
         println!("albedo {albedo}: classical {c:.5}, better {b:.5}, relative difference {rel:.4}");
     }

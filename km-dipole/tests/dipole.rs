@@ -1,6 +1,7 @@
 //! The dipole: closed form against quadrature, fluence against flux,
 //! BSSRDF normalisation and reciprocity, and Jensen et al. 2001's table.
 
+use km_core::phase::Anisotropy;
 use std::f64::consts::PI;
 
 use km_core::fresnel::gauss_legendre;
@@ -39,9 +40,15 @@ fn media() -> Vec<(&'static str, DiffusionParams)> {
         ("skin1 B", DiffusionParams::from_reduced(0.48, 1.01, 1.3, eh).unwrap()),
         ("ketchup B", DiffusionParams::from_reduced(1.45, 0.03, 1.3, ex).unwrap()),
         ("no absorption", DiffusionParams::from_reduced(0.0, 1.0, 1.3, ex).unwrap()),
-        ("matched index", DiffusionParams::from_albedo(0.9, 0.0, 1.0, ex).unwrap()),
-        ("g = 0.9, eta 1.4", DiffusionParams::from_albedo(0.99, 0.9, 1.4, ex).unwrap()),
-        ("albedo 0.1", DiffusionParams::from_albedo(0.1, 0.0, 1.3, ex).unwrap()),
+        (
+            "matched index",
+            DiffusionParams::from_albedo(0.9, Anisotropy::ISOTROPIC, 1.0, ex).unwrap(),
+        ),
+        (
+            "g = 0.9, eta 1.4",
+            DiffusionParams::from_albedo(0.99, Anisotropy::new(0.9).unwrap(), 1.4, ex).unwrap(),
+        ),
+        ("albedo 0.1", DiffusionParams::from_albedo(0.1, Anisotropy::ISOTROPIC, 1.3, ex).unwrap()),
     ]
 }
 
@@ -205,7 +212,9 @@ fn against_the_exact_plane_albedo_of_an_isotropic_half_space() {
     let data: HRows =
         serde_json::from_str(include_str!("data/h_function_normal.json")).expect("test data");
     for row in data.rows {
-        let p = DiffusionParams::from_albedo(row.omega, 0.0, 1.0, FdrModel::Exact).unwrap();
+        let p =
+            DiffusionParams::from_albedo(row.omega, Anisotropy::ISOTROPIC, 1.0, FdrModel::Exact)
+                .unwrap();
         let rd = rd_total(&p);
         let rel = (rd - row.plane_albedo).abs() / row.plane_albedo;
         println!(

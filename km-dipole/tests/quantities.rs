@@ -1,6 +1,7 @@
 //! The quantities of seed 003 and Jensen et al. 2001 against hand-computed
 //! and published values.
 
+use km_core::phase::Anisotropy;
 use km_dipole::params::a_from_fdr;
 use km_dipole::{DiffusionParams, DipoleError, FdrModel};
 
@@ -93,31 +94,37 @@ fn marble_red_channel_by_hand() {
 fn reduced_scattering_from_g() {
     // sigma_s' = (1 - g) sigma_s: g = 0.5, sigma_s = 2 gives sigma_s' = 1, sigma_t' = 1.1,
     // D = 1 / 3.3, sigma_tr = sqrt(3 * 0.1 * 1.1) = sqrt(0.33).
-    let p = DiffusionParams::new(0.1, 2.0, 0.5, 1.3, FdrModel::Exact).unwrap();
+    let p = DiffusionParams::new(0.1, 2.0, Anisotropy::new(0.5).unwrap(), 1.3, FdrModel::Exact)
+        .unwrap();
     assert!((p.sigma_s_prime - 1.0).abs() < 1e-15);
     assert!((p.d - 1.0 / 3.3).abs() < 1e-15);
     assert!((p.sigma_tr - 0.33f64.sqrt()).abs() < 1e-15);
     // Similarity: (g = 0.9, sigma_s = 10) and (g = 0, sigma_s = 1) are the same medium.
-    let a = DiffusionParams::new(0.05, 10.0, 0.9, 1.4, FdrModel::Exact).unwrap();
-    let b = DiffusionParams::new(0.05, 1.0, 0.0, 1.4, FdrModel::Exact).unwrap();
+    let a = DiffusionParams::new(0.05, 10.0, Anisotropy::new(0.9).unwrap(), 1.4, FdrModel::Exact)
+        .unwrap();
+    let b = DiffusionParams::new(0.05, 1.0, Anisotropy::ISOTROPIC, 1.4, FdrModel::Exact).unwrap();
     assert!((a.alpha_prime - b.alpha_prime).abs() < 1e-14);
     assert!((a.z_v - b.z_v).abs() < 1e-13);
 }
 
 #[test]
 fn bad_parameters_are_refused_with_their_name() {
-    let e = DiffusionParams::new(0.1, 0.0, 0.0, 1.3, FdrModel::Exact).unwrap_err();
+    let e =
+        DiffusionParams::new(0.1, 0.0, Anisotropy::ISOTROPIC, 1.3, FdrModel::Exact).unwrap_err();
     assert!(e.to_string().contains("sigma_s = 0"), "{e}");
     assert!(e.to_string().contains("needs scattering"), "{e}");
-    let e = DiffusionParams::new(-0.1, 1.0, 0.0, 1.3, FdrModel::Exact).unwrap_err();
+    let e =
+        DiffusionParams::new(-0.1, 1.0, Anisotropy::ISOTROPIC, 1.3, FdrModel::Exact).unwrap_err();
     assert!(e.to_string().contains("sigma_a"), "{e}");
-    let e = DiffusionParams::new(0.1, 1.0, 1.0, 1.3, FdrModel::Exact).unwrap_err();
+    // |g| < 1 is the type's check (km_core::phase::Anisotropy), not repeated here.
+    let e = Anisotropy::new(1.0).unwrap_err();
     assert!(e.to_string().contains("g = 1"), "{e}");
-    let e = DiffusionParams::new(0.1, 1.0, 0.0, 0.8, FdrModel::EganHilgeman).unwrap_err();
+    let e = DiffusionParams::new(0.1, 1.0, Anisotropy::ISOTROPIC, 0.8, FdrModel::EganHilgeman)
+        .unwrap_err();
     assert!(matches!(e, DipoleError::FitOutOfRange { .. }), "{e}");
     assert!(e.to_string().contains("eta = 0.8"), "{e}");
     // The exact F_dr is fine below 1 (no total internal reflection inside).
-    assert!(DiffusionParams::new(0.1, 1.0, 0.0, 0.8, FdrModel::Exact).is_ok());
+    assert!(DiffusionParams::new(0.1, 1.0, Anisotropy::ISOTROPIC, 0.8, FdrModel::Exact).is_ok());
     let e = FdrModel::Exact.fdr(f64::NAN).unwrap_err();
     assert!(e.to_string().contains("eta"), "{e}");
 }

@@ -1,5 +1,6 @@
 //! Scene entry points: what `km solve --method dipole` and `km profile` get.
 
+use km_core::phase::Anisotropy;
 use std::f64::consts::PI;
 
 use km_core::Scene;
@@ -30,7 +31,8 @@ fn collimated_totals_are_fresnel_plus_transmitted_dipole() {
     let s = scene(HALF_SPACE_30);
     let sol = solve(&s, &DipoleOptions::default()).unwrap();
     let ch = &sol.channels[0];
-    let p = DiffusionParams::new(0.01, 2.0, 0.5, 1.3, FdrModel::Exact).unwrap();
+    let p = DiffusionParams::new(0.01, 2.0, Anisotropy::new(0.5).unwrap(), 1.3, FdrModel::Exact)
+        .unwrap();
     let mu0 = 30f64.to_radians().cos();
     let r_spec = reflectance(mu0, 1.0, 1.3);
     let diffuse = (1.0 - r_spec) * rd_total(&p);
@@ -86,7 +88,8 @@ fn diffuse_light_uses_the_hemispherical_fresnel_reflectance() {
         scene("[light]\nkind = \"diffuse\"\n[[layer]]\ntau = \"inf\"\nalbedo = 0.99\nn = 1.5\n");
     let ch = &solve(&s, &DipoleOptions::default()).unwrap().channels[0];
     let f_ext = diffuse_reflectance(1.0, 1.5);
-    let p = DiffusionParams::from_albedo(0.99, 0.0, 1.5, FdrModel::Exact).unwrap();
+    let p =
+        DiffusionParams::from_albedo(0.99, Anisotropy::ISOTROPIC, 1.5, FdrModel::Exact).unwrap();
     assert!((ch.reflectance_specular - f_ext).abs() < 1e-15);
     assert!((ch.reflectance - f_ext - (1.0 - f_ext) * rd_total(&p)).abs() < 1e-15);
 }

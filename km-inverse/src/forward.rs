@@ -118,13 +118,7 @@ fn scene(sample: &Sample, p: &Optical, light: Light) -> Result<MonoScene, Invers
     if let Some(n) = sample.n_slide {
         layers.push(slide(n)?);
     }
-    Ok(MonoScene {
-        light,
-        ambient_n: 1.0,
-        layers,
-        substrate: Substrate::Transparent { n: 1.0 },
-        directions_deg: Vec::new(),
-    })
+    Ok(MonoScene::new(light, 1.0, layers, Substrate::Transparent { n: 1.0 }, Vec::new())?)
 }
 
 /// Forward model: the totals of the sample with properties `p`, computed by

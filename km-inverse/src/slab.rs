@@ -153,7 +153,7 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
     set.validate()?;
     meas.validate()?;
     if let Some(g) = opts.g
-        && !(g.is_finite() && g.abs() < 1.0)
+        && !km_core::phase::Anisotropy::admits(g)
     {
         return Err(InverseError::invalid("g", g, "must lie in (-1, 1)"));
     }

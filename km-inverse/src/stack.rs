@@ -185,7 +185,7 @@ impl StackModel {
         let layer = Layer::from_tau_albedo(p.tau, p.albedo, p.g, self.sample.n_sample)?;
         // Delta-M scaling, keeping 2N moments as the multi-flux solver does.
         let n_keep = 2 * self.streams;
-        let chi: Vec<f64> = (0..=n_keep).map(|l| layer.phase.legendre_moment(l)).collect();
+        let chi: Vec<f64> = (0..=n_keep).map(|l| layer.phase().legendre_moment(l)).collect();
         let (omega, tau) = (layer.albedo(), layer.tau());
         let (chi_s, omega_s, factor) = delta_m(&chi, omega, n_keep);
         let order = SlabOrder { tau: tau * factor, omega: omega_s, chi: &chi_s, m: 0 };

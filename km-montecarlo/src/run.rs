@@ -71,15 +71,9 @@ pub fn run_shard(
     if count > opts.batch_count() {
         return Err(McError::TooManyShards { count, batches: opts.batch_count() });
     }
-    for ch in &scene.channels {
-        ch.validate()?;
-    }
-    if scene.channels.is_empty() {
-        return Err(km_core::CoreError::scene("scene", None, "the scene has no channel").into());
-    }
-    let tracers: Vec<Tracer> = scene.channels.iter().map(|c| Tracer::new(c, opts)).collect();
+    let tracers: Vec<Tracer> = scene.channels().iter().map(|c| Tracer::new(c, opts)).collect();
     let metas: Vec<ChannelMeta> = scene
-        .channels
+        .channels()
         .iter()
         .zip(&tracers)
         .map(|(c, t)| {
@@ -139,7 +133,7 @@ pub fn run_shard(
         shard_count: count,
         batch_count,
         batch_size,
-        labels: scene.labels.clone(),
+        labels: scene.labels().to_vec(),
         channels: metas,
         batches,
         seconds,
@@ -335,10 +329,9 @@ pub fn radial_profile(
     opts: &McOptions,
     bins: RadialBins,
 ) -> Result<RadialProfile, McError> {
-    let mut scene = scene.clone();
-    for c in &mut scene.channels {
-        c.light = Light::Collimated { theta_deg: 0.0 };
-    }
+    let normal = |c: &km_core::MonoScene| c.with_light(Light::Collimated { theta_deg: 0.0 });
+    let channels = scene.channels().iter().map(normal).collect::<Result<Vec<_>, _>>()?;
+    let scene = scene.with_channels(channels)?;
     let opts = McOptions { radial: Some(bins), ..opts.clone() };
     let part = run_shard(&scene, &opts, 0, 1)?;
     let parts = [part];

@@ -118,24 +118,24 @@ pub(crate) struct Norms {
 impl Tracer {
     /// Prepare the tracer of one channel.
     pub fn new(scene: &MonoScene, opts: &McOptions) -> Tracer {
-        let mut slabs = Vec::with_capacity(scene.layers.len());
+        let mut slabs = Vec::with_capacity(scene.layers().len());
         let mut z = 0.0;
-        for l in &scene.layers {
+        for l in scene.layers() {
             let sigma_t = l.sigma_t();
-            let bottom = z + l.thickness;
+            let bottom = z + l.thickness();
             slabs.push(Slab {
                 top: z,
                 bottom,
                 sigma_t,
                 inv_sigma_t: 1.0 / sigma_t,
-                absorb: if sigma_t > 0.0 { l.sigma_a / sigma_t } else { 0.0 },
+                absorb: if sigma_t > 0.0 { l.sigma_a() / sigma_t } else { 0.0 },
                 albedo: l.albedo(),
-                phase: l.phase,
-                n: l.n,
+                phase: l.phase(),
+                n: l.n(),
             });
             z = bottom;
         }
-        let below = match scene.substrate {
+        let below = match scene.substrate() {
             Substrate::Transparent { n } => Below::Transparent(n),
             Substrate::Lambertian { albedo } => Below::Lambertian(albedo),
             Substrate::Black => Below::Black,
@@ -143,21 +143,21 @@ impl Tracer {
         let ring_edges = opts.ring_mu_edges.clone().unwrap_or_default();
         let layout = Layout {
             layers: slabs.len(),
-            dirs: scene.directions_deg.len(),
+            dirs: scene.directions_deg().len(),
             rings: ring_edges.len().saturating_sub(1),
             radial: opts.radial.map_or(0, |r| r.count),
         };
         Tracer {
             slabs,
-            ambient_n: scene.ambient_n,
+            ambient_n: scene.ambient_n(),
             below,
-            light: scene.light,
+            light: scene.light(),
             estimator: opts.estimator,
             layout,
-            dirs: scene.directions_deg.iter().map(|d| direction_vector(d[0], d[1])).collect(),
+            dirs: scene.directions_deg().iter().map(|d| direction_vector(d[0], d[1])).collect(),
             cos_alpha_r: cone_half_angles(scene, opts, true).iter().map(|a| a.cos()).collect(),
             cos_alpha_t: cone_half_angles(scene, opts, false).iter().map(|a| a.cos()).collect(),
-            bin_unscattered: scene.light == Light::Diffuse,
+            bin_unscattered: scene.light() == Light::Diffuse,
             ring_edges,
             radial: opts.radial,
             max_steps: opts.max_steps_per_photon,
@@ -506,23 +506,24 @@ fn exit_edge(n_in: f64, n_out: f64) -> f64 {
 /// Half-angles of the cone bins of the output directions (eq. B2') on the
 /// reflection side (`top`) or the transmission side.
 fn cone_half_angles(scene: &MonoScene, opts: &McOptions, top: bool) -> Vec<f64> {
-    let layers = &scene.layers;
+    let layers = scene.layers();
     let last = &layers[layers.len() - 1];
     let edge = if top {
-        exit_edge(layers[0].n, scene.ambient_n)
+        exit_edge(layers[0].n(), scene.ambient_n())
     } else if last.is_half_space() && last.sigma_t() == 0.0 {
         // A clear half-space layer: light enters it from the layer above (or the ambient).
-        let above = if layers.len() >= 2 { layers[layers.len() - 2].n } else { scene.ambient_n };
-        exit_edge(above, last.n)
+        let above =
+            if layers.len() >= 2 { layers[layers.len() - 2].n() } else { scene.ambient_n() };
+        exit_edge(above, last.n())
     } else {
-        match scene.substrate {
-            Substrate::Transparent { n } => exit_edge(last.n, n),
+        match scene.substrate() {
+            Substrate::Transparent { n } => exit_edge(last.n(), n),
             _ => PI / 2.0,
         }
     };
     let alpha = opts.bin_half_angle_deg.to_radians();
     scene
-        .directions_deg
+        .directions_deg()
         .iter()
         .map(|d| cone_half_angle_with_edge(d[0].to_radians(), alpha, edge))
         .collect()

@@ -231,22 +231,23 @@ fn check_angles(name: &'static str, a: &[f64]) -> Result<(), BsdfError> {
 
 /// The scene seen from below: ambient and substrate swapped, layers reversed.
 fn flipped(scene: &MonoScene) -> Result<MonoScene, BsdfError> {
-    let Substrate::Transparent { n } = scene.substrate else {
+    let Substrate::Transparent { n } = scene.substrate() else {
         return Err(BsdfError::Input {
             name: "side",
             reason: "incidence from below needs a transparent substrate".into(),
         });
     };
-    if scene.layers.iter().any(|l| l.is_half_space()) {
+    if scene.layers().iter().any(|l| l.is_half_space()) {
         return Err(BsdfError::Input {
             name: "side",
             reason: "incidence from below through a half-space layer".into(),
         });
     }
-    let mut s = scene.clone();
-    s.ambient_n = n;
-    s.layers.reverse();
-    s.substrate = Substrate::Transparent { n: scene.ambient_n };
+    let mut layers = scene.layers().to_vec();
+    layers.reverse();
+    let below = Substrate::transparent(scene.ambient_n()).map_err(MultifluxError::from)?;
+    let s = MonoScene::new(scene.light(), n, layers, below, scene.directions_deg().to_vec())
+        .map_err(MultifluxError::from)?;
     Ok(s)
 }
 
@@ -292,17 +293,16 @@ impl Bsdf {
             });
         }
         faer::set_global_parallelism(faer::Par::Seq);
-        let mut channels = Vec::with_capacity(scene.channels.len());
+        let mut channels = Vec::with_capacity(scene.channels().len());
         let (mut transmits, mut n_in, mut n_out) = (false, 1.0, None);
-        for ch in &scene.channels {
-            ch.validate().map_err(MultifluxError::from)?;
+        for ch in scene.channels() {
             let mono = match opts.side {
                 Side::Above => ch.clone(),
                 Side::Below => flipped(ch)?,
             };
             let (c, t) = channel(&mono, theta_i, theta_o, &opts.solver)?;
             transmits = t.is_some();
-            n_in = mono.ambient_n;
+            n_in = mono.ambient_n();
             n_out = t;
             channels.push(c);
         }
@@ -311,7 +311,7 @@ impl Bsdf {
             theta_o: theta_o.to_vec(),
             side: opts.side,
             channels,
-            labels: scene.labels.clone(),
+            labels: scene.labels().to_vec(),
             transmits,
             n_in,
             n_out,

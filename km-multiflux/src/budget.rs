@@ -85,7 +85,7 @@ pub struct WorkEstimate {
 /// ```
 pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut est = WorkEstimate { units: 0.0, max_nodes: 0, orders: 0, operators: 0, channels: 0 };
-    for ch in &scene.channels {
+    for ch in scene.channels() {
         let w = estimate_mono(ch, opts);
         est.units += w.units;
         est.max_nodes = est.max_nodes.max(w.max_nodes);
@@ -99,9 +99,9 @@ pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
 fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
     let streams = opts.streams.unwrap_or_else(|| crate::options::default_streams(scene)) as f64;
     // Media top to bottom; the substrate is a medium when it is transparent.
-    let mut media: Vec<f64> = vec![scene.ambient_n];
-    media.extend(scene.layers.iter().map(|l| l.n));
-    if let Substrate::Transparent { n } = scene.substrate {
+    let mut media: Vec<f64> = vec![scene.ambient_n()];
+    media.extend(scene.layers().iter().map(|l| l.n()));
+    if let Substrate::Transparent { n } = scene.substrate() {
         media.push(n);
     }
     // d(n): rank of n among the distinct indices (sorted once, then a binary search).
@@ -110,32 +110,32 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
     distinct.dedup();
     // Extra columns: the beam, and a probe per direction above (and below
     // when the substrate is transparent).
-    let below = matches!(scene.substrate, Substrate::Transparent { .. });
-    let extras = 1.0 + scene.directions_deg.len() as f64 * if below { 2.0 } else { 1.0 };
+    let below = matches!(scene.substrate(), Substrate::Transparent { .. });
+    let extras = 1.0 + scene.directions_deg().len() as f64 * if below { 2.0 } else { 1.0 };
     let nodes = |n: f64| streams * distinct.partition_point(|&x| x <= n).max(1) as f64;
     let size = |n: f64| nodes(n) + extras;
     let mut per_order = 0.0;
     let mut operators = 0;
     let mut max_nodes = 0.0f64;
-    for (i, l) in scene.layers.iter().enumerate() {
-        let n_layer = nodes(l.n);
+    for (i, l) in scene.layers().iter().enumerate() {
+        let n_layer = nodes(l.n());
         max_nodes = max_nodes.max(n_layer);
-        per_order += size(l.n).powi(3);
+        per_order += size(l.n()).powi(3);
         operators += 1;
         let above = media[i];
-        if above != l.n || opts.all_effects {
-            per_order += size(above.max(l.n)).powi(3);
+        if above != l.n() || opts.all_effects {
+            per_order += size(above.max(l.n())).powi(3);
             operators += 1;
         }
     }
-    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate, scene.layers.last())
-        && (n != last.n || opts.all_effects)
+    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate(), scene.layers().last())
+        && (n != last.n() || opts.all_effects)
     {
-        per_order += size(n.max(last.n)).powi(3);
+        per_order += size(n.max(last.n())).powi(3);
         operators += 1;
     }
-    let beam = matches!(scene.light, Light::Collimated { .. });
-    let angles = !scene.directions_deg.is_empty() && beam;
+    let beam = matches!(scene.light(), Light::Collimated { .. });
+    let angles = !scene.directions_deg().is_empty() && beam;
     let mut orders = if opts.all_effects {
         2.0 * streams
     } else if angles {

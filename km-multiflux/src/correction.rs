@@ -119,7 +119,7 @@ impl PeakCorrection {
         let (s, s1, s2) = legendre_sums3(c, nk, &self.chi);
         let p2 = match self.phase {
             Phase::Isotropic => 1.0 / four_pi,
-            Phase::HenyeyGreenstein { g } => Phase::HenyeyGreenstein { g: g * g }.eval(c),
+            Phase::HenyeyGreenstein { g } => Phase::HenyeyGreenstein { g: g.squared() }.eval(c),
         };
         let r1 = four_pi * self.phase.eval(c) - s1;
         let r2 = four_pi * p2 - s2;
@@ -331,7 +331,7 @@ mod tests {
         let iso = PeakCorrection::new(Phase::Isotropic, 1.0, 8, true);
         assert_eq!(iso.peak_pspike(0.3), 0.0);
         let g: f64 = 0.6;
-        let c = PeakCorrection::new(Phase::HenyeyGreenstein { g }, 0.9, 8, true);
+        let c = PeakCorrection::new(Phase::henyey_greenstein(g).unwrap(), 0.9, 8, true);
         let f = g.powi(8);
         for &x in &[1.0, 0.99, 0.5, -0.3] {
             let direct = 0.81

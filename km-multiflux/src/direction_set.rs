@@ -327,10 +327,10 @@ impl DirectionSet {
     /// assert_eq!(ops.r_top.nrows(), set.len());
     /// ```
     pub fn layer_operators(&self, layer: &Layer) -> Result<LayerOperators> {
-        if layer.sigma_s == 0.0 || layer.thickness == 0.0 {
-            return Ok(absorber_operators(&self.mu, layer.sigma_t(), layer.thickness));
+        if layer.sigma_s() == 0.0 || layer.thickness() == 0.0 {
+            return Ok(absorber_operators(&self.mu, layer.sigma_t(), layer.thickness()));
         }
-        self.modes(layer.sigma_a, layer.sigma_s, &layer.phase)?.operators(layer.thickness)
+        self.modes(layer.sigma_a(), layer.sigma_s(), &layer.phase())?.operators(layer.thickness())
     }
 }
 

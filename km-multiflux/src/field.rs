@@ -2,7 +2,7 @@
 //! (seed eq. 19 generalised to the stack, eq. 19' of `docs/multiflux.md`).
 
 use faer::Mat;
-use km_core::{Light, MonoScene, Substrate};
+use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
 use crate::options::MultifluxOptions;
@@ -55,9 +55,8 @@ pub fn internal_field(
     z: f64,
     m: usize,
 ) -> Result<InternalField, MultifluxError> {
-    scene.validate()?;
     let streams = resolve_streams(scene, opts)?;
-    let total: f64 = scene.layers.iter().map(|l| l.thickness).sum();
+    let total: f64 = scene.layers().iter().map(|l| l.thickness()).sum();
     if !(z >= 0.0 && z <= total && z.is_finite()) {
         return Err(MultifluxError::Option {
             name: "z",
@@ -65,25 +64,20 @@ pub fn internal_field(
             reason: "depth must lie in the stack",
         });
     }
-    let n0 = scene.ambient_n;
+    let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
     let layers = scale_layers(scene, opts, 2 * streams);
-    let ex_s: Vec<(f64, bool)> = match scene.light {
-        Light::Collimated { theta_deg } => vec![(n0 * theta_deg.to_radians().sin(), true)],
-        Light::Diffuse => Vec::new(),
-    };
+    let ex_s: Vec<(f64, bool)> = scene.beam_invariant().map(|s| (s, true)).into_iter().collect();
     let extras_in = |n: f64| -> Vec<Extra> {
         ex_s.iter()
             .map(|&(s, beam)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg: 0.0 })
             .collect()
     };
     let (i_cut, above, below) = split_at_depth(scene, &layers, z);
-    let lc = &scene.layers[i_cut];
-    let n_cut = lc.n;
-    let mut scene_above = scene.clone();
-    scene_above.substrate = Substrate::Transparent { n: n_cut };
-    let mut scene_below = scene.clone();
-    scene_below.ambient_n = n_cut;
+    let lc = &scene.layers()[i_cut];
+    let n_cut = lc.n();
+    let scene_above = scene.with_substrate(Substrate::Transparent { n: n_cut })?;
+    let scene_below = scene.with_ambient_n(n_cut)?;
     let tms = false;
     let a_ops = stack_operators(
         &scene_above,
@@ -160,27 +154,27 @@ fn split_at_depth(
 ) -> (usize, Vec<Scaled>, Vec<Scaled>) {
     // Find the layer holding z and split it.
     let (mut i_cut, mut z_top) = (0, 0.0);
-    for (i, l) in scene.layers.iter().enumerate() {
+    for (i, l) in scene.layers().iter().enumerate() {
         i_cut = i;
-        if z <= z_top + l.thickness {
+        if z <= z_top + l.thickness() {
             break;
         }
-        z_top += l.thickness;
+        z_top += l.thickness();
     }
-    let lc = &scene.layers[i_cut];
-    let frac_tau = |tau: f64| if lc.thickness > 0.0 { tau / lc.thickness } else { 0.0 };
+    let lc = &scene.layers()[i_cut];
+    let frac_tau = |tau: f64| if lc.thickness() > 0.0 { tau / lc.thickness() } else { 0.0 };
     let dz = (z - z_top).max(0.0);
     let mut upper = layers[i_cut].clone();
     let mut lower = layers[i_cut].clone();
     // Piece above the cut: optical thickness (z - z_top) sigma_t (scaled and true).
-    let (per_len, per_len_true) = if lc.thickness.is_infinite() {
+    let (per_len, per_len_true) = if lc.thickness().is_infinite() {
         (lc.sigma_t() * layers[i_cut].factor, lc.sigma_t())
     } else {
         (frac_tau(layers[i_cut].tau), frac_tau(layers[i_cut].tau_true))
     };
     upper.tau = per_len * dz;
     upper.tau_true = per_len_true * dz;
-    let rest = lc.thickness - dz;
+    let rest = lc.thickness() - dz;
     lower.tau = if rest.is_infinite() { f64::INFINITY } else { per_len * rest };
     lower.tau_true = if rest.is_infinite() { f64::INFINITY } else { per_len_true * rest };
     let mut above: Vec<Scaled> = layers[..i_cut].to_vec();

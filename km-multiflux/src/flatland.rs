@@ -22,7 +22,7 @@
 use std::f64::consts::PI;
 
 use faer::Mat;
-use km_core::phase::henyey_greenstein_2d;
+use km_core::phase::{Anisotropy, henyey_greenstein_2d};
 
 use crate::adding::LayerOperators;
 use crate::direction_set::{DiscreteModes, absorber_operators, renormalised_blocks};
@@ -95,12 +95,12 @@ impl CircleSet {
     /// `P+-_ij = p2(cos(theta_i - pi + theta_j)) dtheta`, rows of `[P++ P+-]`
     /// summing to 1 (same symmetric rescaling as the sphere, docs eq. DS3).
     ///
+    /// `g` is checked by its type (`|g| < 1`).
+    ///
     /// # Errors
-    /// `|g| >= 1` or non-finite.
-    pub fn phase_blocks(&self, g: f64) -> Result<(Mat<f64>, Mat<f64>)> {
-        if !g.is_finite() || g.abs() >= 1.0 {
-            return Err(invalid("g", g, "must satisfy |g| < 1"));
-        }
+    /// None today (the renormalisation's own failures).
+    pub fn phase_blocks(&self, g: Anisotropy) -> Result<(Mat<f64>, Mat<f64>)> {
+        let g = g.get();
         let n = self.len();
         let t = &self.theta;
         let pp = Mat::from_fn(n, n, |i, j| henyey_greenstein_2d(g, (t[i] - t[j]).cos()));
@@ -112,7 +112,7 @@ impl CircleSet {
     ///
     /// # Errors
     /// Invalid coefficients or `g`; numerical failure.
-    pub fn modes(&self, sigma_a: f64, sigma_s: f64, g: f64) -> Result<DiscreteModes> {
+    pub fn modes(&self, sigma_a: f64, sigma_s: f64, g: Anisotropy) -> Result<DiscreteModes> {
         let (pp, pm) = self.phase_blocks(g)?;
         DiscreteModes::new(&self.mu, &self.w, &pp, &pm, sigma_a, sigma_s)
     }
@@ -125,7 +125,7 @@ impl CircleSet {
         &self,
         sigma_a: f64,
         sigma_s: f64,
-        g: f64,
+        g: Anisotropy,
         thickness: f64,
     ) -> Result<LayerOperators> {
         if thickness.is_nan() || thickness < 0.0 {
@@ -177,11 +177,12 @@ pub struct Eigenmodes {
 /// Invalid parameters, `sigma_t = 0`, numerical failure.
 ///
 /// ```
-/// let e = km_multiflux::flatland::eigenmodes(0.2, 0.8, 0.5, 38).unwrap();
+/// let g = km_core::phase::Anisotropy::new(0.5).unwrap();
+/// let e = km_multiflux::flatland::eigenmodes(0.2, 0.8, g, 38).unwrap();
 /// assert_eq!(e.eigenvalues.len(), 38);
 /// assert!((e.eigenvalues[0] + e.eigenvalues[1]).abs() < 1e-12);
 /// ```
-pub fn eigenmodes(sigma_a: f64, sigma_s: f64, g: f64, n_dirs: usize) -> Result<Eigenmodes> {
+pub fn eigenmodes(sigma_a: f64, sigma_s: f64, g: Anisotropy, n_dirs: usize) -> Result<Eigenmodes> {
     let set = CircleSet::new(n_dirs)?;
     let modes = set.modes(sigma_a, sigma_s, g)?;
     let (xp, xm) = modes.eigenvectors();
@@ -234,14 +235,22 @@ pub struct DepthProfile {
 /// Invalid parameters, a depth outside `[0, thickness]`, numerical failure.
 ///
 /// ```
-/// let p = km_multiflux::flatland::intensity_at_depths(0.2, 0.8, 0.0, f64::INFINITY, 38, &[0.0, 1.0])
-///     .unwrap();
+/// use km_core::phase::Anisotropy;
+/// let p = km_multiflux::flatland::intensity_at_depths(
+///     0.2,
+///     0.8,
+///     Anisotropy::ISOTROPIC,
+///     f64::INFINITY,
+///     38,
+///     &[0.0, 1.0],
+/// )
+/// .unwrap();
 /// assert!((p[1].direct - (-1.0f64).exp()).abs() < 1e-15);
 /// ```
 pub fn intensity_at_depths(
     sigma_a: f64,
     sigma_s: f64,
-    g: f64,
+    g: Anisotropy,
     thickness: f64,
     n_dirs: usize,
     depths: &[f64],
@@ -307,7 +316,7 @@ pub fn intensity_at_depths(
 pub fn slab_totals(
     sigma_a: f64,
     sigma_s: f64,
-    g: f64,
+    g: Anisotropy,
     thickness: f64,
     n_dirs: usize,
 ) -> Result<(f64, f64)> {

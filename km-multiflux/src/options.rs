@@ -44,21 +44,21 @@ pub const DEFAULT_STREAMS_ANGULAR: usize = 48;
 /// 1e-9 the solver otherwise keeps (g = 0.99 in n = 1.5 stays ~1e-3 off at
 /// 32 streams; ask for `streams` explicitly to trade).
 pub fn default_streams(scene: &MonoScene) -> usize {
-    let grazing = scene.light.mu0().is_some_and(|mu0| mu0 < 80f64.to_radians().cos());
+    let grazing = scene.light().mu0().is_some_and(|mu0| mu0 < 80f64.to_radians().cos());
     let peaked_mismatch = scene
-        .layers
+        .layers()
         .iter()
-        .any(|l| l.g().abs() > 0.8 && l.albedo() > 0.0 && l.n != scene.ambient_n);
-    let very_peaked = scene.layers.iter().any(|l| l.g().abs() > 0.95 && l.albedo() > 0.0);
-    let matched = scene.layers.iter().all(|l| l.n == scene.ambient_n)
-        && !matches!(scene.substrate, Substrate::Transparent { n } if n != scene.ambient_n);
+        .any(|l| l.g().abs() > 0.8 && l.albedo() > 0.0 && l.n() != scene.ambient_n());
+    let very_peaked = scene.layers().iter().any(|l| l.g().abs() > 0.95 && l.albedo() > 0.0);
+    let matched = scene.layers().iter().all(|l| l.n() == scene.ambient_n())
+        && !matches!(scene.substrate(), Substrate::Transparent { n } if n != scene.ambient_n());
     // Exit directions asked for (BRDF/BTDF within 1 % or 1e-4 for |g| <= 0.95
     // up to 85 degrees; `docs/multiflux.md` §8, table 8b): 48 streams beyond
     // |g| = 0.9 (g = 0.95: 1.0e-2 worst at 32, 1.2e-3 at 48), 32 beyond 0.8
     // (g = 0.9: 8.3e-4 at 24, 1.0e-4 at 32; g = 0.8: 6.9e-5 at 16).
-    let angles = !scene.directions_deg.is_empty();
+    let angles = !scene.directions_deg().is_empty();
     let max_g =
-        scene.layers.iter().filter(|l| l.albedo() > 0.0).fold(0.0f64, |a, l| a.max(l.g().abs()));
+        scene.layers().iter().filter(|l| l.albedo() > 0.0).fold(0.0f64, |a, l| a.max(l.g().abs()));
     if angles && max_g > 0.9 {
         DEFAULT_STREAMS_ANGULAR
     } else if very_peaked && grazing && matched && !angles {

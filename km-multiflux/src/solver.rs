@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use faer::Mat;
 use km_core::phase::PhaseFunction;
-use km_core::{ChannelResult, Light, MonoScene, Scene, Solution, Substrate};
+use km_core::{ChannelResult, MonoScene, Scene, Solution, Substrate};
 
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
@@ -63,7 +63,7 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     // the solve changes no global state.
     let start = Instant::now();
     let parts =
-        scene.channels.iter().map(|ch| solve_channel(ch, opts)).collect::<Result<Vec<_>, _>>()?;
+        scene.channels().iter().map(|ch| solve_channel(ch, opts)).collect::<Result<Vec<_>, _>>()?;
     Ok(assemble(scene, opts, parts, start.elapsed().as_secs_f64()))
 }
 
@@ -91,7 +91,7 @@ pub struct ChannelPart {
 /// use km_multiflux::{MultifluxOptions, assemble, solve, solve_channel};
 /// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
 /// let o = MultifluxOptions::default();
-/// let parts: Vec<_> = scene.channels.iter().map(|c| solve_channel(c, &o).unwrap()).collect();
+/// let parts: Vec<_> = scene.channels().iter().map(|c| solve_channel(c, &o).unwrap()).collect();
 /// let a = assemble(&scene, &o, parts, 0.0);
 /// assert_eq!(a.channels, solve(&scene, &o).unwrap().channels);
 /// ```
@@ -148,7 +148,7 @@ pub fn assemble(
     Solution {
         method: "multiflux".into(),
         channels,
-        labels: scene.labels.clone(),
+        labels: scene.labels().to_vec(),
         seconds,
         notes,
         diagnostics: km_core::solution::Diagnostics {
@@ -181,7 +181,6 @@ fn solve_mono_residual(
     out_residual: &std::cell::Cell<f64>,
     out_cutoff: &std::cell::Cell<Option<f64>>,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
-    scene.validate()?;
     let streams = resolve_streams(scene, opts)?;
     // The plan's `transmission` rule: a layer through which nothing measurable
     // returns is a half-space; nothing below it is built.
@@ -191,7 +190,7 @@ fn solve_mono_residual(
     let all = opts.all_effects;
 
     // Media, top to bottom: ambient, layers, substrate (if transparent).
-    let n0 = scene.ambient_n;
+    let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
     // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
     let n_keep = 2 * streams;
@@ -202,7 +201,7 @@ fn solve_mono_residual(
 
     // Delta-M scaling of each layer.
     let layers = scale_layers(scene, opts, n_keep);
-    let dirs = &scene.directions_deg;
+    let dirs = scene.directions_deg();
     let m_max = last_order(&layers, opts, !dirs.is_empty() && beam.is_some(), streams);
 
     let nodes0 = grid.medium(n0);
@@ -297,15 +296,12 @@ struct ChannelExtras {
 
 impl ChannelExtras {
     fn new(scene: &MonoScene, n_sub: Option<f64>, delta_m: bool) -> Self {
-        let n0 = scene.ambient_n;
+        let n0 = scene.ambient_n();
         let mut ex_s: Vec<(f64, bool, f64)> = Vec::new();
-        let beam = match scene.light {
-            Light::Collimated { theta_deg } => {
-                ex_s.push((n0 * theta_deg.to_radians().sin(), true, 0.0));
-                Some(0)
-            }
-            Light::Diffuse => None,
-        };
+        let beam = scene.beam_invariant().map(|s| {
+            ex_s.push((s, true, 0.0));
+            0
+        });
         let tms_on = delta_m && beam.is_some();
         let probe = |s: f64, phi: f64, ex_s: &mut Vec<(f64, bool, f64)>| -> usize {
             let phi = if tms_on { phi } else { 0.0 };
@@ -315,7 +311,7 @@ impl ChannelExtras {
             ex_s.push((s, false, phi));
             ex_s.len() - 1
         };
-        let dirs = &scene.directions_deg;
+        let dirs = scene.directions_deg();
         let brdf_ix: Vec<usize> =
             dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
         let btdf_ix: Vec<usize> = match n_sub {
@@ -375,11 +371,11 @@ fn lone_layer<'a>(
     all: bool,
 ) -> Option<(usize, &'a Scaled)> {
     match (beam, layers) {
-        (Some(b), [l]) if !all && l.n == scene.ambient_n => {
+        (Some(b), [l]) if !all && l.n == scene.ambient_n() => {
             let floor_free = l.tau.is_infinite()
-                || match scene.substrate {
+                || match scene.substrate() {
                     Substrate::Black => true,
-                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == scene.ambient_n),
+                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == scene.ambient_n()),
                     Substrate::Lambertian { .. } => false,
                 };
             floor_free.then_some((b, l))
@@ -423,7 +419,7 @@ fn finish(
     out: &mut ChannelResult,
     out_residual: &std::cell::Cell<f64>,
 ) -> Result<(), MultifluxError> {
-    let n0 = scene.ambient_n;
+    let n0 = scene.ambient_n();
     let (spec, direct) = match ex.beam {
         Some(b) => delta_parts(scene, layers, n_sub, ex.ex_s[b].0),
         None => {
@@ -442,7 +438,7 @@ fn finish(
     // conservatively and the floor does not absorb.
     let lossless = layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
         && (layers.last().is_some_and(|l| l.tau.is_infinite())
-            || match scene.substrate {
+            || match scene.substrate() {
                 Substrate::Transparent { .. } => true,
                 Substrate::Lambertian { albedo } => albedo == 1.0,
                 Substrate::Black => false,
@@ -494,10 +490,10 @@ pub(crate) fn scale_layers(
     n_keep: usize,
 ) -> Vec<Scaled> {
     scene
-        .layers
+        .layers()
         .iter()
         .map(|l| {
-            let chi: Vec<f64> = (0..=n_keep).map(|i| l.phase.legendre_moment(i)).collect();
+            let chi: Vec<f64> = (0..=n_keep).map(|i| l.phase().legendre_moment(i)).collect();
             let omega = l.albedo();
             let (chi_s, omega_s, factor) = if opts.delta_m {
                 delta_m(&chi, omega, n_keep)
@@ -510,9 +506,9 @@ pub(crate) fn scale_layers(
                 tau_true: tau,
                 omega: omega_s,
                 chi: chi_s,
-                n: l.n,
+                n: l.n(),
                 omega_true: omega,
-                phase: l.phase,
+                phase: l.phase(),
                 factor,
                 secondary: opts.secondary_correction,
             }
@@ -586,13 +582,13 @@ pub(crate) fn resolve_streams(
 /// The media of the stack, top to bottom (ambient, layers, and a transparent
 /// substrate unless a half-space hides it), and their Snell-mapped grid.
 pub(crate) fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, AngularGrid) {
-    let half = scene.layers.last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
-    let n_sub = match scene.substrate {
+    let half = scene.layers().last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
+    let n_sub = match scene.substrate() {
         Substrate::Transparent { n } if !half => Some(n),
         _ => None,
     };
-    let mut all_n = vec![scene.ambient_n];
-    all_n.extend(scene.layers.iter().map(|l| l.n));
+    let mut all_n = vec![scene.ambient_n()];
+    all_n.extend(scene.layers().iter().map(|l| l.n()));
     all_n.extend(n_sub);
     (n_sub, AngularGrid::new(&all_n, streams))
 }
@@ -628,8 +624,9 @@ pub(crate) fn planned_cutoff(
     else {
         return (None, None);
     };
-    let mut cut = scene.clone();
-    cut.layers.truncate(i + 1);
-    cut.layers[i].thickness = f64::INFINITY;
-    (Some(cut), Some(bound))
+    // The plan's layer index is in range, so the cut cannot fail.
+    match scene.cut_below(i) {
+        Ok(cut) => (Some(cut), Some(bound)),
+        Err(_) => (None, None),
+    }
 }

@@ -54,7 +54,7 @@ pub(crate) fn add_stack(
     pieces: &StackPieces<'_>,
 ) -> Result<LayerOperators, MultifluxError> {
     let mut acc: Option<LayerOperators> = None;
-    let mut n_above = scene.ambient_n;
+    let mut n_above = scene.ambient_n();
     for (i, l) in layers.iter().enumerate() {
         // The plan's `interface` rule: equal indices are no interface (the
         // Fresnel operator would be the identity); built anyway with all effects.
@@ -105,7 +105,7 @@ pub(crate) fn close_stack(
         return Ok(acc);
     }
     let (n_above, neumann) = (close.n_above, close.neumann);
-    match scene.substrate {
+    match scene.substrate() {
         Substrate::Transparent { .. } => {
             let ns = close.n_sub.unwrap_or(n_above);
             if ns != n_above || close.all_effects {
@@ -161,7 +161,7 @@ pub(crate) fn delta_parts(
         }
     };
     let mut acc: Op = (0.0, 1.0, 0.0, 1.0);
-    let mut n_above = scene.ambient_n;
+    let mut n_above = scene.ambient_n();
     for l in layers {
         if l.n != n_above {
             acc = star(acc, iface(n_above, l.n));
@@ -174,7 +174,7 @@ pub(crate) fn delta_parts(
         n_above = l.n;
     }
     let mut transmits = false;
-    if let (Substrate::Transparent { .. }, Some(ns)) = (scene.substrate, n_sub) {
+    if let (Substrate::Transparent { .. }, Some(ns)) = (scene.substrate(), n_sub) {
         if ns != n_above {
             acc = star(acc, iface(n_above, ns));
         }

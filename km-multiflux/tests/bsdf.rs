@@ -1,7 +1,7 @@
 //! The BSDF table against `km solve` (the solver's own directions), and its
 //! checks: energy, reciprocity (also across an index change), positivity.
 
-use km_core::{Light, Scene};
+use km_core::{Light, MonoScene, Scene};
 use km_multiflux::bsdf::{Bsdf, BsdfOptions, Side, check, gauss_angles};
 use km_multiflux::{MultifluxOptions, solve};
 
@@ -76,17 +76,19 @@ fn against_solve_at(
     let b = Bsdf::new(&scene, theta_i, theta_o, &bopts).unwrap();
     let mut worst = 0.0f64;
     for (i, &ti) in theta_i.iter().enumerate() {
-        let mut s = scene.clone();
+        let s = scene.clone();
         let mut dirs = Vec::new();
         for &to in theta_o {
             for &p in phis {
                 dirs.push([to, p]);
             }
         }
-        for ch in &mut s.channels {
-            ch.light = Light::Collimated { theta_deg: ti };
-            ch.directions_deg = dirs.clone();
-        }
+        let lit = |ch: &MonoScene| {
+            ch.with_light(Light::Collimated { theta_deg: ti })
+                .and_then(|c| c.with_directions(dirs.clone()))
+                .unwrap()
+        };
+        let s = s.with_channels(s.channels().iter().map(lit).collect()).unwrap();
         let opts = MultifluxOptions { streams: Some(b.channels[0].streams), ..base.clone() };
         let sol = solve(&s, &opts).unwrap();
         for (c, res) in sol.channels.iter().enumerate() {

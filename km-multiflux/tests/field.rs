@@ -18,7 +18,7 @@ const STACK: &str = "[light]\ntheta_deg = 30.0\n\
 fn net_flux_goes_from_one_minus_r_to_t() {
     let o = MultifluxOptions { streams: Some(12), ..Default::default() };
     let sc = scene(STACK);
-    let mono = &sc.channels[0];
+    let mono = &sc.channels()[0];
     let c = solve(&sc, &o).unwrap().channels.remove(0);
     let mut prev = f64::INFINITY;
     for k in 0..=30 {
@@ -42,7 +42,7 @@ fn conservative_layer_has_constant_net_flux() {
     let o = MultifluxOptions { streams: Some(12), ..Default::default() };
     let sc =
         scene("[light]\ntheta_deg = 60.0\n[[layer]]\ntau = 3.0\nalbedo = 1.0\ng = 0.8\nn = 1.4\n");
-    let mono = &sc.channels[0];
+    let mono = &sc.channels()[0];
     let f0 = internal_field(mono, &o, 0.0, 0).unwrap().net_flux();
     for k in 1..=10 {
         let f = internal_field(mono, &o, 0.1 * k as f64, 0).unwrap().net_flux();
@@ -76,7 +76,7 @@ fn stack_field_equals_the_mode_solution() {
     let mu0 = 40f64.to_radians().cos();
     // tau = 2 on a unit thickness: optical depth 2 z.
     for z in [0.0, 0.15, 0.5, 0.85, 1.0] {
-        let f = internal_field(&sc.channels[0], &o, z, 0).unwrap();
+        let f = internal_field(&sc.channels()[0], &o, z, 0).unwrap();
         let (dn, up) = sol.field(2.0 * z, &zero, &zero, Some((mu0, 1.0))).unwrap();
         for i in 0..n {
             assert!(

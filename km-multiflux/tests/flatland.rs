@@ -3,12 +3,13 @@
 use std::f64::consts::PI;
 
 use faer::Mat;
+use km_core::phase::Anisotropy;
 use km_multiflux::flatland::*;
 
 /// The full `2N x 2N` matrix `Q = K^-1 (-sigma_t + sigma_s P)` in the order
 /// (down 0..N, up 0..N), built from the public phase blocks.
 fn full_q(set: &CircleSet, sigma_a: f64, sigma_s: f64, g: f64) -> Mat<f64> {
-    let (pp, pm) = set.phase_blocks(g).unwrap();
+    let (pp, pm) = set.phase_blocks(an(g)).unwrap();
     let n = set.len();
     let st = sigma_a + sigma_s;
     Mat::from_fn(2 * n, 2 * n, |i, j| {
@@ -39,7 +40,7 @@ fn circle_set_has_the_normal_and_no_grazing_direction() {
 fn phase_rows_sum_to_one() {
     let s = CircleSet::new(62).unwrap();
     for g in [0.0, 0.5, 0.9, -0.7] {
-        let (pp, pm) = s.phase_blocks(g).unwrap();
+        let (pp, pm) = s.phase_blocks(an(g)).unwrap();
         for i in 0..s.len() {
             let row: f64 = (0..s.len()).map(|j| pp[(i, j)] + pm[(i, j)]).sum();
             assert!((row - 1.0).abs() < 1e-12, "g={g}: {row}");
@@ -71,7 +72,7 @@ fn eigenvalues_come_in_plus_minus_pairs_and_match_the_full_eigenproblem() {
             let partner = full[full.len() - 1 - k];
             assert!((full[k] + partner).abs() < 1e-9 * full[k].abs().max(1.0));
         }
-        let e = eigenmodes(sa, ss, g, n_dirs).unwrap();
+        let e = eigenmodes(sa, ss, an(g), n_dirs).unwrap();
         let mut mine = e.eigenvalues.clone();
         mine.sort_by(f64::total_cmp);
         for (a, b) in mine.iter().zip(&full) {
@@ -85,7 +86,7 @@ fn eigenvectors_satisfy_q_v_equals_lambda_v() {
     let (sa, ss, g) = (0.1, 0.9, 0.5);
     let set = CircleSet::new(30).unwrap();
     let q = full_q(&set, sa, ss, g);
-    let e = eigenmodes(sa, ss, g, 30).unwrap();
+    let e = eigenmodes(sa, ss, an(g), 30).unwrap();
     // Map the output angle order back to (down, up) positions.
     let n = set.len();
     let pos = |angle: f64| -> usize {
@@ -122,7 +123,7 @@ fn energy_is_conserved_and_thick_layers_stay_finite() {
     for &albedo in &[0.0, 0.5, 0.9, 0.999999, 1.0] {
         for &tau in &[1e-6, 0.1, 1.0, 10.0, 1e4] {
             for &g in &[-0.5, 0.0, 0.8] {
-                let (r, t) = slab_totals(1.0 - albedo, albedo, g, tau, 38).unwrap();
+                let (r, t) = slab_totals(1.0 - albedo, albedo, an(g), tau, 38).unwrap();
                 assert!(r.is_finite() && t.is_finite());
                 let a = 1.0 - r - t;
                 assert!(a >= -1e-12 && r >= 0.0 && t >= 0.0, "albedo={albedo} tau={tau}: A={a}");
@@ -139,7 +140,7 @@ fn energy_is_conserved_and_thick_layers_stay_finite() {
 fn thin_slab_single_scattering_limit() {
     // Independent reference: for tau -> 0 and isotropic 2-D scattering, half
     // the scattered light goes up: R = albedo tau / 2 (relative 1e-3 at tau = 1e-5).
-    let (r, _) = slab_totals(0.2, 0.8, 0.0, 1e-5, 62).unwrap();
+    let (r, _) = slab_totals(0.2, 0.8, an(0.0), 1e-5, 62).unwrap();
     assert!((r / (0.8e-5 / 2.0) - 1.0).abs() < 1e-3, "{r}");
 }
 
@@ -159,7 +160,7 @@ fn thin_slab_backscatter_fraction_of_2d_henyey_greenstein() {
             })
             .sum();
         let tau = 1e-6;
-        let (r, _) = slab_totals(0.2, 0.8, g, tau, 202).unwrap();
+        let (r, _) = slab_totals(0.2, 0.8, an(g), tau, 202).unwrap();
         let expect = 0.8 * tau * b;
         assert!((r / expect - 1.0).abs() < 1e-3, "g={g}: {r} vs {expect}");
     }
@@ -172,8 +173,8 @@ fn field_inside_conserves_flux_and_starts_as_the_beam() {
     let n_dirs = 46;
     let set = CircleSet::new(n_dirs).unwrap();
     let depths = [0.0, 0.5, 1.5, 2.5, 3.0];
-    let prof = intensity_at_depths(sa, ss, g, z0, n_dirs, &depths).unwrap();
-    let (_, t) = slab_totals(sa, ss, g, z0, n_dirs).unwrap();
+    let prof = intensity_at_depths(sa, ss, an(g), z0, n_dirs, &depths).unwrap();
+    let (_, t) = slab_totals(sa, ss, an(g), z0, n_dirs).unwrap();
     let w = set.weights()[0];
     for p in &prof {
         let net: f64 =
@@ -198,9 +199,14 @@ fn field_inside_conserves_flux_and_starts_as_the_beam() {
 #[test]
 fn field_in_a_half_space_is_finite_and_decays() {
     let prof =
-        intensity_at_depths(0.2, 0.8, 0.3, f64::INFINITY, 38, &[0.0, 1.0, 5.0, 50.0]).unwrap();
+        intensity_at_depths(0.2, 0.8, an(0.3), f64::INFINITY, 38, &[0.0, 1.0, 5.0, 50.0]).unwrap();
     let total = |p: &DepthProfile| p.diffuse.iter().sum::<f64>();
     assert!(prof.iter().all(|p| p.diffuse.iter().all(|v| v.is_finite() && *v > -1e-12)));
     assert!(total(&prof[3]) < 1e-3 * total(&prof[1]));
-    assert!(intensity_at_depths(0.2, 0.8, 0.3, 2.0, 38, &[3.0]).is_err());
+    assert!(intensity_at_depths(0.2, 0.8, an(0.3), 2.0, 38, &[3.0]).is_err());
+}
+
+/// A checked asymmetry parameter (the values here are all valid).
+fn an(g: f64) -> Anisotropy {
+    Anisotropy::new(g).unwrap()
 }

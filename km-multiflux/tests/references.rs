@@ -121,7 +121,7 @@ fn bad_options_are_refused() {
         let o = MultifluxOptions { streams: Some(n), ..Default::default() };
         assert!(matches!(solve(&sc, &o), Err(MultifluxError::Option { name: "streams", .. })));
     }
-    let mono = &sc.channels[0];
+    let mono = &sc.channels()[0];
     let o = MultifluxOptions::default();
     assert!(km_multiflux::internal_field(mono, &o, -1.0, 0).is_err());
     assert!(km_multiflux::internal_field(mono, &o, f64::NAN, 0).is_err());

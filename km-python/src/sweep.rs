@@ -16,7 +16,7 @@
 use std::str::FromStr;
 
 use km_core::phase::Phase;
-use km_core::{CoreError, Layer, Light, Scene, Solution, Substrate};
+use km_core::{CoreError, Layer, Light, MonoScene, Scene, Solution, Substrate};
 use rayon::prelude::*;
 
 use crate::engine::{Options, solve};
@@ -136,12 +136,14 @@ impl Target {
 /// let base = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
 /// let t: Target = "layer[1].tau".parse().unwrap();
 /// let s = apply(&base, &[(t, 2.0)]).unwrap();
-/// assert!((s.channels[0].layers[0].tau() - 2.0).abs() < 1e-15);
-/// assert!((s.channels[0].layers[0].albedo() - 0.9).abs() < 1e-15);
+/// assert!((s.channels()[0].layers()[0].tau() - 2.0).abs() < 1e-15);
+/// assert!((s.channels()[0].layers()[0].albedo() - 0.9).abs() < 1e-15);
 /// ```
 pub fn apply(base: &Scene, values: &[(Target, f64)]) -> Result<Scene, Error> {
-    let mut scene = base.clone();
-    for c in &mut scene.channels {
+    let mut channels = Vec::with_capacity(base.channels().len());
+    for c in base.channels() {
+        let (mut light, mut ambient_n, mut substrate) = (c.light(), c.ambient_n(), c.substrate());
+        let mut layers = c.layers().to_vec();
         for &(target, v) in values {
             let key = target.key();
             let invalid = |e: CoreError| -> Error {
@@ -153,16 +155,15 @@ pub fn apply(base: &Scene, values: &[(Target, f64)]) -> Result<Scene, Error> {
             }
             match target {
                 Target::Layer { index, field } => {
-                    let count = c.layers.len();
-                    let l = c
-                        .layers
+                    let count = layers.len();
+                    let l = layers
                         .get_mut(index)
                         .ok_or_else(|| refuse(&format!("the stack has {count} layer(s)")))?;
-                    let (g, n) = (l.g(), l.n);
+                    let (g, n) = (l.g(), l.n());
                     *l = match field {
-                        Field::SigmaA => Layer::new(v, l.sigma_s, l.thickness, g, n),
-                        Field::SigmaS => Layer::new(l.sigma_a, v, l.thickness, g, n),
-                        Field::Thickness => Layer::new(l.sigma_a, l.sigma_s, v, g, n),
+                        Field::SigmaA => l.with_coefficients(v, l.sigma_s()),
+                        Field::SigmaS => l.with_coefficients(l.sigma_a(), v),
+                        Field::Thickness => l.with_thickness(v),
                         Field::Tau => {
                             let albedo = l.albedo();
                             Layer::from_tau_albedo(v, albedo, g, n)
@@ -171,37 +172,39 @@ pub fn apply(base: &Scene, values: &[(Target, f64)]) -> Result<Scene, Error> {
                             let tau = if l.is_half_space() { f64::INFINITY } else { l.tau() };
                             Layer::from_tau_albedo(tau, v, g, n)
                         }
-                        Field::G => Phase::henyey_greenstein(v).map(|phase| Layer { phase, ..*l }),
-                        Field::N => Layer::new(l.sigma_a, l.sigma_s, l.thickness, g, v),
+                        Field::G => Phase::henyey_greenstein(v).map(|phase| l.with_phase(phase)),
+                        Field::N => l.with_n(v),
                     }
                     .map_err(invalid)?;
                 }
-                Target::LightTheta => match c.light {
-                    Light::Collimated { .. } => c.light = Light::Collimated { theta_deg: v },
+                Target::LightTheta => match light {
+                    Light::Collimated { .. } => light = Light::Collimated { theta_deg: v },
                     Light::Diffuse => return Err(refuse("diffuse light has no angle")),
                 },
-                Target::AmbientN => c.ambient_n = v,
-                Target::SubstrateN => match c.substrate {
-                    Substrate::Transparent { .. } => c.substrate = Substrate::Transparent { n: v },
+                Target::AmbientN => ambient_n = v,
+                Target::SubstrateN => match substrate {
+                    Substrate::Transparent { .. } => substrate = Substrate::Transparent { n: v },
                     _ => return Err(refuse("only a transparent substrate has an index")),
                 },
-                Target::SubstrateAlbedo => match c.substrate {
-                    Substrate::Lambertian { .. } => {
-                        c.substrate = Substrate::Lambertian { albedo: v }
-                    }
+                Target::SubstrateAlbedo => match substrate {
+                    Substrate::Lambertian { .. } => substrate = Substrate::Lambertian { albedo: v },
                     _ => return Err(refuse("only a lambertian substrate has an albedo")),
                 },
             }
         }
         // The whole channel, as the parser checks it (angles, indices, half-spaces).
-        c.validate().map_err(|e| match e {
-            CoreError::Scene { key, message, .. } => {
-                Error::Scene(CoreError::Scene { key, line: None, message })
-            }
-            other => Error::Scene(other),
-        })?;
+        let directions = c.directions_deg().to_vec();
+        let mono = MonoScene::new(light, ambient_n, layers, substrate, directions).map_err(
+            |e| match e {
+                CoreError::Scene { key, message, .. } => {
+                    Error::Scene(CoreError::Scene { key, line: None, message })
+                }
+                other => Error::Scene(other),
+            },
+        )?;
+        channels.push(mono);
     }
-    Ok(scene)
+    base.with_channels(channels).map_err(Error::Scene)
 }
 
 /// Solve every scene by `opts`, in parallel on `threads` workers (`None`: all
@@ -412,7 +415,7 @@ mod tests {
              [output]\ndirections_deg = [[0.0, 0.0], [40.0, 180.0]]\n",
         )
         .unwrap();
-        let (a, b) = (&swept.channels[0].layers[0], &file.channels[0].layers[0]);
+        let (a, b) = (&swept.channels()[0].layers()[0], &file.channels()[0].layers()[0]);
         // sigma_s = tau * albedo is recomputed from the albedo kept, so the two
         // routes agree to rounding (a few ulp), not bit for bit.
         assert!((a.tau() - b.tau()).abs() < 1e-14 && (a.albedo() - b.albedo()).abs() < 1e-14);

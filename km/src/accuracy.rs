@@ -235,7 +235,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
 fn photon_weights(c: &ChannelResult, scene: &Scene, opts: &McOptions) -> Vec<f64> {
     let h = opts.bin_half_angle_deg.to_radians();
     let cone = 2.0 * std::f64::consts::PI * (1.0 - h.cos());
-    let dirs = &scene.channels[0].directions_deg;
+    let dirs = scene.channels()[0].directions_deg();
     let w = |i: usize| {
         let theta = dirs.get(i).map_or(0.0, |d| d[0]).to_radians();
         cone * theta.cos().abs().max(1e-3)

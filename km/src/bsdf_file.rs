@@ -205,7 +205,7 @@ pub fn bsdf_file(
     let mut meta = meta(&bsdf, phi, &solver, request.from_below);
     meta["scene_file"] = json!(scene_file);
     meta["scene"] = json!(scene_text);
-    meta["channels"] = json!(scene.labels);
+    meta["channels"] = json!(scene.labels());
     meta["seconds"] = json!(seconds);
     let bytes = if !with_bytes {
         None

@@ -14,7 +14,7 @@
 use std::time::Instant;
 
 use km_core::solution::{Diagnostics, DirectionSetDiagnostics, MethodDiagnostics};
-use km_core::{ChannelResult, Layer, Light, MonoScene, Scene, Solution, Substrate};
+use km_core::{ChannelResult, Light, MonoScene, Scene, Solution, Substrate};
 use km_multiflux::direction_set::{Combine, Incidence, MatchedSets, brdf_for_incidence, totals};
 
 use crate::error::{KmError, Reason, Unsupported};
@@ -79,11 +79,11 @@ impl DirectionSetOptions {
 
 /// The matched sets of one channel (ambient, every layer, a clear substrate).
 fn channel_sets(c: &MonoScene, directions: usize) -> Result<MatchedSets, KmError> {
-    let mut media = vec![c.ambient_n];
-    media.extend(c.layers.iter().map(|l| l.n));
+    let mut media = vec![c.ambient_n()];
+    media.extend(c.layers().iter().map(|l| l.n()));
     media.extend(c.substrate_n());
-    let incidence = match c.light {
-        Light::Collimated { theta_deg } => Some(Incidence { n: c.ambient_n, theta_deg }),
+    let incidence = match c.light() {
+        Light::Collimated { theta_deg } => Some(Incidence { n: c.ambient_n(), theta_deg }),
         Light::Diffuse => None,
     };
     Ok(MatchedSets::new(directions, &media, incidence)?)
@@ -93,21 +93,19 @@ fn channel_sets(c: &MonoScene, directions: usize) -> Result<MatchedSets, KmError
 /// a Lambertian one: its totals are exactly the delta parts (mirror
 /// reflection, unscattered transmission) of the full channel
 /// (docs/multiflux-direction-set.md §5, "Beam and BRDF").
-fn unscattered(c: &MonoScene) -> MonoScene {
-    let mut d = c.clone();
-    for l in &mut d.layers {
-        // Extinction kept whole: the unscattered beam decays with sigma_t.
-        *l = Layer { sigma_a: l.sigma_t(), sigma_s: 0.0, ..*l };
-    }
-    if let Substrate::Lambertian { .. } = d.substrate {
-        d.substrate = Substrate::Black;
-    }
-    d
+fn unscattered(c: &MonoScene) -> Result<MonoScene, KmError> {
+    // Extinction kept whole: the unscattered beam decays with sigma_t.
+    let layers = c.layers().iter().map(|l| l.with_coefficients(l.sigma_t(), 0.0));
+    let d = c.with_layers(layers.collect::<Result<Vec<_>, _>>()?)?;
+    Ok(match d.substrate() {
+        Substrate::Lambertian { .. } => d.with_substrate(Substrate::Black)?,
+        _ => d,
+    })
 }
 
 /// The totals and delta parts of one channel on sets of about `directions`.
 fn solve_channel(c: &MonoScene, directions: usize) -> Result<ChannelResult, KmError> {
-    let (r, r_spec, t, t_direct) = match c.light {
+    let (r, r_spec, t, t_direct) = match c.light() {
         // The beam on a node: its column of the stack's operators (eq. D13).
         Light::Collimated { .. } => {
             let s = brdf_for_incidence(c, directions, Combine::Exact)?;
@@ -117,7 +115,7 @@ fn solve_channel(c: &MonoScene, directions: usize) -> Result<ChannelResult, KmEr
         // unscattered stack under the same light.
         Light::Diffuse => {
             let (r, t) = totals(c, directions)?;
-            let (r_spec, t_direct) = totals(&unscattered(c), directions)?;
+            let (r_spec, t_direct) = totals(&unscattered(c)?, directions)?;
             (r, r_spec, t, t_direct)
         }
     };
@@ -142,11 +140,12 @@ impl Solver for DirectionSetOptions {
     /// out-of-range `directions` is [`Solver::solve`]'s error).
     fn supports(&self, scene: &Scene) -> Result<(), Unsupported> {
         let no = |reason| Err(Unsupported { method: Method::DirectionSet, reason });
-        for (channel, c) in scene.channels.iter().enumerate() {
-            if !c.directions_deg.is_empty() {
-                return no(Reason::OutputDirections { directions: c.directions_deg.len() });
+        for (channel, c) in scene.channels().iter().enumerate() {
+            if !c.directions_deg().is_empty() {
+                return no(Reason::OutputDirections { directions: c.directions_deg().len() });
             }
-            if let Some(i) = c.layers.iter().position(|l| l.is_half_space() && l.sigma_t() == 0.0) {
+            if let Some(i) = c.layers().iter().position(|l| l.is_half_space() && l.sigma_t() == 0.0)
+            {
                 return no(Reason::ClearHalfSpace { layer: i + 1 });
             }
             if self.check().is_err() {
@@ -175,12 +174,12 @@ impl Solver for DirectionSetOptions {
         self.check()?;
         self.supports(scene)?;
         let start = Instant::now();
-        let mut channels = Vec::with_capacity(scene.channels.len());
-        let mut nodes = Vec::with_capacity(scene.channels.len());
-        for c in &scene.channels {
+        let mut channels = Vec::with_capacity(scene.channels().len());
+        let mut nodes = Vec::with_capacity(scene.channels().len());
+        for c in scene.channels() {
             channels.push(solve_channel(c, self.directions)?);
             let sets = channel_sets(c, self.directions)?;
-            nodes.push(2 * sets.set(c.ambient_n)?.len());
+            nodes.push(2 * sets.set(c.ambient_n())?.len());
         }
         let diagnostics = Diagnostics {
             method: MethodDiagnostics::DirectionSet(DirectionSetDiagnostics {
@@ -192,7 +191,7 @@ impl Solver for DirectionSetOptions {
         Ok(Solution {
             method: Method::DirectionSet.name().into(),
             channels,
-            labels: scene.labels.clone(),
+            labels: scene.labels().to_vec(),
             seconds: start.elapsed().as_secs_f64(),
             diagnostics,
             ..Default::default()

@@ -127,15 +127,15 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
         ));
     }
     if dedup {
-        sol = expand_channels(sol, &map, &scene.labels);
+        sol = expand_channels(sol, &map, scene.labels());
     }
     if sol.channels.iter().any(|c| !c.brdf.is_empty() || !c.btdf.is_empty()) {
         sol.directions =
-            scene.channels.first().map(|c| c.directions_deg.clone()).unwrap_or_default();
+            scene.channels().first().map(|c| c.directions_deg().to_vec()).unwrap_or_default();
     }
     // A spectral scene's JSON `channels` are its wavelengths (numbers, nm).
-    if let Some(w) = scene.wavelengths_nm.as_ref().filter(|w| w.len() > 1) {
-        sol.diagnostics.wavelengths_nm = Some(w.clone());
+    if let Some(w) = scene.wavelengths_nm().filter(|w| w.len() > 1) {
+        sol.diagnostics.wavelengths_nm = Some(w.to_vec());
     }
     sol.plan = Some(plan);
     Ok(sol)
@@ -151,7 +151,7 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
 /// assert!(!p.skips(km::Simplification::Azimuth), "a Fourier matter, not Monte Carlo's");
 /// ```
 pub fn plan_for(scene: &Scene, method: Method, all_effects: bool) -> PlanT {
-    let request = scene.channels.first().map(Request::from_scene).unwrap_or_default();
+    let request = scene.channels().first().map(Request::from_scene).unwrap_or_default();
     plan_scene(scene, request, all_effects).restricted_to(method.simplifications())
 }
 
@@ -162,14 +162,13 @@ fn as_half_space(scene: &Scene, all_effects: bool) -> Option<(Scene, f64)> {
     if all_effects {
         return None;
     }
-    let mut half = scene.clone();
     let mut bound = 0.0f64;
-    for c in &mut half.channels {
+    let mut channels = Vec::with_capacity(scene.channels().len());
+    for c in scene.channels() {
         let plan = PlanT::new(c, Request::default(), false);
         let cut = plan.layers.first().and_then(|l| l.cutoff_bound)?;
         bound = bound.max(cut);
-        c.layers.truncate(1);
-        c.layers[0].thickness = f64::INFINITY;
+        channels.push(c.cut_below(0).ok()?);
     }
-    Some((half, bound))
+    Some((scene.with_channels(channels).ok()?, bound))
 }

@@ -139,10 +139,10 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
     if opts.points > km_montecarlo::options::MAX_RADIAL_BINS {
         return bad("points", opts.points.to_string(), "at most 1000000 radii (docs/limits.md)");
     }
-    let Some(l) = scene.channels.first().and_then(|c| c.layers.first()) else {
+    let Some(l) = scene.channels().first().and_then(|c| c.layers().first()) else {
         return bad("scene", "no layer".into(), "a profile needs a layer");
     };
-    let sigma_t_prime = l.sigma_a + l.sigma_s * (1.0 - l.g());
+    let sigma_t_prime = l.sigma_a() + l.sigma_s_reduced();
     let r_max = match opts.r_max {
         Some(r) if r.is_finite() && r > 0.0 => r,
         Some(r) => return bad("r_max", r.to_string(), "must be finite and > 0"),
@@ -175,5 +175,5 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
             return Err(Unsupported { method: m, reason: Reason::NoProfile }.into());
         }
     };
-    Ok(Profile { method: opts.method, r, rd, stderr, labels: scene.labels.clone() })
+    Ok(Profile { method: opts.method, r, rd, stderr, labels: scene.labels().to_vec() })
 }

@@ -77,13 +77,13 @@ impl Solver for MultifluxOptions {
     /// bit-identical to the serial [`km_multiflux::solve`] (the first
     /// failing channel's error is the one returned, as there).
     fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
-        if scene.channels.len() < PARALLEL_CHANNELS {
+        if scene.channels().len() < PARALLEL_CHANNELS {
             return Ok(km_multiflux::solve(scene, self)?);
         }
         km_multiflux::budget::check(scene, self)?;
         let start = Instant::now();
         let parts: Vec<_> =
-            scene.channels.par_iter().map(|ch| km_multiflux::solve_channel(ch, self)).collect();
+            scene.channels().par_iter().map(|ch| km_multiflux::solve_channel(ch, self)).collect();
         let parts = parts.into_iter().collect::<Result<Vec<_>, _>>()?;
         Ok(km_multiflux::assemble(scene, self, parts, start.elapsed().as_secs_f64()))
     }
@@ -112,15 +112,15 @@ impl Solver for DipoleOptions {
     /// thick-layer cut, which [`crate::solve`] applies first).
     fn supports(&self, scene: &Scene) -> Result<(), Unsupported> {
         let no = |reason| Err(Unsupported { method: Method::Dipole, reason });
-        for (channel, c) in scene.channels.iter().enumerate() {
-            if c.layers.len() != 1 {
-                return no(Reason::Stack { layers: c.layers.len() });
+        for (channel, c) in scene.channels().iter().enumerate() {
+            if c.layers().len() != 1 {
+                return no(Reason::Stack { layers: c.layers().len() });
             }
-            let l = &c.layers[0];
+            let l = &c.layers()[0];
             if !l.is_half_space() {
                 return no(Reason::FiniteLayer { tau: l.tau() });
             }
-            if l.sigma_s <= 0.0 {
+            if l.sigma_s() <= 0.0 {
                 return no(Reason::NoScattering { channel });
             }
         }

@@ -48,7 +48,7 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     let _ = writeln!(s, "method: {}   solver time: {}", sol.method, seconds(sol.seconds));
     let mc = sol.channels.iter().any(|c| c.stderr.is_some());
     let width = if mc { 24 } else { 14 };
-    let wavelengths = scene.and_then(|sc| sc.wavelengths_nm.as_ref());
+    let wavelengths = scene.and_then(|sc| sc.wavelengths_nm());
     if let Some(w) = wavelengths.filter(|w| w.len() == sol.channels.len()) {
         // Spectral: one row per wavelength.
         let _ = write!(s, "{:>14}", "wavelength_nm");
@@ -81,7 +81,7 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
             let _ = writeln!(s);
         }
     }
-    let scene_dirs = scene.map(|s| &s.channels[0].directions_deg);
+    let scene_dirs = scene.map(|s| s.channels()[0].directions_deg());
     let dirs = if sol.directions.is_empty() {
         scene_dirs.unwrap_or(&sol.directions)
     } else {
@@ -144,7 +144,9 @@ fn km_mapping_words(mapping: &str, scene: Option<&Scene>) -> String {
     };
     let mut s = format!("K/S mapping {mapping}: {formula} (--km-mapping seed|star1988|gate1974)");
     let questionable = scene.is_some_and(|sc| {
-        sc.channels.iter().any(|c| c.layers.iter().any(|l| l.g() != 0.0 || l.n != c.ambient_n))
+        sc.channels()
+            .iter()
+            .any(|c| c.layers().iter().any(|l| l.g() != 0.0 || l.n() != c.ambient_n()))
     });
     if questionable {
         s.push_str(
@@ -161,7 +163,7 @@ fn km_mapping_words(mapping: &str, scene: Option<&Scene>) -> String {
 /// `btdf_I` per output direction.
 pub fn csv(sol: &Solution, scene: Option<&Scene>) -> String {
     let wavelengths =
-        scene.and_then(|sc| sc.wavelengths_nm.as_ref()).filter(|w| w.len() == sol.channels.len());
+        scene.and_then(|sc| sc.wavelengths_nm()).filter(|w| w.len() == sol.channels.len());
     let mc = sol.channels.iter().any(|c| c.stderr.is_some());
     let n_brdf = sol.channels.iter().map(|c| c.brdf.len()).max().unwrap_or(0);
     let n_btdf = if btdf_is_empty(sol) {
@@ -211,9 +213,9 @@ fn seconds(t: f64) -> String {
 /// What a scene describes, in words (`km check`).
 pub fn describe(scene: &Scene) -> String {
     let mut s = String::new();
-    let c0 = &scene.channels[0];
-    let _ = writeln!(s, "channels: {} ({})", scene.channels.len(), scene.labels.join(", "));
-    match c0.light {
+    let c0 = &scene.channels()[0];
+    let _ = writeln!(s, "channels: {} ({})", scene.channels().len(), scene.labels().join(", "));
+    match c0.light() {
         Light::Collimated { theta_deg } => {
             let _ = writeln!(s, "light: collimated at {theta_deg} degrees");
         }
@@ -221,32 +223,32 @@ pub fn describe(scene: &Scene) -> String {
             let _ = writeln!(s, "light: diffuse");
         }
     }
-    let _ = writeln!(s, "ambient index: {}", c0.ambient_n);
-    for (ch, c) in scene.channels.iter().enumerate() {
-        let _ = writeln!(s, "channel {}:", scene.labels[ch]);
-        for (i, l) in c.layers.iter().enumerate() {
+    let _ = writeln!(s, "ambient index: {}", c0.ambient_n());
+    for (ch, c) in scene.channels().iter().enumerate() {
+        let _ = writeln!(s, "channel {}:", scene.labels()[ch]);
+        for (i, l) in c.layers().iter().enumerate() {
             let _ = writeln!(
                 s,
                 "  layer {}: sigma_a = {}, sigma_s = {}, thickness = {}, tau = {}, albedo = {:.6}, g = {}, n = {}",
                 i + 1,
-                l.sigma_a,
-                l.sigma_s,
-                l.thickness,
+                l.sigma_a(),
+                l.sigma_s(),
+                l.thickness(),
                 l.tau(),
                 l.albedo(),
                 l.g(),
-                l.n
+                l.n()
             );
         }
-        let sub = match c.substrate {
+        let sub = match c.substrate() {
             Substrate::Transparent { n } => format!("transparent, n = {n}"),
             Substrate::Lambertian { albedo } => format!("lambertian, albedo = {albedo}"),
             Substrate::Black => "black".into(),
         };
         let _ = writeln!(s, "  substrate: {sub}");
     }
-    if !c0.directions_deg.is_empty() {
-        let _ = writeln!(s, "output directions (theta, phi): {:?}", c0.directions_deg);
+    if !c0.directions_deg().is_empty() {
+        let _ = writeln!(s, "output directions (theta, phi): {:?}", c0.directions_deg());
     }
     s
 }

@@ -90,8 +90,9 @@ fn agrees_with_fourier_gauss_under_diffuse_light() {
 fn the_seeds_three_layer_scene_without_output_directions() {
     // docs/multiflux-direction-set.md §8: R = 0.4482 of which 0.0238 specular,
     // A = 0.5518 on 302 directions (rounded to 4 digits there).
-    let mut scene = example("seed-three-layers.toml");
-    scene.channels[0].directions_deg.clear();
+    let scene = example("seed-three-layers.toml");
+    let scene =
+        scene.with_channels(vec![scene.channels()[0].with_directions(vec![]).unwrap()]).unwrap();
     let sol = km::solve(&scene, &Options::new(Method::DirectionSet)).unwrap();
     let c = &sol.channels[0];
     assert!((c.reflectance - 0.4482).abs() < 5e-5, "R = {}", c.reflectance);
@@ -108,7 +109,7 @@ fn spectral_channels_are_solved_each_on_its_own_sets() {
     let scene = Scene::from_toml_str(text).unwrap();
     let all = DirectionSetOptions::default().solve(&scene).unwrap();
     for (k, c) in all.channels.iter().enumerate() {
-        let one = Scene::single(scene.channels[k].clone()).unwrap();
+        let one = Scene::single(scene.channels()[k].clone());
         let alone = DirectionSetOptions::default().solve(&one).unwrap();
         assert_eq!(c, &alone.channels[0], "channel {k}");
     }

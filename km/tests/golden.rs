@@ -54,7 +54,7 @@ fn migrate(mut old: Value, scene: &Scene) -> Value {
         }
     }
     if o.contains_key("brdf") {
-        o.insert("directions".into(), json!(scene.channels[0].directions_deg));
+        o.insert("directions".into(), json!(scene.channels()[0].directions_deg()));
     }
     old
 }

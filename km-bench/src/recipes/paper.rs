@@ -40,7 +40,12 @@ const FLAT_G: f64 = 0.5;
 /// Solver, drawing or file errors.
 pub fn fig3(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let n = n_circle(ctx);
-    let e = flatland::eigenmodes(FLAT_SIGMA_A, FLAT_SIGMA_S, FLAT_G, n)?;
+    let e = flatland::eigenmodes(
+        FLAT_SIGMA_A,
+        FLAT_SIGMA_S,
+        km_core::phase::Anisotropy::new(FLAT_G)?,
+        n,
+    )?;
     let shown = 4.min(e.eigenvalues.len() / 2);
     let mut csv = Csv::new(&["mode", "eigenvalue", "angle_deg", "value"]);
     csv.comment(format!(
@@ -120,7 +125,7 @@ pub fn fig4(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let prof = flatland::intensity_at_depths(
         FLAT_SIGMA_A,
         FLAT_SIGMA_S,
-        FLAT_G,
+        km_core::phase::Anisotropy::new(FLAT_G)?,
         f64::INFINITY,
         n,
         &depths,
@@ -255,7 +260,8 @@ fn sweep(
     let mut responses: Vec<(f64, StackResponse)> = Vec::new();
     for &v in values {
         let s = scene_of(v)?;
-        responses.push((v, direction_set::brdf_for_incidence(&s.channels[0], nd, Combine::Exact)?));
+        responses
+            .push((v, direction_set::brdf_for_incidence(&s.channels()[0], nd, Combine::Exact)?));
     }
     let labels: Vec<String> = responses.iter().map(|(v, _)| format!("{param} = {v}")).collect();
     sweep_distributions(ctx, stem, title, nd, &responses, &labels)?;

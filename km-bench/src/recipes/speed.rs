@@ -57,7 +57,7 @@ pub fn fig5(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let mc_se = methods::stderr_list(&mc, "brdf").unwrap_or_default();
     let nd = n_directions(ctx);
     let t0 = Instant::now();
-    let ds = direction_set::brdf_for_incidence(&scene.channels[0], nd, Combine::Exact)?;
+    let ds = direction_set::brdf_for_incidence(&scene.channels()[0], nd, Combine::Exact)?;
     let t_ds = t0.elapsed().as_secs_f64();
 
     let psi: Vec<f64> = meta.iter().map(|&(t, fwd)| plane_angle(t, true, fwd)).collect();
@@ -294,7 +294,7 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let paper_acc_ratio = cheapest.map_or(f64::NAN, |c| per_dir / c.1);
     let nd = n_directions(ctx);
     let t0 = Instant::now();
-    let (set, _) = direction_set::full_brdf(&scene.channels[0], nd)?;
+    let (set, _) = direction_set::full_brdf(&scene.channels()[0], nd)?;
     let t_full_ds = t0.elapsed().as_secs_f64();
     let mf_method = Method::Multiflux { streams: km_multiflux::DEFAULT_STREAMS };
     let (_, one) = timed_spread(mf_method, &scene, methods::repeats(mf_method).max(5))?;
@@ -456,8 +456,8 @@ fn mc_every_incidence(ctx: &Ctx, scene: &Scene, mu: &[f64]) -> anyhow::Result<f6
     let mut total = 0.0;
     for &mu in mu {
         let theta = mu.acos().to_degrees().min(89.9);
-        let mut s = scene.clone();
-        s.channels[0].light = km_core::Light::Collimated { theta_deg: theta };
+        let light = km_core::Light::Collimated { theta_deg: theta };
+        let s = scene.with_channels(vec![scene.channels()[0].with_light(light)?])?;
         let (_, tt) = methods::timed(
             Method::MonteCarlo { samples: PAPER_SAMPLES, seed: ctx.seed + 2 },
             &s,

@@ -7,8 +7,11 @@ use serde::Deserialize;
 use toml::{Spanned, Value};
 
 use super::read::LineIndex;
-use super::{Light, MonoScene, Scene, SceneLimits, Substrate, check_incidence, check_theta};
+use super::{
+    Light, MonoScene, Scene, SceneLimits, Substrate, check_incidence, check_theta, is_wavelength,
+};
 use crate::error::CoreError;
+use crate::layer::is_refractive_index;
 
 mod layer;
 
@@ -189,6 +192,7 @@ impl Parser {
 
         let (channels, first) = channel_count(&mut coefs)?;
         self.check_cells(channels, n_layers, directions_deg.len(), first)?;
+        check_substrate_values(&substrate)?;
         let mut out = Vec::with_capacity(channels);
         for ch in 0..channels {
             let mut ls = Vec::with_capacity(n_layers);
@@ -200,21 +204,16 @@ impl Parser {
                 RawSub::Lambertian(c) => Substrate::Lambertian { albedo: c.at(ch) },
                 RawSub::Black => Substrate::Black,
             };
-            out.push(MonoScene {
-                light,
-                ambient_n: ambient_n.at(ch),
-                layers: ls,
-                substrate: sub,
-                directions_deg: directions_deg.clone(),
-            });
+            // Every value was checked above with its key and line; the
+            // constructor's checks cannot fail here.
+            out.push(MonoScene::new(light, ambient_n.at(ch), ls, sub, directions_deg.clone())?);
         }
-        check_substrate_values(&substrate)?;
         let labels = match labels {
             Some(l) => l,
             None if channels == 3 => vec!["R".into(), "G".into(), "B".into()],
             None => (0..channels).map(|c| c.to_string()).collect(),
         };
-        Ok(Scene { channels: out, labels, wavelengths_nm })
+        Scene::new(out, labels, wavelengths_nm)
     }
 
     /// `[light]`: collimated (the default, at `theta_deg`, default 0) or diffuse.
@@ -267,7 +266,7 @@ impl Parser {
             Some(v) => self.coef("ambient.n", v)?,
         };
         for &x in &ambient_n.values {
-            if !x.is_finite() || x < 1.0 {
+            if !is_refractive_index(x) {
                 return Err(CoreError::scene(
                     ambient_n.key.clone(),
                     ambient_n.line,
@@ -286,7 +285,7 @@ impl Parser {
         if let Some(w) = &s.wavelengths_nm {
             let c = self.coef("spectrum.wavelengths_nm", w)?;
             for &x in &c.values {
-                if !x.is_finite() || x <= 0.0 {
+                if !is_wavelength(x) {
                     return Err(CoreError::scene(c.key.clone(), c.line, "wavelengths must be > 0"));
                 }
             }
@@ -378,7 +377,7 @@ fn check_substrate_values(substrate: &RawSub) -> Result<(), CoreError> {
     match substrate {
         RawSub::Transparent(c) => {
             for &x in &c.values {
-                if !x.is_finite() || x < 1.0 {
+                if !is_refractive_index(x) {
                     return Err(CoreError::scene(
                         c.key.clone(),
                         c.line,

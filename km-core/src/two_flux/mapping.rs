@@ -62,7 +62,7 @@ impl KmMapping {
     /// assert!((k - 0.2).abs() < 1e-15 && (s - 0.125).abs() < 1e-15);
     /// ```
     pub fn coefficients(&self, layer: &Layer) -> Result<(f64, f64), CoreError> {
-        let (sa, ss, g) = (layer.sigma_a, layer.sigma_s, layer.g());
+        let (sa, ss, g) = (layer.sigma_a(), layer.sigma_s(), layer.g());
         match self {
             KmMapping::Seed => Ok((sa, ss)),
             KmMapping::StarEtAl1988 => {

@@ -35,24 +35,24 @@ fn build(
     mapping: KmMapping,
     cache: &mut HemisphericalCache,
 ) -> Result<Built, CoreError> {
-    let mut slabs = Vec::with_capacity(2 * mono.layers.len() + 2);
-    let mut layer_slab = Vec::with_capacity(mono.layers.len());
-    let first_n = mono.layers[0].n;
+    let mut slabs = Vec::with_capacity(2 * mono.layers().len() + 2);
+    let mut layer_slab = Vec::with_capacity(mono.layers().len());
+    let first_n = mono.layers()[0].n();
     let mut r_specular = 0.0;
-    let mut t_direct = if mono.light.mu0().is_some() { 1.0 } else { 0.0 };
+    let mut t_direct = if mono.light().mu0().is_some() { 1.0 } else { 0.0 };
     // Saunderson's top interface (eq. K12).
-    if first_n != mono.ambient_n {
-        let top = cache.saunderson_top(mono.light, mono.ambient_n, first_n)?;
+    if first_n != mono.ambient_n() {
+        let top = cache.saunderson_top(mono.light(), mono.ambient_n(), first_n)?;
         r_specular = top.r_top;
         t_direct *= top.t_tb;
         slabs.push(top);
     }
     let mut n_above = first_n;
     let mut open_bottom = true;
-    for (i, layer) in mono.layers.iter().enumerate() {
+    for (i, layer) in mono.layers().iter().enumerate() {
         // Interfaces between layers of different index: diffuse flux both sides.
-        if layer.n != n_above {
-            let iface = cache.interface(n_above, layer.n)?;
+        if layer.n() != n_above {
+            let iface = cache.interface(n_above, layer.n())?;
             t_direct *= iface.t_tb;
             slabs.push(iface);
         }
@@ -62,22 +62,22 @@ fn build(
             }
             other => other,
         })?;
-        let slab = Slab::layer(k, s, layer.thickness)?;
+        let slab = Slab::layer(k, s, layer.thickness())?;
         t_direct *= if layer.is_half_space() {
             if k + s == 0.0 { 1.0 } else { 0.0 }
         } else {
-            (-(k + s) * layer.thickness).exp()
+            (-(k + s) * layer.thickness()).exp()
         };
         layer_slab.push(slabs.len());
         slabs.push(slab);
-        n_above = layer.n;
+        n_above = layer.n();
         if layer.is_half_space() {
             // Nothing below a half-space matters.
             open_bottom = k + s == 0.0;
             return Ok(Built { slabs, layer_slab, r_specular, t_direct, open_bottom });
         }
     }
-    match mono.substrate {
+    match mono.substrate() {
         Substrate::Transparent { n } => {
             if n != n_above {
                 let iface = cache.interface(n_above, n)?;
@@ -103,7 +103,7 @@ fn build(
 /// Solve one channel by the adding form (seed eq. 14).
 ///
 /// # Errors
-/// An invalid scene ([`MonoScene::validate`]) or a mapping that cannot treat a layer.
+/// A mapping that cannot treat a layer.
 pub fn solve_mono(mono: &MonoScene, opts: &KmOptions) -> Result<ChannelResult, CoreError> {
     solve_channel(mono, opts, &mut HemisphericalCache::default())
 }
@@ -113,20 +113,19 @@ fn solve_channel(
     opts: &KmOptions,
     cache: &mut HemisphericalCache,
 ) -> Result<ChannelResult, CoreError> {
-    mono.validate()?;
     let b = build(mono, opts.mapping, cache)?;
     let f = stack_adding(&b.slabs);
     let t = if b.open_bottom { f.t } else { 0.0 };
     // Everything not reflected or transmitted is absorbed, in a layer or in the ground.
     let absorptance: f64 = f.absorbed.iter().sum();
     let layers: Vec<f64> = b.layer_slab.iter().map(|&i| f.absorbed[i]).collect();
-    let (brdf, btdf) = if mono.directions_deg.is_empty() {
+    let (brdf, btdf) = if mono.directions_deg().is_empty() {
         (Vec::new(), Vec::new())
     } else {
         // KM has no angles: Lambertian-equivalent values of the diffuse parts.
         let rd = (f.r - b.r_specular).max(0.0) / PI;
         let td = (t - b.t_direct).max(0.0) / PI;
-        (vec![rd; mono.directions_deg.len()], vec![td; mono.directions_deg.len()])
+        (vec![rd; mono.directions_deg().len()], vec![td; mono.directions_deg().len()])
     };
     Ok(ChannelResult {
         reflectance: f.r,
@@ -172,14 +171,14 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
     let channels = {
         let mut cache = HemisphericalCache::default();
         scene
-            .channels
+            .channels()
             .iter()
             .map(|m| solve_channel(m, opts, &mut cache))
             .collect::<Result<Vec<_>, _>>()?
     };
     let seconds = start.elapsed().as_secs_f64();
     // The collimated-beam notes only where a beam falls on the stack.
-    let collimated = scene.channels.iter().any(|m| m.light.mu0().is_some());
+    let collimated = scene.channels().iter().any(|m| m.light().mu0().is_some());
     let mut notes = Vec::new();
     if collimated {
         notes.push(
@@ -193,7 +192,7 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
                 .to_string(),
         );
     }
-    if scene.channels.iter().any(|m| !m.directions_deg.is_empty()) {
+    if scene.channels().iter().any(|m| !m.directions_deg().is_empty()) {
         notes.push(
             "KM has no angles: brdf and btdf are the Lambertian-equivalent values \
              (R - R_specular)/pi and (T - T_direct)/pi, the same in every direction"
@@ -201,14 +200,14 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
         );
     }
     if opts.mapping == KmMapping::Seed
-        && scene.channels.iter().flat_map(|m| &m.layers).any(|l| l.g() != 0.0)
+        && scene.channels().iter().flat_map(|m| m.layers()).any(|l| l.g() != 0.0)
     {
         notes.push("mapping seed ignores g (K = sigma_a, S = sigma_s)".to_string());
     }
     Ok(Solution {
         method: "km".into(),
         channels,
-        labels: scene.labels.clone(),
+        labels: scene.labels().to_vec(),
         seconds,
         notes,
         diagnostics: crate::solution::Diagnostics {

@@ -111,13 +111,6 @@ impl Slab {
     }
 }
 
-pub(super) fn check_n(name: &str, n: f64) -> Result<(), CoreError> {
-    if !n.is_finite() || n < 1.0 {
-        return Err(CoreError::invalid(name, n, "refractive index must be finite and >= 1"));
-    }
-    Ok(())
-}
-
 /// Adding two slabs, `top` over `bottom` (seed eq. 14, first line re-derived;
 /// van de Hulst's adding formula / the Redheffer star product).
 ///
@@ -395,8 +388,8 @@ impl HemisphericalCache {
 
     /// The diffuse interface slab of [`Slab::interface_diffuse`].
     pub(super) fn interface(&mut self, n_above: f64, n_below: f64) -> Result<Slab, CoreError> {
-        check_n("n_above", n_above)?;
-        check_n("n_below", n_below)?;
+        crate::layer::check_index("n_above", n_above)?;
+        crate::layer::check_index("n_below", n_below)?;
         Ok(Slab::interface(self.get(n_above, n_below), self.get(n_below, n_above)))
     }
 
@@ -407,8 +400,8 @@ impl HemisphericalCache {
         n0: f64,
         n: f64,
     ) -> Result<Slab, CoreError> {
-        check_n("n_ambient", n0)?;
-        check_n("n_layer", n)?;
+        crate::layer::check_index("n_ambient", n0)?;
+        crate::layer::check_index("n_layer", n)?;
         let r_e = match light.mu0() {
             Some(mu0) => fresnel::reflectance(mu0, n0, n),
             None => self.get(n0, n),

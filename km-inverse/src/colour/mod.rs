@@ -277,7 +277,7 @@ impl Spectrum {
         solution: &Solution,
         quantity: Quantity,
     ) -> Result<Spectrum, ColourError> {
-        let w = scene.wavelengths_nm.as_ref().ok_or_else(|| {
+        let w = scene.wavelengths_nm().ok_or_else(|| {
             ColourError::Spectrum("the scene has no [spectrum] wavelengths_nm".into())
         })?;
         if w.len() != solution.channels.len() {
@@ -295,7 +295,7 @@ impl Spectrum {
                 Quantity::Transmittance => c.transmittance,
             })
             .collect();
-        Spectrum::new(w.clone(), values)
+        Spectrum::new(w.to_vec(), values)
     }
 
     /// The wavelengths, nm.

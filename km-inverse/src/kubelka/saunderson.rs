@@ -78,7 +78,7 @@ impl Saunderson {
     /// assert!((c.k1 - 0.04).abs() < 1e-15);
     /// ```
     pub fn from_index(n: f64, k2: f64, specular: Specular) -> Result<Saunderson, KubelkaError> {
-        if !n.is_finite() || n < 1.0 {
+        if !km_core::layer::is_refractive_index(n) {
             return Err(KubelkaError::invalid("n", n, "refractive index must be finite and >= 1"));
         }
         let r = (n - 1.0) / (n + 1.0);
@@ -103,7 +103,7 @@ impl Saunderson {
     /// assert!((c.k2 - 0.596).abs() < 2e-3);
     /// ```
     pub fn fresnel(n: f64, specular: Specular) -> Result<Saunderson, KubelkaError> {
-        if !n.is_finite() || n < 1.0 {
+        if !km_core::layer::is_refractive_index(n) {
             return Err(KubelkaError::invalid("n", n, "refractive index must be finite and >= 1"));
         }
         Saunderson::from_index(n, fresnel::diffuse_reflectance(n, 1.0), specular)

@@ -56,7 +56,7 @@ pub(super) fn channel(
     let opts = MultifluxOptions { streams: Some(streams), ..opts.clone() };
     let (cut, _) = planned_cutoff(scene, &opts);
     let scene = cut.as_ref().unwrap_or(scene);
-    let n0 = scene.ambient_n;
+    let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
     let layers = scale_layers(scene, &opts, 2 * streams);
     let (ni, no) = (theta_i.len(), theta_o.len());
@@ -334,11 +334,12 @@ fn bsdf_streams(
     Ok(match opts.streams {
         Some(_) => resolve_streams(scene, opts)?,
         None => {
-            let mut s = scene.clone();
-            s.directions_deg = vec![[0.0, 0.0]];
+            let mut s = scene.with_directions(vec![[0.0, 0.0]]).map_err(MultifluxError::from)?;
             let mut best = 0;
             for &t in theta_i {
-                s.light = Light::Collimated { theta_deg: t };
+                // Only theta > 80 degrees counts in the choice, not the grazing margin.
+                let light = Light::Collimated { theta_deg: t.min(89.0) };
+                s = s.with_light(light).map_err(MultifluxError::from)?;
                 best = best.max(default_streams(&s));
             }
             best

@@ -122,12 +122,12 @@ fn stack_operators(
     scatter: bool,
 ) -> Result<Vec<LayerOperators>> {
     let mut ops = Vec::new();
-    let mut n_prev = scene.ambient_n;
-    for layer in &scene.layers {
-        if (layer.n - n_prev).abs() > 1e-12 * n_prev {
-            ops.push(interface_operators(sets.set(n_prev)?, sets.set(layer.n)?)?);
+    let mut n_prev = scene.ambient_n();
+    for layer in scene.layers() {
+        if (layer.n() - n_prev).abs() > 1e-12 * n_prev {
+            ops.push(interface_operators(sets.set(n_prev)?, sets.set(layer.n())?)?);
         }
-        let set = sets.set(layer.n)?;
+        let set = sets.set(layer.n())?;
         if layer.is_half_space() && layer.sigma_t() == 0.0 {
             return Err(MultifluxError::Scene(km_core::CoreError::unsupported(
                 "multiflux (direction set)",
@@ -137,11 +137,11 @@ fn stack_operators(
         ops.push(if scatter {
             set.layer_operators(layer)?
         } else {
-            absorber_operators(set.mu(), layer.sigma_t(), layer.thickness)
+            absorber_operators(set.mu(), layer.sigma_t(), layer.thickness())
         });
-        n_prev = layer.n;
+        n_prev = layer.n();
     }
-    match scene.substrate {
+    match scene.substrate() {
         Substrate::Transparent { n } => {
             if (n - n_prev).abs() > 1e-12 * n_prev {
                 ops.push(interface_operators(sets.set(n_prev)?, sets.set(n)?)?);
@@ -225,7 +225,7 @@ pub struct StackResponse {
 /// tau = 1.0
 /// albedo = 0.9
 /// "#).unwrap();
-/// let r = brdf_for_incidence(&scene.channels[0], 100, Combine::Exact).unwrap();
+/// let r = brdf_for_incidence(&scene.channels()[0], 100, Combine::Exact).unwrap();
 /// assert!(r.absorptance > 0.0 && r.reflectance > 0.0);
 /// ```
 pub fn brdf_for_incidence(
@@ -233,8 +233,7 @@ pub fn brdf_for_incidence(
     n_target: usize,
     how: Combine,
 ) -> Result<StackResponse> {
-    scene.validate()?;
-    let Light::Collimated { theta_deg } = scene.light else {
+    let Light::Collimated { theta_deg } = scene.light() else {
         return Err(MultifluxError::Scene(km_core::CoreError::unsupported(
             "multiflux (direction set)",
             "brdf_for_incidence needs collimated light",
@@ -248,12 +247,12 @@ pub fn brdf_for_incidence(
 
 /// The matched sets a scene needs (ambient, every layer, a clear substrate).
 fn scene_sets(scene: &MonoScene, n_target: usize, theta_deg: Option<f64>) -> Result<MatchedSets> {
-    let mut media = vec![scene.ambient_n];
-    media.extend(scene.layers.iter().map(|l| l.n));
+    let mut media = vec![scene.ambient_n()];
+    media.extend(scene.layers().iter().map(|l| l.n()));
     if let Some(n) = scene.substrate_n() {
         media.push(n);
     }
-    let inc = theta_deg.map(|t| Incidence { n: scene.ambient_n, theta_deg: t });
+    let inc = theta_deg.map(|t| Incidence { n: scene.ambient_n(), theta_deg: t });
     MatchedSets::new(n_target, &media, inc)
 }
 
@@ -274,7 +273,7 @@ fn response(
     total: &LayerOperators,
     delta: &LayerOperators,
 ) -> Result<StackResponse> {
-    let top = sets.set(scene.ambient_n)?;
+    let top = sets.set(scene.ambient_n())?;
     let i0 =
         top.incidence.ok_or_else(|| invalid("incidence", f64::NAN, "set without a beam node"))?;
     let (w0, mu0) = (top.weight[i0], top.mu[i0]);
@@ -322,10 +321,9 @@ fn response(
 /// # Errors
 /// Those of [`brdf_for_incidence`] (the scene's light is not used).
 pub fn full_brdf(scene: &MonoScene, n_target: usize) -> Result<(DirectionSet, Mat<f64>)> {
-    scene.validate()?;
     let sets = scene_sets(scene, n_target, None)?;
     let total = fold(&stack_operators(scene, &sets, true)?, Combine::Exact)?;
-    let top = sets.set(scene.ambient_n)?.clone();
+    let top = sets.set(scene.ambient_n())?.clone();
     let f = Mat::from_fn(top.len(), top.len(), |i, j| {
         total.r_top[(i, j)] / (top.mu[j] * top.weight[j])
     });
@@ -339,16 +337,15 @@ pub fn full_brdf(scene: &MonoScene, n_target: usize) -> Result<(DirectionSet, Ma
 /// # Errors
 /// Those of [`brdf_for_incidence`].
 pub fn totals(scene: &MonoScene, n_target: usize) -> Result<(f64, f64)> {
-    match scene.light {
+    match scene.light() {
         Light::Collimated { .. } => {
             let r = brdf_for_incidence(scene, n_target, Combine::Exact)?;
             Ok((r.reflectance, r.transmittance))
         }
         Light::Diffuse => {
-            scene.validate()?;
             let sets = scene_sets(scene, n_target, None)?;
             let total = fold(&stack_operators(scene, &sets, true)?, Combine::Exact)?;
-            let top = sets.set(scene.ambient_n)?;
+            let top = sets.set(scene.ambient_n())?;
             // Incident flux sum mu w / pi (1 up to quadrature), used as the divisor.
             let fin: f64 = top.mu.iter().zip(&top.weight).map(|(m, w)| m * w / PI).sum();
             let out = |m: &Mat<f64>, set: &DirectionSet| -> f64 {

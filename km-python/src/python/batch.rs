@@ -218,9 +218,10 @@ pub(crate) fn _solve_scenes<'py>(
     let Some(first) = list.first() else {
         return Err(py_err(py, Error::option("scenes", "the batch is empty")));
     };
-    let (channels, directions) = (first.channels.len(), first.channels[0].directions_deg.len());
+    let (channels, directions) =
+        (first.channels().len(), first.channels()[0].directions_deg().len());
     if let Some(i) = list.iter().position(|s| {
-        s.channels.len() != channels || s.channels[0].directions_deg.len() != directions
+        s.channels().len() != channels || s.channels()[0].directions_deg().len() != directions
     }) {
         return Err(py_err(
             py,
@@ -233,7 +234,7 @@ pub(crate) fn _solve_scenes<'py>(
             ),
         ));
     }
-    let labels = first.labels.clone();
+    let labels = first.labels().to_vec();
     let results = guarded(py, || crate::sweep::solve_many(&list, &opts, threads))?;
     columns_dict(py, results, channels, directions, labels, errors)
 }
@@ -274,9 +275,9 @@ pub(crate) fn _solve_sweep<'py>(
     }
     let flat: Vec<f64> = view.iter().copied().collect();
     let base = &scene.get().scene;
-    let (channels, directions) = (base.channels.len(), base.channels[0].directions_deg.len());
+    let (channels, directions) = (base.channels().len(), base.channels()[0].directions_deg().len());
     let results = guarded(py, || crate::sweep::solve_sweep(base, &targets, &flat, &opts, threads))?;
-    columns_dict(py, results, channels, directions, base.labels.clone(), errors)
+    columns_dict(py, results, channels, directions, base.labels().to_vec(), errors)
 }
 
 /// One shard of a Monte Carlo run (see `km.run_shard`).

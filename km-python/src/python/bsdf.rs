@@ -23,12 +23,14 @@ use crate::error::Error;
 fn default_streams(scene: &Scene) -> usize {
     let (grid, _) = gauss_angles(32);
     let mut best = 1;
-    for ch in &scene.channels {
-        let mut s = ch.clone();
-        s.directions_deg = vec![[0.0, 0.0]];
+    for ch in scene.channels() {
         for &t in &grid {
-            s.light = Light::Collimated { theta_deg: t };
-            best = best.max(km_multiflux::default_streams(&s));
+            // Only theta > 80 degrees counts in the choice, not the grazing
+            // margin; the light and the one direction are valid.
+            let light = Light::Collimated { theta_deg: t.min(89.0) };
+            if let Ok(s) = ch.with_light(light).and_then(|s| s.with_directions(vec![[0.0, 0.0]])) {
+                best = best.max(km_multiflux::default_streams(&s));
+            }
         }
     }
     best
@@ -71,14 +73,14 @@ const MAX_PAIRS: usize = 1 << 20;
 
 impl PyBsdfCore {
     fn build(&self, side: &str, theta_i: &[f64], theta_o: &[f64]) -> Result<Bsdf, Error> {
-        let pairs = self.scene.channels.len() * theta_i.len() * theta_o.len();
+        let pairs = self.scene.channels().len() * theta_i.len() * theta_o.len();
         if pairs > MAX_PAIRS {
             return Err(Error::option(
                 "theta_o",
                 format!(
                     "{} channel(s) x {} distinct theta_i x {} distinct theta_o = {pairs} pairs \
                      (at most {MAX_PAIRS}): evaluate on a coarser grid or in chunks",
-                    self.scene.channels.len(),
+                    self.scene.channels().len(),
                     theta_i.len(),
                     theta_o.len()
                 ),
@@ -157,17 +159,17 @@ impl PyBsdfCore {
     /// Number of spectral channels.
     #[getter]
     fn channels(&self) -> usize {
-        self.scene.channels.len()
+        self.scene.channels().len()
     }
     /// Channel labels.
     #[getter]
     fn labels(&self) -> Vec<String> {
-        self.scene.labels.clone()
+        self.scene.labels().to_vec()
     }
     /// Wavelengths (nm) when the scene gives them.
     #[getter]
     fn wavelengths_nm(&self) -> Option<Vec<f64>> {
-        self.scene.wavelengths_nm.clone()
+        self.scene.wavelengths_nm().map(<[f64]>::to_vec)
     }
     /// The scene's TOML text.
     fn scene_toml(&self) -> String {
@@ -196,7 +198,7 @@ impl PyBsdfCore {
         if let Some(p) = ph.iter().find(|p| !p.is_finite()) {
             return Err(py_err(py, Error::option("phi", format!("{p} is not finite"))));
         }
-        let nc = self.scene.channels.len();
+        let nc = self.scene.channels().len();
         if n == 0 {
             return Ok(Vec::<f64>::new().into_pyarray(py).reshape([nc, 0])?.into_any());
         }
@@ -224,7 +226,7 @@ impl PyBsdfCore {
         theta_i: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let ti = vec1(&theta_i);
-        let nc = self.scene.channels.len();
+        let nc = self.scene.channels().len();
         let d = PyDict::new(py);
         if ti.is_empty() {
             for k in TOTALS {

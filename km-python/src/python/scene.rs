@@ -131,42 +131,42 @@ impl PyScene {
     /// Number of spectral channels.
     #[getter]
     fn channels(&self) -> usize {
-        self.scene.channels.len()
+        self.scene.channels().len()
     }
 
     /// Channel labels.
     #[getter]
     fn labels(&self) -> Vec<String> {
-        self.scene.labels.clone()
+        self.scene.labels().to_vec()
     }
 
     /// Wavelengths (nm) when the scene gives them.
     #[getter]
     fn wavelengths_nm(&self) -> Option<Vec<f64>> {
-        self.scene.wavelengths_nm.clone()
+        self.scene.wavelengths_nm().map(<[f64]>::to_vec)
     }
 
     /// The layers of one channel, top first, as dicts of their derived values
     /// (sigma_a, sigma_s, sigma_t, thickness, tau, albedo, g, n).
     #[pyo3(signature = (channel=0))]
     fn layers<'py>(&self, py: Python<'py>, channel: usize) -> PyResult<Bound<'py, PyList>> {
-        let c = self.scene.channels.get(channel).ok_or_else(|| {
+        let c = self.scene.channels().get(channel).ok_or_else(|| {
             py_err(
                 py,
                 Error::option("channel", format!("the scene has {} channel(s)", self.channels())),
             )
         })?;
         let list = PyList::empty(py);
-        for l in &c.layers {
+        for l in c.layers() {
             let d = PyDict::new(py);
-            d.set_item("sigma_a", l.sigma_a)?;
-            d.set_item("sigma_s", l.sigma_s)?;
+            d.set_item("sigma_a", l.sigma_a())?;
+            d.set_item("sigma_s", l.sigma_s())?;
             d.set_item("sigma_t", l.sigma_t())?;
-            d.set_item("thickness", l.thickness)?;
+            d.set_item("thickness", l.thickness())?;
             d.set_item("tau", l.tau())?;
             d.set_item("albedo", l.albedo())?;
             d.set_item("g", l.g())?;
-            d.set_item("n", l.n)?;
+            d.set_item("n", l.n())?;
             list.append(d)?;
         }
         Ok(list)
@@ -176,7 +176,7 @@ impl PyScene {
     #[getter]
     fn light<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        match self.scene.channels[0].light {
+        match self.scene.channels()[0].light() {
             Light::Collimated { theta_deg } => {
                 d.set_item("kind", "collimated")?;
                 d.set_item("theta_deg", theta_deg)?;
@@ -190,7 +190,7 @@ impl PyScene {
     #[getter]
     fn substrate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        match self.scene.channels[0].substrate {
+        match self.scene.channels()[0].substrate() {
             Substrate::Transparent { n } => {
                 d.set_item("kind", "transparent")?;
                 d.set_item("n", n)?;
@@ -207,16 +207,16 @@ impl PyScene {
     /// Exit directions `[theta_deg, phi_deg]` of the BRDF/BTDF samples.
     #[getter]
     fn directions_deg(&self) -> Vec<[f64; 2]> {
-        self.scene.channels[0].directions_deg.clone()
+        self.scene.channels()[0].directions_deg().to_vec()
     }
 
     fn __repr__(&self) -> String {
-        let c = &self.scene.channels[0];
+        let c = &self.scene.channels()[0];
         format!(
             "km.Scene({} layer(s), {} channel(s), {} direction(s))",
-            c.layers.len(),
-            self.scene.channels.len(),
-            c.directions_deg.len()
+            c.layers().len(),
+            self.scene.channels().len(),
+            c.directions_deg().len()
         )
     }
 

@@ -4,7 +4,8 @@ use toml::{Spanned, Value};
 
 use super::{Coef, Parser, RawLayer, RawSubstrate, check_theta};
 use crate::error::CoreError;
-use crate::layer::Layer;
+use crate::layer::{Layer, is_refractive_index};
+use crate::phase::Anisotropy;
 use crate::presets;
 
 impl Parser {
@@ -215,8 +216,8 @@ impl Parser {
                 check(&b, &|x| (0.0..=1.0).contains(&x), "albedo must lie in [0, 1]")?;
             }
         }
-        check(&g, &|x| x.is_finite() && x.abs() < 1.0, "|g| must be < 1")?;
-        check(&n, &|x| x.is_finite() && x >= 1.0, "refractive index must be finite and >= 1")?;
+        check(&g, &Anisotropy::admits, "|g| must be < 1")?;
+        check(&n, &is_refractive_index, "refractive index must be finite and >= 1")?;
         let half = match form {
             Form::Sigma => thickness.values.iter().any(|x| x.is_infinite()),
             Form::Tau => a.values.iter().any(|x| x.is_infinite()),
