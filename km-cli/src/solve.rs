@@ -363,15 +363,13 @@ pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
         }
         Some(("profile", m)) => {
             let method = method(m).unwrap_or(Method::Dipole);
-            if let Some(id) = ["samples", "seed"].into_iter().find(|id| given(m, id)) {
-                if method != Method::Mc {
-                    bail!(
-                        "{} does not apply to --method {}: it sets the Monte Carlo run \
-                         (--method mc)",
-                        flag(id),
-                        method.name()
-                    );
-                }
+            let mc_only = ["samples", "seed"].into_iter().find(|id| given(m, id));
+            if let Some(id) = mc_only.filter(|_| method != Method::Mc) {
+                bail!(
+                    "{} does not apply to --method {}: it sets the Monte Carlo run (--method mc)",
+                    flag(id),
+                    method.name()
+                );
             }
         }
         _ => {}
