@@ -18,8 +18,7 @@ use km_inverse::text::{drawdown_report, fits_table};
 
 use crate::stdout;
 
-// (The flags of `km fit`; no doc comment: it would become the command's about.)
-
+// The flags of `km fit` (no doc comment: it would become the command's about).
 #[derive(Args, Debug, Clone)]
 #[command(after_help = help!("fit"))]
 pub struct FitArgs {
@@ -148,8 +147,9 @@ pub fn run(args: &FitArgs) -> Result<()> {
     if args.km {
         return run_km(args);
     }
-    let km_only = [args.r_black, args.r_white, args.r_white_ground, args.r_black_ground];
-    if km_only.iter().chain(&[args.r_inf, args.r_zero, args.k2]).any(Option::is_some) {
+    // The Kubelka–Munk readings and k2 need --km (thickness and index serve both inverses).
+    let km_only = DrawdownInputs { thickness: None, n: None, ..args.drawdown() };
+    if km_only != DrawdownInputs::default() {
         bail!(
             "--r-black, --r-white, --r-white-ground, --r-black-ground, --r-inf, --r-zero and \
              --k2 need --km"
