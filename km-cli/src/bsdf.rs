@@ -1,26 +1,16 @@
 //! `km bsdf`: the whole BSDF of a scene's stack as a table file (npz, csv)
-//! or a Fourier BSDF file for Mitsuba 0.6 / pbrt-v3 (`docs/bsdf.md`).
+//! or a Fourier BSDF file for Mitsuba 0.6 / pbrt-v3 (`docs/bsdf.md`),
+//! computed by `km::bsdf_file`.
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
-use clap::{Args, ValueEnum};
+use anyhow::{Context, anyhow, bail};
+use clap::Args;
 use km::bsdf::Bsdf;
 use km::bsdf::write::write_atomic;
-use km::bsdf_file::{AngleListError, BsdfFile, BsdfFormat, BsdfRequest, bsdf_file, default_phi};
+use km::bsdf_file::{AngleList, AngleListError, BsdfFile, BsdfFormat, BsdfRequest, RequestError};
 
-/// File format of `km bsdf`.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Format {
-    /// numpy `.npz` (zip of `.npy` arrays; names in docs/bsdf.md).
-    Npz,
-    /// Long-format CSV, one row per (channel, theta_i, theta_o, phi).
-    Csv,
-    /// The layerlab Fourier BSDF file read by Mitsuba 0.6 and pbrt-v3 (`fourier` material).
-    Fourier,
-}
-
-/// Arguments of `km bsdf`.
+// The flags of `km bsdf` (no doc comment: it would become the command's about).
 #[derive(Args, Debug)]
 pub struct BsdfArgs {
     /// Scene file (TOML, see docs/scene-file.md); its light and [output] are ignored.
@@ -30,7 +20,7 @@ pub struct BsdfArgs {
     pub out: Option<PathBuf>,
     /// File format (default: from the extension of --out: .npz, .csv, .bsdf → fourier; else npz).
     #[arg(long, value_enum)]
-    pub format: Option<Format>,
+    pub format: Option<BsdfFormat>,
     /// Incidence polar angles, degrees in [0, 90): a list `0,30,60`, a range
     /// `START:STOP:STEP` (STOP excluded) or `gauss:N` (arccosines of N Gauss
     /// nodes in mu). Default gauss:32 (npz, csv); for fourier, 48 angles
@@ -55,30 +45,9 @@ pub struct BsdfArgs {
     pub plot: Option<PathBuf>,
 }
 
-/// An angle list of flag `--NAME` ([`km::bsdf_file::parse_angles`]).
-fn parse_angles(name: &str, text: &str) -> anyhow::Result<Vec<f64>> {
-    km::bsdf_file::parse_angles(text).map_err(|e| match e {
-        e @ AngleListError::Grid { .. } => anyhow::anyhow!("--{name} {e}"),
-        e @ AngleListError::List { .. } => anyhow::anyhow!("--{name}: {e}"),
-    })
-}
-
-/// The format: the flag, else the extension of `out`, else npz.
-fn resolve_format(args: &BsdfArgs) -> BsdfFormat {
-    match args.format {
-        Some(Format::Npz) => BsdfFormat::Npz,
-        Some(Format::Csv) => BsdfFormat::Csv,
-        Some(Format::Fourier) => BsdfFormat::Fourier,
-        None => BsdfFormat::from_path(args.out.as_deref()),
-    }
-}
-
-/// Compute the BSDF of the scene file and write the file; returns what was
-/// computed and the scene (for the pictures).
-///
-/// # Errors
-/// Bad scene or flags, solver failures, write failures (nothing half-written).
-pub fn run(args: &BsdfArgs) -> anyhow::Result<(BsdfFile, km::Scene)> {
+/// `km bsdf`: compute, write (nothing half-written), plot, and print a
+/// summary on stderr.
+pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
     if args.out.is_none() && args.plot.is_none() {
         bail!("km bsdf needs --out FILE, --plot DIR, or both");
     }
@@ -87,64 +56,42 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<(BsdfFile, km::Scene)> {
         .with_context(|| format!("{}", args.scene.display()))?;
     let scene = km::Scene::from_toml_str_with(&text, &limits)
         .with_context(|| format!("{}", args.scene.display()))?;
-    let format = resolve_format(args);
-    let theta_i = match &args.theta_i {
-        Some(t) => parse_angles("theta-i", t)?,
-        None => format.default_theta(),
-    };
-    let theta_o = match &args.theta_o {
-        Some(t) => parse_angles("theta-o", t)?,
-        None => theta_i.clone(),
-    };
-    let phi = match &args.phi {
-        Some(t) => parse_angles("phi", t)?,
-        None => default_phi(),
-    };
-    if format == BsdfFormat::Fourier && args.from_below {
-        bail!("--from-below does not apply to --format fourier (the file holds both sides)");
-    }
-    let (from_below, streams) = (args.from_below, args.streams);
-    let request = BsdfRequest { theta_i, theta_o, phi, from_below, streams, format };
+    let format = args.format.unwrap_or_else(|| BsdfFormat::from_path(args.out.as_deref()));
+    let (theta_i, theta_o, phi) =
+        (args.theta_i.as_deref(), args.theta_o.as_deref(), args.phi.as_deref());
+    let request =
+        BsdfRequest::from_lists(theta_i, theta_o, phi, args.from_below, args.streams, format)
+            .map_err(flagged)?;
     let name = args.scene.display().to_string();
-    let file = bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
+    let file = km::bsdf_file::bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
     if let (Some(out), Some(bytes)) = (&args.out, &file.bytes) {
         write_atomic(out, bytes)?;
     }
-    Ok((file, scene))
-}
-
-/// `km bsdf`: compute, write, plot, and print a one-paragraph summary on stderr.
-pub fn main(args: &BsdfArgs) -> anyhow::Result<()> {
-    let (c, scene) = run(args)?;
-    let b = &c.bsdf;
-    if let Some(out) = &args.out {
-        eprintln!(
-            "wrote {} ({} channel(s) x {} incidence x {} exit polar angles x {} azimuths) in {:.3} s",
-            out.display(),
-            b.channels.len(),
-            b.theta_i.len(),
-            b.theta_o.len(),
-            c.phi.len(),
-            c.seconds
-        );
-    }
-    let checks = &c.meta["checks"];
-    eprintln!(
-        "checks: energy {:.1e}, reflection reciprocity {}, negative values {} of {}",
-        checks["energy_max_error"].as_f64().unwrap_or(f64::NAN),
-        checks["reflection_reciprocity_max_relative"]
-            .as_f64()
-            .map_or("n/a (grids differ)".into(), |v| format!("{v:.1e}")),
-        checks["negative_values"],
-        checks["values"]
-    );
+    eprint!("{}", file.summary(args.out.as_deref()));
     if let Some(dir) = &args.plot {
-        let files = plots(&c, &scene, dir)?;
-        for f in files {
+        for f in plots(&file, &scene, dir)? {
             eprintln!("wrote {}", f.display());
         }
     }
     Ok(())
+}
+
+/// A refused request in the words of the flags.
+fn flagged(e: RequestError) -> anyhow::Error {
+    let RequestError::Angles { list, source } = e else {
+        return anyhow!(
+            "--from-below does not apply to --format fourier (the file holds both sides)"
+        );
+    };
+    let flag = match list {
+        AngleList::ThetaI => "--theta-i",
+        AngleList::ThetaO => "--theta-o",
+        AngleList::Phi => "--phi",
+    };
+    match source {
+        e @ AngleListError::Grid { .. } => anyhow!("{flag} {e}"),
+        e @ AngleListError::List { .. } => anyhow!("{flag}: {e}"),
+    }
 }
 
 /// The pictures of `km bsdf --plot`: the table's incidence angles nearest

@@ -1,26 +1,26 @@
-//! `km fit`: optical properties from measurements (`docs/inverse.md`).
-//!
-//! Two inverses behind one command: the slab inverse of Prahl's iad
-//! (`--m-r`, `--m-t`, `[--m-u]`, or a spectrum file), and, with `--km`, the
-//! Kubelka–Munk inverse of paint drawdowns (`docs/inverse-km.md`).
+//! `km fit`: optical properties from measurements. Two inverses behind one
+//! command: the slab inverse of Prahl's iad (`--m-r`, `--m-t`, `[--m-u]`, or
+//! a spectrum file; `docs/inverse.md`), and, with `--km`, the Kubelka–Munk
+//! inverse of paint drawdowns (`docs/inverse-km.md`), whose inputs
+//! `km_inverse::drawdown::DrawdownInputs` checks.
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
+use km_bench::chart::{LineChart, Mark, Series, write_chart};
+use km_inverse::drawdown::{DrawdownFit, DrawdownInputs, Input, InputError, hiding_curves};
 use km_inverse::forward::Sample;
-use km_inverse::rxt::{Row, parse_csv, parse_rxt};
-use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
-use km_inverse::spectrum::{RowOverrides, fit_rows, rows_json};
+use km_inverse::rxt::{parse_csv, parse_rxt};
+use km_inverse::slab::{FitOptions, Measurement, Setup};
+use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
+use km_inverse::text::{drawdown_report, fits_table};
 
-/// Arguments of `km fit`.
+use crate::stdout;
+
+// The flags of `km fit` (no doc comment: it would become the command's about).
 #[derive(Args, Debug, Clone)]
-#[command(after_help = "Examples:\n  \
-km fit --m-r 0.2726 --m-t 0.2991 --thickness 1 --n-sample 1.4 --n-slide 1.5 --json\n  \
-km fit --m-r 0.2726 --m-t 0.2991 --m-u 0.1244 --thickness 1 --n-sample 1.4 --n-slide 1.5\n  \
-km fit examples/fit-phantom.rxt --json\n  \
-km fit examples/fit-spectrum.csv --thickness 1 --n-sample 1.4 --json\n  \
-km fit --km --r-black 0.3 --r-white 0.5 --r-white-ground 0.8 --thickness 0.05 --json")]
+#[command(after_help = help!("fit"))]
 pub struct FitArgs {
     /// Spectrum file: iad's `.rxt` (sample and spheres from its header) or a
     /// `.csv` with columns wavelength_nm, m_r, m_t[, m_u, sigma_r, sigma_t, sigma_u, g].
@@ -106,21 +106,7 @@ pub struct FitArgs {
 }
 
 impl FitArgs {
-    /// The Kubelka–Munk inputs of `--km`.
-    pub fn km_inputs(&self) -> crate::fit_km::KmFitInputs {
-        crate::fit_km::KmFitInputs {
-            r_black: self.r_black,
-            r_white: self.r_white,
-            r_white_ground: self.r_white_ground,
-            r_black_ground: self.r_black_ground,
-            r_inf: self.r_inf,
-            r_zero: self.r_zero,
-            thickness: self.thickness,
-            k2: self.k2,
-            n: self.n_sample,
-        }
-    }
-
+    /// `M_R` and `M_T` fractions: the specular reflection, the unscattered beam.
     fn fractions(&self) -> (f64, f64) {
         let c = if self.exclude_specular { 0.0 } else { self.specular_in_m_r };
         let c_t = if self.exclude_unscattered { 0.0 } else { self.unscattered_in_m_t };
@@ -128,7 +114,7 @@ impl FitArgs {
     }
 
     /// The set-up from the flags (thickness required).
-    fn setup(&self) -> anyhow::Result<Setup> {
+    fn setup(&self) -> Result<Setup> {
         let Some(d) = self.thickness else {
             bail!(
                 "--thickness is required (the sample's thickness, in the length unit of the answer)"
@@ -139,23 +125,31 @@ impl FitArgs {
         let (c, c_t) = self.fractions();
         Ok(Setup { specular_in_m_r: c, unscattered_in_m_t: c_t, ..Setup::new(sample) })
     }
+
+    /// The Kubelka–Munk inputs of `--km` (`--n-sample` is the binder's index).
+    fn drawdown(&self) -> DrawdownInputs {
+        DrawdownInputs {
+            r_black: self.r_black,
+            r_white: self.r_white,
+            r_white_ground: self.r_white_ground,
+            r_black_ground: self.r_black_ground,
+            r_inf: self.r_inf,
+            r_zero: self.r_zero,
+            thickness: self.thickness,
+            n: self.n_sample,
+            k2: self.k2,
+        }
+    }
 }
 
-/// Run `km fit`.
-pub fn run(args: &FitArgs) -> anyhow::Result<()> {
+/// `km fit`.
+pub fn run(args: &FitArgs) -> Result<()> {
     if args.km {
         return run_km(args);
     }
-    let km_only = [
-        args.r_black,
-        args.r_white,
-        args.r_white_ground,
-        args.r_black_ground,
-        args.r_inf,
-        args.r_zero,
-        args.k2,
-    ];
-    if km_only.iter().any(Option::is_some) {
+    // The Kubelka–Munk readings and k2 need --km (thickness and index serve both inverses).
+    let km_only = DrawdownInputs { thickness: None, n: None, ..args.drawdown() };
+    if km_only != DrawdownInputs::default() {
         bail!(
             "--r-black, --r-white, --r-white-ground, --r-black-ground, --r-inf, --r-zero and \
              --k2 need --km"
@@ -165,42 +159,40 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
         bail!("--plot applies to --km only");
     }
     let opts = FitOptions { g: args.g, streams: args.streams };
-    match &args.file {
-        None => run_one(args, &opts),
-        Some(path) => run_file(args, &opts, path),
-    }
-}
-
-/// One measurement from `--m-r`, `--m-t` [`--m-u`].
-fn run_one(args: &FitArgs, opts: &FitOptions) -> anyhow::Result<()> {
-    let (Some(m_r), Some(m_t)) = (args.m_r, args.m_t) else {
-        bail!("give --m-r and --m-t (or a measurement file)");
+    let Some(path) = &args.file else {
+        let (Some(m_r), Some(m_t)) = (args.m_r, args.m_t) else {
+            bail!("give --m-r and --m-t (or a measurement file)");
+        };
+        let (sigma_r, sigma_t, sigma_u) = (args.sigma_r, args.sigma_t, args.sigma_u);
+        let meas = Measurement { m_r, m_t, m_u: args.m_u, sigma_r, sigma_t, sigma_u };
+        let r = km_inverse::fit(&args.setup()?, &meas, &opts)?;
+        if args.json {
+            return stdout::print_json(&r.to_json());
+        }
+        return stdout::print(&fits_table(&[RowFit { wavelength_nm: None, result: Ok(r) }]));
     };
-    let meas = Measurement {
-        m_r,
-        m_t,
-        m_u: args.m_u,
-        sigma_r: args.sigma_r,
-        sigma_t: args.sigma_t,
-        sigma_u: args.sigma_u,
-    };
-    let r = km_inverse::fit(&args.setup()?, &meas, opts)?;
+    let fits = fit_file(args, &opts, path)?;
     if args.json {
-        crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&r.to_json())?))
+        stdout::print_json(&rows_json(&fits))?;
     } else {
-        crate::stdout::print(&table(&[(None, r)]))
+        stdout::print(&fits_table(&fits))?;
     }
+    if fits.iter().all(|f| f.result.is_err()) {
+        bail!("no row of {} could be fitted", path.display());
+    }
+    Ok(())
 }
 
-/// A spectrum file: every row fitted (`km_inverse::spectrum`), bad rows reported in place.
-fn run_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> anyhow::Result<()> {
+/// A spectrum file (`.rxt`, or `.csv` with the set-up of the flags), every
+/// row fitted with the flags' overrides (`km_inverse::spectrum`).
+fn fit_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> Result<Vec<RowFit>> {
     if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
         bail!("give either a measurement file or --m-r/--m-t/--m-u, not both");
     }
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
-    let rows: Vec<Row> = match ext.as_str() {
+    let rows = match ext.as_str() {
         "rxt" => parse_rxt(&text),
         "csv" => parse_csv(&text, &args.setup()?),
         _ => bail!("{}: expected a .rxt or .csv file", path.display()),
@@ -215,62 +207,64 @@ fn run_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> anyhow::Result<()
         sigma_t: args.sigma_t,
         sigma_u: args.sigma_u,
     };
-    let fits = fit_rows(&rows, &over, opts);
-    if args.json {
-        crate::stdout::print(&format!("{}\n", serde_json::to_string_pretty(&rows_json(&fits))?))?;
-    } else {
-        let ok: Vec<(Option<f64>, FitResult)> = fits
-            .iter()
-            .filter_map(|f| f.result.as_ref().ok().map(|r| (f.wavelength_nm, r.clone())))
-            .collect();
-        let mut out = table(&ok);
-        for f in &fits {
-            if let Err(e) = &f.result {
-                let w = f.wavelength_nm.map_or("-".to_string(), |w| format!("{w:.1}"));
-                out += &format!("{w:>9} invalid: {e}\n");
-            }
-        }
-        crate::stdout::print(&out)?;
-    }
-    if fits.iter().all(|f| f.result.is_err()) {
-        bail!("no row of {} could be fitted", path.display());
-    }
-    Ok(())
+    Ok(fit_rows(&rows, &over, opts))
 }
 
-/// A plain-text table of results.
-fn table(results: &[(Option<f64>, FitResult)]) -> String {
-    let mut s = format!(
-        "{:>9} {:>10} {:>11} {:>7} {:>11} {:>11} {:>11} {:>9} {:>9} {}\n",
-        "lambda", "albedo", "tau", "g", "mu_a", "mu_s'", "u(mu_a)", "M_R fit", "M_T fit", "status"
-    );
-    for (w, r) in results {
-        let w = w.map_or("-".to_string(), |w| format!("{w:.1}"));
-        let flag = if r.uncertainty.ill_conditioned { " (ill-conditioned)" } else { "" };
-        s += &format!(
-            "{w:>9} {:>10.6} {:>11.5e} {:>7.4} {:>11.5e} {:>11.5e} {:>11.3e} {:>9.5} {:>9.5} {:?}{flag}\n",
-            r.albedo,
-            r.tau,
-            r.g,
-            r.mu_a,
-            r.mu_s_prime,
-            r.uncertainty.mu_a,
-            r.fitted[0],
-            r.fitted[1],
-            r.status
-        );
-        for n in &r.notes {
-            s += &format!("          note: {n}\n");
-        }
-    }
-    s
-}
-
-/// `--km`: the Kubelka–Munk inverse (`docs/inverse-km.md`).
-fn run_km(args: &FitArgs) -> anyhow::Result<()> {
-    let inputs = args.km_inputs();
+/// `--km`: the Kubelka–Munk inverse, and its hiding curves with `--plot`.
+fn run_km(args: &FitArgs) -> Result<()> {
+    let fit = args.drawdown().fit().map_err(flagged)?;
     if let Some(dir) = &args.plot {
-        crate::fit_km::write_plot(&inputs, dir)?;
+        write_plot(&fit, dir)?;
     }
-    crate::fit_km::run(&inputs, args.json)
+    if args.json {
+        return stdout::print_json(&fit.to_json());
+    }
+    stdout::print(&drawdown_report(&fit, "--r-zero and --thickness"))
+}
+
+/// A refusal of the Kubelka–Munk inputs in the words of the flags.
+fn flagged(e: InputError) -> anyhow::Error {
+    let flag = |i: Input| match i {
+        Input::N => "--n-sample".to_string(),
+        i => format!("--{}", i.name().replace('_', "-")),
+    };
+    match &e {
+        // The library's refusal names the value; the flag goes in front.
+        InputError::Refused { input, .. } => {
+            anyhow!("{}: {}", input.map_or("--km".into(), flag), e.message(flag))
+        }
+        _ => anyhow!(e.message(flag)),
+    }
+}
+
+/// Points of the hiding curves (thicknesses from 0 to this many, at most).
+const PLOT_POINTS: usize = 200;
+
+/// Draw the fitted film's hiding curves ([`hiding_curves`]: its internal
+/// reflectance over the grounds against thickness, the readings at the
+/// measured thickness, and `R_inf`) into `dir/km-fit-km.svg` and `.png`.
+fn write_plot(fit: &DrawdownFit, dir: &Path) -> Result<[PathBuf; 2]> {
+    let Some((curves, x)) = hiding_curves(fit, PLOT_POINTS)? else {
+        bail!("--plot needs K and S: give --r-zero and --thickness, or --r-black and --r-white");
+    };
+    let mut series = Vec::new();
+    for (i, c) in curves.into_iter().enumerate() {
+        if let Some(r) = c.reading {
+            let label = format!("reading, {}", c.label);
+            series.push(Series::new(label, vec![(x, r)], Mark::Points, i));
+        }
+        series.push(Series::new(format!("{} ({})", c.label, c.ground), c.points, Mark::Line, i));
+    }
+    let (k, s, r_inf) = fit.film.map_or((f64::NAN, f64::NAN, fit.r_inf), |f| (f.k, f.s, f.r_inf));
+    let chart = LineChart {
+        title: format!("Kubelka–Munk fit: K = {k:.4}, S = {s:.4} (internal reflectance)"),
+        x_label: "film thickness".into(),
+        y_label: "reflectance".into(),
+        y_range: Some((0.0, 1.0)),
+        series,
+        h_lines: vec![(r_inf, format!("R_inf = {r_inf:.4}"))],
+        ..Default::default()
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    write_chart(dir, "km-fit-km", &chart)
 }

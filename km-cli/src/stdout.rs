@@ -12,7 +12,7 @@
 //!   disk, a closed or read-only standard output) into an error for `main`
 //!   to report with a non-zero exit status.
 //!
-//! Every print of the CLI goes through [`print`].
+//! Every print of the CLI goes through [`print`] (or [`print_json`]).
 
 use std::io::Write;
 
@@ -83,4 +83,9 @@ pub fn print(text: &str) -> Result<()> {
         }
         Err(e) => Err(anyhow!("cannot write to standard output: {e}")),
     }
+}
+
+/// [`print`] a JSON value, pretty, with a final newline.
+pub fn print_json(value: &serde_json::Value) -> Result<()> {
+    print(&format!("{}\n", serde_json::to_string_pretty(value)?))
 }

@@ -61,13 +61,6 @@ fn refusals_name_the_problem() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--thickness"));
     let out = km(&["fit", "--m-r", "1.3", "--m-t", "0.4", "--thickness", "1"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("m_r = 1.3"));
-    // Until the Kubelka–Munk module is built in, a clear refusal.
-    if !std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/src/fit_km.rs")).exists() {
-        let out = km(&["fit", "--km", "--r-black", "0.3", "--r-white", "0.5"]);
-        assert!(!out.status.success());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains("the Kubelka-Munk inverse is not built in"), "{err}");
-    }
     // Kubelka–Munk flags without --km.
     let out = km(&["fit", "--m-r", "0.3", "--m-t", "0.4", "--thickness", "1", "--r-black", "0.2"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("need --km"));

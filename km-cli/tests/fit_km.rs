@@ -120,7 +120,12 @@ fn missing_and_conflicting_inputs_are_named() {
     let e = stderr(&["fit", "--km", "--r-black", "0.1", "--r-inf", "0.3"]);
     assert!(e.contains("not both"), "{e}");
     let e = stderr(&["fit", "--km", "--r-inf", "0.3", "--k2", "0.6"]);
-    assert!(e.contains("--k2 needs --n"), "{e}");
+    // The binder's index is the flag --n-sample.
+    assert!(e.contains("--k2 needs --n-sample (k1 "), "{e}");
+    let e = stderr(&["fit", "--km", "--r-inf", "0.5", "--n-sample", "0.5"]);
+    assert!(e.contains("--n-sample: invalid n = 0.5"), "{e}");
+    let e = stderr(&["fit", "--km", "--r-zero", "0.3"]);
+    assert!(e.contains("--r-zero needs --r-inf (the reflectance of the opaque film)"), "{e}");
     // Swapped readings: the library's message names r_black.
     let e = stderr(&[
         "fit",

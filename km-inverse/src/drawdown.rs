@@ -12,10 +12,16 @@
 //! With a [`Saunderson`] correction the readings are instrument readings
 //! (specular component included) and are first turned into internal
 //! reflectances (eq. I8–I9); without it they are internal reflectances.
+//!
+//! [`DrawdownInputs`] turns a front end's optional inputs into readings and
+//! a correction, naming each missing or conflicting input ([`InputError`]).
 
 use serde_json::{Map, Value, json};
 
 use crate::kubelka::{self, Film, KubelkaError, Saunderson, Uncertainty};
+
+mod inputs;
+pub use inputs::{DrawdownInputs, Input, InputError};
 
 /// Standard uncertainty assumed for each reading as given (a
 /// spectrophotometer's typical repeatability) in [`DrawdownFit::uncertainty`].

@@ -25,6 +25,7 @@
 //! * [`drawdown`]: one film's readings to `K`, `S` (with Saunderson's
 //!   correction and the readings' uncertainty) and its hiding curves: what
 //!   `km fit --km` computes.
+//! * [`text`]: the fits as text for people (the tables `km fit` prints).
 //! * [`colour`]: spectra to CIE 1931 XYZ (2° observer; 1964 10° too), CIELAB
 //!   under D65 or D50, sRGB (IEC 61966-2-1), the CIEDE2000 colour difference,
 //!   and an SVG swatch. The CIE tables are carried in the crate
@@ -50,6 +51,7 @@ pub mod slab;
 pub mod spectrum;
 pub mod sphere;
 pub mod stack;
+pub mod text;
 
 pub use error::InverseError;
 pub use slab::{FitOptions, FitResult, Measurement, Setup, Status, fit};

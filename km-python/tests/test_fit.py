@@ -97,6 +97,13 @@ def test_fit_km_refusals():
     assert e.value.key == "r_white_ground"
     with pytest.raises(km.KmError, match="not both"):
         km.fit_km(r_black=0.3, r_white=0.5, r_inf=0.6)
+    # The command's messages (km_inverse::drawdown::InputError), in keyword names.
+    with pytest.raises(km.KmError) as e:
+        km.fit_km(r_zero=0.3)
+    assert e.value.key == "r_inf"
+    assert "r_zero needs r_inf (the reflectance of the opaque film)" in str(e.value)
+    with pytest.raises(km.KmError, match=r"k2 needs n \(k1 is the Fresnel"):
+        km.fit_km(r_inf=0.5, k2=0.6)
     with pytest.raises(km.KmError):
         km.fit_km(r_black=0.5, r_white=0.3, r_white_ground=0.8, thickness=1)
 

@@ -13,13 +13,24 @@ use crate::Scene;
 
 /// File format of a BSDF file.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum BsdfFormat {
     /// numpy `.npz` (zip of `.npy` arrays; names in docs/bsdf.md).
     Npz,
     /// Long-format CSV, one row per (channel, theta_i, theta_o, phi), after
     /// the meta JSON as `# ` comment lines.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "Long-format CSV, one row per (channel, theta_i, theta_o, phi)")
+    )]
     Csv,
     /// The layerlab Fourier BSDF file read by Mitsuba 0.6 and pbrt-v3.
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "The layerlab Fourier BSDF file read by Mitsuba 0.6 and pbrt-v3 (`fourier` material)"
+        )
+    )]
     Fourier,
 }
 
@@ -162,6 +173,79 @@ pub struct BsdfRequest {
     pub format: BsdfFormat,
 }
 
+/// The angle lists of a [`BsdfRequest`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AngleList {
+    /// Incidence polar angles.
+    ThetaI,
+    /// Exit polar angles.
+    ThetaO,
+    /// Azimuths.
+    Phi,
+}
+
+/// A request that [`BsdfRequest::from_lists`] refuses.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RequestError {
+    /// An angle list that [`parse_angles`] refuses.
+    #[error("{list:?}: {source}")]
+    Angles {
+        /// Which list.
+        list: AngleList,
+        /// Why.
+        source: AngleListError,
+    },
+    /// Light from below asked of a Fourier file, which holds both sides.
+    #[error("light from below does not apply to the Fourier file (the file holds both sides)")]
+    FromBelowInFourier,
+}
+
+impl BsdfRequest {
+    /// A request from angle lists as text ([`parse_angles`]); a list not
+    /// given takes its default: `theta_i` the format's
+    /// ([`BsdfFormat::default_theta`]), `theta_o` the `theta_i`, `phi`
+    /// [`default_phi`].
+    ///
+    /// # Errors
+    /// A list [`parse_angles`] refuses, naming the list; light from below
+    /// for a Fourier file.
+    ///
+    /// ```
+    /// use km::bsdf_file::{BsdfFormat, BsdfRequest};
+    /// let r = BsdfRequest::from_lists(Some("0,30"), None, None, false, None, BsdfFormat::Csv);
+    /// let r = r.unwrap();
+    /// assert_eq!((r.theta_o.len(), r.phi.len()), (2, 72));
+    /// ```
+    pub fn from_lists(
+        theta_i: Option<&str>,
+        theta_o: Option<&str>,
+        phi: Option<&str>,
+        from_below: bool,
+        streams: Option<usize>,
+        format: BsdfFormat,
+    ) -> Result<BsdfRequest, RequestError> {
+        let parse = |list: AngleList, text: &str| {
+            parse_angles(text).map_err(|source| RequestError::Angles { list, source })
+        };
+        let theta_i = match theta_i {
+            Some(t) => parse(AngleList::ThetaI, t)?,
+            None => format.default_theta(),
+        };
+        let theta_o = match theta_o {
+            Some(t) => parse(AngleList::ThetaO, t)?,
+            None => theta_i.clone(),
+        };
+        let phi = match phi {
+            Some(t) => parse(AngleList::Phi, t)?,
+            None => default_phi(),
+        };
+        if format == BsdfFormat::Fourier && from_below {
+            return Err(RequestError::FromBelowInFourier);
+        }
+        Ok(BsdfRequest { theta_i, theta_o, phi, from_below, streams, format })
+    }
+}
+
 /// A computed BSDF, its meta JSON and (when asked) the file's bytes.
 pub struct BsdfFile {
     /// The BSDF (light from the chosen side).
@@ -233,6 +317,38 @@ pub fn bsdf_file(
         })
     };
     Ok(BsdfFile { bsdf, phi: phi.clone(), meta, seconds, options, bytes })
+}
+
+impl BsdfFile {
+    /// What was computed, in two or three lines for people: the file
+    /// written to `out` (grid sizes, seconds), then the checks (energy,
+    /// reflection reciprocity, negative values).
+    pub fn summary(&self, out: Option<&Path>) -> String {
+        let b = &self.bsdf;
+        let mut s = String::new();
+        if let Some(out) = out {
+            s += &format!(
+                "wrote {} ({} channel(s) x {} incidence x {} exit polar angles x {} azimuths) in \
+                 {:.3} s\n",
+                out.display(),
+                b.channels.len(),
+                b.theta_i.len(),
+                b.theta_o.len(),
+                self.phi.len(),
+                self.seconds
+            );
+        }
+        let checks = &self.meta["checks"];
+        s + &format!(
+            "checks: energy {:.1e}, reflection reciprocity {}, negative values {} of {}\n",
+            checks["energy_max_error"].as_f64().unwrap_or(f64::NAN),
+            checks["reflection_reciprocity_max_relative"]
+                .as_f64()
+                .map_or("n/a (grids differ)".into(), |v| format!("{v:.1e}")),
+            checks["negative_values"],
+            checks["values"]
+        )
+    }
 }
 
 /// The meta JSON as one line.

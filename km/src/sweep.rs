@@ -55,6 +55,30 @@ impl SweepAxis {
         Ok(SweepAxis { key: e.key, start, stop, n })
     }
 
+    /// The texts of a sweep's edits split into the fixed edits (`KEY=VALUE`)
+    /// and the axes (`KEY=START:STOP:N`: a value with two colons), each in
+    /// the order given.
+    ///
+    /// # Errors
+    /// Those of [`SetEdit::parse`] and [`SweepAxis::parse`].
+    ///
+    /// ```
+    /// let sets = ["layer[1].g=0:0.8:5".to_string(), "light.theta_deg=30".to_string()];
+    /// let (edits, axes) = km::SweepAxis::split(&sets).unwrap();
+    /// assert_eq!((edits[0].key.as_str(), axes[0].n), ("light.theta_deg", 5));
+    /// ```
+    pub fn split(texts: &[String]) -> Result<(Vec<SetEdit>, Vec<SweepAxis>), KmError> {
+        let (mut edits, mut axes) = (Vec::new(), Vec::new());
+        for s in texts {
+            if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {
+                axes.push(SweepAxis::parse(s)?);
+            } else {
+                edits.push(SetEdit::parse(s)?);
+            }
+        }
+        Ok((edits, axes))
+    }
+
     /// The values `start + (stop - start) i / (N - 1)`, `i = 0..N` (`start` when `N = 1`).
     pub fn values(&self) -> Vec<f64> {
         if self.n == 1 {

@@ -6,8 +6,7 @@
 //! (`km_inverse::drawdown::DrawdownFit::to_json`), as for the command.
 
 use km_inverse::colour::{self, Illuminant, Lab, Observer, Spectrum, Xyz};
-use km_inverse::drawdown::{Readings, fit_drawdown};
-use km_inverse::kubelka::{KubelkaError, Saunderson, Specular};
+use km_inverse::drawdown::{DrawdownInputs, Input};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde_json::Value;
@@ -20,94 +19,14 @@ fn lib(name: &str, e: impl std::fmt::Display) -> Error {
     Error::option(name, e.to_string())
 }
 
-/// The readings of `km.fit_km` (each optional; the mode decides which are needed).
-#[derive(Default, Clone, Copy)]
-struct Inputs {
-    r_black: Option<f64>,
-    r_white: Option<f64>,
-    r_white_ground: Option<f64>,
-    r_black_ground: Option<f64>,
-    r_inf: Option<f64>,
-    r_zero: Option<f64>,
-    thickness: Option<f64>,
-    n: Option<f64>,
-    k2: Option<f64>,
-}
-
-fn need(v: Option<f64>, name: &str, what: &str) -> Result<f64, Error> {
-    v.ok_or_else(|| Error::option(name, format!("is required ({what})")))
-}
-
-fn saunderson(i: &Inputs) -> Result<Option<Saunderson>, Error> {
-    Ok(match (i.n, i.k2) {
-        (None, None) => None,
-        (None, Some(_)) => {
-            return Err(Error::option(
-                "k2",
-                "needs n (k1 is the Fresnel reflectance of the binder)",
-            ));
-        }
-        (Some(n), None) => {
-            Some(Saunderson::fresnel(n, Specular::Included).map_err(|e| lib("n", e))?)
-        }
-        (Some(n), Some(k2)) => {
-            Some(Saunderson::from_index(n, k2, Specular::Included).map_err(|e| lib("k2", e))?)
-        }
-    })
-}
-
-/// Which readings the keywords give (`r_black`/`r_white` over two grounds,
-/// or `r_inf` [`r_zero`]), each missing or conflicting keyword named.
-fn readings(i: &Inputs) -> Result<Readings, Error> {
-    let two = i.r_black.is_some() || i.r_white.is_some();
-    if two && (i.r_inf.is_some() || i.r_zero.is_some()) {
-        return Err(Error::option(
-            "r_inf",
-            "give either r_black/r_white (film over two grounds) or r_inf [r_zero], not both",
-        ));
-    }
-    if two {
-        return Ok(Readings::BlackWhite {
-            r_black: need(i.r_black, "r_black", "the film over the dark ground")?,
-            r_white: need(i.r_white, "r_white", "the film over the light ground")?,
-            g_white: need(i.r_white_ground, "r_white_ground", "the light ground's reflectance")?,
-            thickness: need(i.thickness, "thickness", "the film thickness")?,
-            g_black: i.r_black_ground.unwrap_or(0.0),
-        });
-    }
-    if i.r_white_ground.is_some() || i.r_black_ground.is_some() {
-        return Err(Error::option(
-            "r_white_ground",
-            "r_white_ground/r_black_ground belong to r_black/r_white",
-        ));
-    }
-    let r_inf = need(i.r_inf, "r_inf", "the reflectance of the opaque film")?;
-    match i.r_zero {
-        Some(r_zero) => Ok(Readings::RInfRZero {
-            r_inf,
-            r_zero,
-            thickness: need(i.thickness, "thickness", "the film thickness")?,
-        }),
-        None if i.thickness.is_some() => {
-            Err(Error::option("thickness", "needs r_zero: an opaque film alone gives only K/S"))
-        }
-        None => Ok(Readings::RInf { r_inf }),
-    }
-}
-
-/// The `km fit --km --json` object: [`km_inverse::drawdown::fit_drawdown`]
-/// on the keywords' readings (the library assembles the JSON, as for the
-/// command), a refusal naming the keyword of the reading.
-fn compute(i: &Inputs) -> Result<Value, Error> {
-    let corr = saunderson(i)?;
-    let fit = fit_drawdown(readings(i)?, corr).map_err(|e| {
-        let name = match &e {
-            KubelkaError::Invalid { name, .. } | KubelkaError::Infeasible { name, .. } => {
-                name.to_string()
-            }
-            _ => "r_inf".into(),
-        };
-        lib(&name, e)
+/// The `km fit --km --json` object: [`DrawdownInputs::fit`] on the
+/// keywords' readings (the library decides which readings they make and
+/// assembles the JSON, as for the command); a refusal names its keyword
+/// (`r_inf` when the library's refusal names no input).
+fn compute(i: &DrawdownInputs) -> Result<Value, Error> {
+    let fit = i.fit().map_err(|e| {
+        let key = e.input().map_or("r_inf", Input::name);
+        Error::option(key, e.message(|i| i.name().to_string()))
     })?;
     Ok(fit.to_json())
 }
@@ -129,7 +48,7 @@ pub(crate) fn fit_km<'py>(
     n: Option<f64>,
     k2: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let i = Inputs {
+    let i = DrawdownInputs {
         r_black,
         r_white,
         r_white_ground,

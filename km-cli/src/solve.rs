@@ -1,0 +1,378 @@
+//! `km solve` and the commands that run a method (`profile`, `sweep`):
+//! from the flags to the library's options (`km::Options`), the flag names
+//! added to the library's refusals, and the output in the chosen format.
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use clap::builder::TypedValueParser;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use km::{KmError, Method, Scene, Solution};
+
+use crate::stdout;
+
+// A scene file and its edits (no doc comment: it would become the command's about).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SceneArg {
+    /// Scene file (TOML, see docs/scene-file.md).
+    pub scene: PathBuf,
+    /// Edit the scene before validation: KEY=VALUE, keys as the errors spell them
+    /// (`layer[1].g=0.8`, `light.theta_deg=60`); repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl SceneArg {
+    /// The scene file with the `--set` edits applied (km_core::set).
+    pub fn load(&self) -> Result<Scene> {
+        let edits = self.set.iter().map(|s| km::SetEdit::parse(s)).collect::<Result<Vec<_>, _>>();
+        Ok(Scene::from_path_edited(&self.scene, &edits?)?)
+    }
+}
+
+// The flags of `km solve` (no doc comment: it would become the command's about).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SolveArgs {
+    #[command(flatten)]
+    pub input: SceneArg,
+    /// Method.
+    #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+    pub method: Method,
+    /// Print one JSON object (the contract of docs/cli.md) instead of a table
+    /// (the same as --format json).
+    #[arg(long, conflicts_with = "format")]
+    pub json: bool,
+    /// Output: table (text; one row per wavelength for spectral scenes), json, or csv
+    /// (a header, one row per channel).
+    #[arg(long, value_enum)]
+    pub format: Option<OutputFormat>,
+    /// Also write the JSON result (or, with --shard, the partial tally) to this file, atomically.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Accuracy target: every number asked for (R, T, their delta parts, each BRDF/BTDF value)
+    /// within TOL * max(1, |x|); chooses streams or samples, reports `error_estimate` and
+    /// `tolerance.limited_by`, fails when unreachable [multiflux, mc].
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+    /// Compute every effect (planner off), for comparison.
+    #[arg(long)]
+    pub all_effects: bool,
+    /// Two-flux coefficients K, S from the scene [km] (default seed: K = sigma_a, S = sigma_s).
+    #[arg(long, value_enum, default_value_t = km::KmMapping::Seed)]
+    pub km_mapping: km::KmMapping,
+    /// Gauss nodes per hemisphere [multiflux] (default 16).
+    #[arg(long)]
+    pub streams: Option<usize>,
+    /// Truncate adding after this Neumann order (seed eq. 21) [multiflux]; default exact.
+    #[arg(long)]
+    pub order: Option<usize>,
+    /// Directions on the sphere, both hemispheres, in the medium of lowest index (4..=2000)
+    /// [direction-set] (default 303, the seed's).
+    #[arg(long, value_name = "N")]
+    pub directions: Option<usize>,
+    /// Photons per channel [mc].
+    #[arg(long, default_value_t = 1_000_000)]
+    pub samples: u64,
+    /// Seed [mc]; the same seed gives bit-identical results for any thread count.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads [mc] (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Absorption estimator [mc].
+    #[arg(long, value_enum, default_value_t = km::Estimator::SurvivalBiasing)]
+    pub estimator: km::Estimator,
+    /// Run shard I of N (0-based) and write its partial tally to --out [mc].
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Multiply every default work and memory budget (Monte Carlo photon steps and tally
+    /// memory, multi-flux work) by this factor; see docs/limits.md [mc, multiflux].
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub budget: f64,
+    /// Solve K times in this process: `seconds` stays the first (cold) call's,
+    /// `seconds_best` and `seconds_median` are over all K calls (1..=10000).
+    #[arg(long, value_name = "K", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub repeat: u32,
+    /// How F_dr is computed [dipole].
+    #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
+    pub fdr: km::FdrModel,
+    /// Which dipole [dipole].
+    #[arg(long, value_enum, default_value_t = km::DipoleModel::Jensen2001)]
+    pub dipole: km::DipoleModel,
+}
+
+/// Output format of `km solve`, `km merge` and `km profile`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// Text for people.
+    Table,
+    /// The JSON contract of docs/cli.md.
+    Json,
+    /// Comma-separated values with a header.
+    Csv,
+}
+
+impl OutputFormat {
+    /// `--json` or `--format` (table by default).
+    pub fn of(json: bool, format: Option<OutputFormat>) -> OutputFormat {
+        format.unwrap_or(if json { OutputFormat::Json } else { OutputFormat::Table })
+    }
+}
+
+/// The `--method` values: the library's method registry.
+pub fn method_parser() -> impl TypedValueParser<Value = Method> {
+    clap::builder::PossibleValuesParser::new(Method::ALL.map(Method::name))
+        .try_map(|s| s.parse::<Method>())
+}
+
+/// The `km profile --method` values: the methods that give `Rd(r)`.
+pub fn profile_method_parser() -> impl TypedValueParser<Value = Method> {
+    clap::builder::PossibleValuesParser::new([Method::Dipole.name(), Method::Mc.name()])
+        .try_map(|s| s.parse::<Method>())
+}
+
+impl SolveArgs {
+    /// `km solve - --method METHOD`, every other flag at its default (`km demo`, `km sweep`).
+    pub fn defaults(method: Method) -> SolveArgs {
+        crate::parse_args(&["solve", "-", "--method", method.name()])
+    }
+
+    /// Whether a progress bar may be shown (text output, stderr is a terminal).
+    fn progress(&self) -> bool {
+        use std::io::IsTerminal;
+        OutputFormat::of(self.json, self.format) == OutputFormat::Table
+            && std::io::stderr().is_terminal()
+    }
+}
+
+/// `km solve`: one run, or one shard of a Monte Carlo run written to `--out`.
+pub fn run(args: &SolveArgs) -> Result<()> {
+    let scene = args.input.load()?;
+    let inputs = std::slice::from_ref(&args.input.scene);
+    if let Some(shard) = &args.shard {
+        let (i, n) = parse_shard(shard)?;
+        if args.repeat > 1 {
+            bail!("--repeat does not combine with --shard (a shard is written once)");
+        }
+        if args.method != Method::Mc {
+            bail!("--shard applies to --method mc only");
+        }
+        let Some(out) = &args.out else {
+            bail!("--shard {shard} needs --out FILE for the partial tally");
+        };
+        let part = km::mc_shard(&scene, &options(args)?, i, n)?;
+        write_json(out, &serde_json::to_value(&part)?, inputs)?;
+        eprintln!("wrote shard {i}/{n} to {}", out.display());
+        return Ok(());
+    }
+    let sol = solve(&scene, args)?;
+    if let Some(out) = &args.out {
+        write_json(out, &sol.to_json(), inputs)?;
+    }
+    print(&sol, Some(&scene), OutputFormat::of(args.json, args.format))
+}
+
+/// Print a solution as a table, JSON or CSV.
+pub fn print(sol: &Solution, scene: Option<&Scene>, format: OutputFormat) -> Result<()> {
+    stdout::print(&match format {
+        OutputFormat::Json => return stdout::print_json(&sol.to_json()),
+        OutputFormat::Csv => km::text::csv(sol, scene),
+        OutputFormat::Table => km::text::table(sol, scene),
+    })
+}
+
+/// Write `value` to `path` atomically, never over one of `inputs` (docs/limits.md).
+pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    let opts = km::atomic_file::WriteOptions { inputs: inputs.to_vec(), ..Default::default() };
+    km::atomic_file::write_atomic_with(path, text.as_bytes(), &opts)
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Solve `scene` with the method and options of `args` (through
+/// [`km::solve_repeated`], `--repeat` times).
+pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
+    if args.tolerance.is_some() && args.streams.is_some() {
+        bail!("give either --streams or --tolerance, not both");
+    }
+    km::solve_repeated(scene, &options(args)?, args.repeat).map_err(|e| {
+        match (&e, args.tolerance) {
+            (
+                KmError::NoAccuracySetting { .. }
+                | KmError::TargetUnreachable { .. }
+                | KmError::Option { name: "accuracy target", .. },
+                Some(t),
+            ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
+            (KmError::Option { name: "directions", .. }, _) => option_flag(e),
+            (KmError::Unsupported(_), _) => {
+                anyhow::Error::new(e).context(format!("--method {}", args.method.name()))
+            }
+            _ => e.into(),
+        }
+    })
+}
+
+/// The library options of `args`.
+fn options(args: &SolveArgs) -> Result<km::Options> {
+    let method = match args.method {
+        Method::Km => km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping }),
+        Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
+            streams: args.streams,
+            neumann_order: args.order,
+            all_effects: args.all_effects,
+            ..Default::default()
+        }),
+        Method::DirectionSet => km::MethodOptions::DirectionSet(km::DirectionSetOptions {
+            directions: args.directions.unwrap_or(km::direction_set::DEFAULT_DIRECTIONS),
+        }),
+        Method::Mc if args.samples == 0 => bail!("--samples must be at least 1"),
+        Method::Mc => km::MethodOptions::Mc(km::McOptions {
+            samples: args.samples,
+            seed: args.seed,
+            threads: args.threads,
+            estimator: args.estimator,
+            progress: args.progress().then(progress_bar),
+            all_effects: args.all_effects,
+            ..Default::default()
+        }),
+        Method::Dipole => {
+            km::MethodOptions::Dipole(km::DipoleOptions { fdr: args.fdr, model: args.dipole })
+        }
+    };
+    let opts = km::Options { method, tolerance: args.tolerance, all_effects: args.all_effects };
+    opts.with_budget(args.budget).map_err(option_flag)
+}
+
+/// A library option error in the words of its flag: `--NAME VALUE: REASON`.
+fn option_flag(e: KmError) -> anyhow::Error {
+    match e {
+        KmError::Option { name, value, reason } => {
+            anyhow::anyhow!("--{} {value}: {reason}", name.replace('_', "-"))
+        }
+        e => e.into(),
+    }
+}
+
+/// A progress bar on stderr, shown once the run has lasted a second.
+fn progress_bar() -> km::Progress {
+    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+    let start = Instant::now();
+    let shown = Mutex::new(false);
+    km::Progress::new(move |done, total| {
+        let mut shown = shown.lock().unwrap_or_else(|e| e.into_inner());
+        if !*shown && start.elapsed().as_secs_f64() > 1.0 {
+            *shown = true;
+            bar.set_length(total);
+            bar.set_style(
+                ProgressStyle::with_template("mc {bar:40} {pos}/{len} batches, eta {eta}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
+        bar.set_position(done);
+        if done >= total {
+            bar.finish_and_clear();
+        }
+    })
+}
+
+/// `I/N` with `0 <= I < N`.
+fn parse_shard(text: &str) -> Result<(u64, u64)> {
+    let (i, n) =
+        text.split_once('/').with_context(|| format!("--shard {text}: expected I/N, e.g. 0/4"))?;
+    let i: u64 = i.trim().parse().with_context(|| format!("--shard {text}: I is not a number"))?;
+    let n: u64 = n.trim().parse().with_context(|| format!("--shard {text}: N is not a number"))?;
+    if n == 0 || i >= n {
+        bail!("--shard {text}: need 0 <= I < N");
+    }
+    Ok((i, n))
+}
+
+/// `km profile`: Rd(r) by the dipole or Monte Carlo, printed.
+pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -> Result<()> {
+    let p = km::profile(scene, opts).map_err(|e| match e {
+        e @ KmError::Option { .. } => option_flag(e),
+        e => anyhow::Error::new(e).context(format!("--method {}", opts.method.name())),
+    })?;
+    stdout::print(&match format {
+        OutputFormat::Json => return stdout::print_json(&p.to_json()),
+        OutputFormat::Csv => p.csv(),
+        OutputFormat::Table => p.table(),
+    })
+}
+
+/// `km sweep`: the fixed edits and the axes of `--set`, solved over the grid, printed.
+pub fn sweep(scene: &Path, set: &[String], method: Method, format: km::SweepFormat) -> Result<()> {
+    // Read as every scene file is read (regular file or `-`, size limit).
+    let text = km::read_scene_text(scene, km::SceneLimits::from_env().max_bytes)
+        .with_context(|| format!("{}", scene.display()))?;
+    let (edits, axes) = km::SweepAxis::split(set)?;
+    if axes.is_empty() {
+        bail!("km sweep needs at least one --set KEY=START:STOP:N");
+    }
+    let points = km::sweep(&text, &edits, &axes, &options(&SolveArgs::defaults(method))?)?;
+    stdout::print(&km::sweep_text(&axes, &points, format))
+}
+
+/// Whether the user gave argument `id` on the command line (not a default).
+fn given(m: &clap::ArgMatches, id: &str) -> bool {
+    matches!(m.try_get_raw(id), Ok(Some(_)))
+        && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+}
+
+/// Refuse a flag that does not apply to the chosen method or mode (clap cannot
+/// know the method: checked after parsing), saying why.
+pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
+    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
+    let method = |m: &clap::ArgMatches| m.get_one::<Method>("method").copied();
+    match matches.subcommand() {
+        Some(("solve", m)) => {
+            let method = method(m).unwrap_or(Method::Multiflux);
+            for km::MethodSetting { name, methods, sets } in km::METHOD_SETTINGS {
+                if given(m, name) && !methods.contains(&method) {
+                    let names: Vec<_> = methods.iter().map(|x| x.name()).collect();
+                    bail!(
+                        "{} does not apply to --method {}: it sets {sets} (--method {})",
+                        flag(name),
+                        method.name(),
+                        names.join(" or ")
+                    );
+                }
+            }
+            if given(m, "shard") && (given(m, "json") || given(m, "format")) {
+                bail!(
+                    "--shard writes its partial tally to --out and prints no result: --json and \
+                     --format apply to `km merge` and to whole runs"
+                );
+            }
+            if given(m, "tolerance") && given(m, "samples") {
+                bail!("give either --samples or --tolerance: the target chooses the photon count");
+            }
+            if given(m, "tolerance") && given(m, "shard") {
+                bail!(
+                    "--tolerance does not combine with --shard (every shard would choose its own \
+                     photon count): run a pilot `km solve SCENE --method mc --tolerance T --json`, \
+                     read the sample count it chose (`tolerance.samples` of the JSON), then shard with \
+                     `--samples N --shard I/K --out FILE` and `km merge`"
+                );
+            }
+        }
+        Some(("profile", m)) => {
+            let method = method(m).unwrap_or(Method::Dipole);
+            let mc_only = ["samples", "seed"].into_iter().find(|id| given(m, id));
+            if let Some(id) = mc_only.filter(|_| method != Method::Mc) {
+                bail!(
+                    "{} does not apply to --method {}: it sets the Monte Carlo run (--method mc)",
+                    flag(id),
+                    method.name()
+                );
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
