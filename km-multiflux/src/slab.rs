@@ -464,13 +464,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// `M x` for a small dense matrix, by columns.
-fn mat_vec(m: &Mat<f64>, x: &[f64]) -> Vec<f64> {
-    let mut y = vec![0.0; m.nrows()];
+/// `y += M x` for a small dense matrix, by columns (`y` zero on entry gives `M x`).
+fn mat_vec_into(m: &Mat<f64>, x: &[f64], y: &mut [f64]) {
     for (j, &xj) in x.iter().enumerate() {
         for (yi, mij) in y.iter_mut().zip(m.col_as_slice(j)) {
             *yi += mij * xj;
         }
     }
-    y
 }
