@@ -658,7 +658,12 @@ fn eigen_operators(
     p: &SlabOrder<'_>,
     tms: Option<&Tms>,
 ) -> Result<LayerOperators, MultifluxError> {
-    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
+    let s = SlabSolution::build(mu, w, p, true)?;
+    Ok(crate::workspace::with_workspace(|ws| {
+        let ops = s.operators_in(extras, tms, ws);
+        s.recycle(ws);
+        ops
+    }))
 }
 
 /// The scene as the plan's `transmission` rule leaves it (eq. PL1 of

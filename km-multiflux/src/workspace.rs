@@ -12,13 +12,19 @@
 //!
 //! One workspace is kept per thread ([`with_workspace`]), so channels solved
 //! on the rayon pool each use their own. It is bounded: at most
-//! [`MAX_VECTORS`] vectors of at most [`MAX_LEN`] values each are kept
-//! (8 MiB per thread at most); anything beyond is freed as usual.
+//! [`MAX_VECTORS`] vectors and [`MAX_MATRICES`] matrices of at most
+//! [`MAX_LEN`] values each are kept (10 MiB per thread at most); anything
+//! beyond is freed as usual. The boundary matrices of eq. S4 and the node
+//! operators of a layer come from it too ([`Workspace::take_mat`]).
 
 use std::cell::Cell;
 
+use faer::Mat;
+
 /// Most vectors a workspace keeps.
 pub(crate) const MAX_VECTORS: usize = 128;
+/// Most matrices a workspace keeps.
+pub(crate) const MAX_MATRICES: usize = 32;
 /// Shortest capacity of a new vector (values).
 const MIN_LEN: usize = 64;
 /// Longest vector (values) a workspace keeps: `8192` values = 64 KiB.
@@ -28,6 +34,7 @@ pub(crate) const MAX_LEN: usize = 8192;
 #[derive(Debug, Default)]
 pub(crate) struct Workspace {
     free: Vec<Vec<f64>>,
+    mats: Vec<Mat<f64>>,
     /// Vectors handed out, and how many of them needed a fresh allocation
     /// (none kept, or none long enough): counts for tests and benchmarks.
     taken: usize,
@@ -71,6 +78,31 @@ impl Workspace {
     pub(crate) fn give(&mut self, v: Vec<f64>) {
         if v.capacity() > 0 && v.capacity() <= MAX_LEN && self.free.len() < MAX_VECTORS {
             self.free.push(v);
+        }
+    }
+
+    /// A zero matrix of `nrows x ncols`, reusing a kept one of that shape.
+    pub(crate) fn take_mat(&mut self, nrows: usize, ncols: usize) -> Mat<f64> {
+        self.taken += 1;
+        match self.mats.iter().rposition(|m| m.nrows() == nrows && m.ncols() == ncols) {
+            Some(i) => {
+                let mut m = self.mats.swap_remove(i);
+                m.as_mut().fill(0.0);
+                m
+            }
+            None => {
+                self.fresh += 1;
+                Mat::zeros(nrows, ncols)
+            }
+        }
+    }
+
+    /// Hand `m` back for reuse (freed instead when empty, when the
+    /// workspace keeps [`MAX_MATRICES`] already, or above [`MAX_LEN`] values).
+    pub(crate) fn give_mat(&mut self, m: Mat<f64>) {
+        let len = m.nrows() * m.ncols();
+        if len > 0 && len <= MAX_LEN && self.mats.len() < MAX_MATRICES {
+            self.mats.push(m);
         }
     }
 

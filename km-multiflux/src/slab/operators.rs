@@ -18,7 +18,7 @@ impl SlabSolution {
     }
 
     /// [`SlabSolution::operators`] with the scratch vectors of `ws`.
-    fn operators_in(
+    pub(crate) fn operators_in(
         &self,
         extras: &[Extra],
         tms: Option<&Tms>,
@@ -192,7 +192,12 @@ pub fn slab_operators(
     if !scatters {
         return Ok(absorber_operators(mu, extras, p.tau));
     }
-    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
+    let s = SlabSolution::build(mu, w, p, true)?;
+    Ok(with_workspace(|ws| {
+        let ops = s.operators_in(extras, tms, ws);
+        s.recycle(ws);
+        ops
+    }))
 }
 
 /// The column of the beam `extras[eb]` in the `r_top` and `t_down` of
@@ -224,5 +229,9 @@ pub fn slab_beam_response(
     }
     let s = SlabSolution::build(mu, w, p, false)?;
     // The two vectors come from the workspace; the solver hands them back.
-    Ok(with_workspace(|ws| s.beam_response_in(extras, eb, tms, ws)))
+    Ok(with_workspace(|ws| {
+        let out = s.beam_response_in(extras, eb, tms, ws);
+        s.recycle(ws);
+        out
+    }))
 }
