@@ -143,7 +143,24 @@ impl PeakCorrection {
 
     /// The factors of [`Self::radiance`] that do not depend on the azimuth
     /// (the path integrals of eq. 14 and C4 and the sines): computed once per
-    /// polar angle and shared by the exit directions of every azimuth.
+    /// polar angle and shared by the exit directions of every azimuth:
+    /// `beta = 1/mu_x`, `phi(1/mu_b + beta, tau*)`, `E2(1/mu_b, beta, tau*)`,
+    /// `sin theta_x sin theta_b` and the IMS path factor. Domain as
+    /// [`Self::radiance`].
+    ///
+    /// # Reference
+    /// Stamnes, Tsay, Wiscombe & Laszlo 2000 (DISORT report v1.1), eq. 68
+    /// and 72 (the path integrals of the TMS and IMS terms).
+    ///
+    /// ```
+    /// use km_core::phase::Phase;
+    /// use km_multiflux::correction::PeakCorrection;
+    /// let c = PeakCorrection::new(Phase::henyey_greenstein(0.9).unwrap(), 0.95, 16, true);
+    /// let p = c.paths(0.8, 0.75, 1.5);
+    /// for phi in [0.0, 90.0, 170.0, 180.0] {
+    ///     assert_eq!(c.radiance_along(&p, phi), c.radiance(0.8, 0.75, phi, 1.5));
+    /// }
+    /// ```
     pub fn paths(&self, mu_b: f64, mu_x: f64, tau_scaled: f64) -> PeakPaths {
         let (sx, sb) = ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
         let beta = 1.0 / mu_x;
