@@ -38,6 +38,29 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
+    // The BRDF case of docs/benchmarks.md §6 (`peers.py --brdf`): tau = 1,
+    // albedo 0.9, black below, light at 30 degrees, 30 exit directions (theta
+    // 10..60 by 10 x phi 0..180 by 45), each g at km's cheapest stream count
+    // within 1 % of the reference.
+    let mut dirs = String::new();
+    for t in [10, 20, 30, 40, 50, 60] {
+        for p in [0, 45, 90, 135, 180] {
+            dirs += &format!("[{t}.0, {p}.0], ");
+        }
+    }
+    let mut g = c.benchmark_group("multiflux BRDF at 30 directions");
+    for (gg, n) in [(0.5, 3usize), (0.8, 8), (0.9, 24)] {
+        let s = scene(&format!(
+            "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = {gg}\n\
+             [substrate]\nkind = \"black\"\n[output]\ndirections_deg = [{dirs}]\n"
+        ));
+        let o = MultifluxOptions { streams: Some(n), ..Default::default() };
+        g.bench_with_input(BenchmarkId::new(format!("g = {gg}"), n), &n, |b, _| {
+            b.iter(|| solve(black_box(&s), &o).expect("solve"))
+        });
+    }
+    g.finish();
+
     // The intensity correction of one exit direction inside the forward cone
     // (both terms evaluated): g = 0.95, 2N moments.
     let mut g = c.benchmark_group("multiflux correction per exit direction");

@@ -7,9 +7,11 @@
 //! null where it cannot be read).
 //!
 //! `SCENE` is `fresnel` (default: a Fresnel slab, tau = 2, albedo 0.9,
-//! g = 0.75, n = 1.4, light at 30 degrees, three exit directions) or `slab`
+//! g = 0.75, n = 1.4, light at 30 degrees, three exit directions), `slab`
 //! (totals of a slab in air, tau = 1, albedo 0.9, g = 0.75, normal
-//! incidence: the peers' comparison case of `km-bench/scripts/peers.py`).
+//! incidence: the peers' comparison case of `km-bench/scripts/peers.py`) or
+//! `brdf` (the BRDF case of `peers.py --brdf` at g = 0.5: tau = 1, albedo
+//! 0.9, black below, light at 30 degrees, 30 exit directions).
 //!
 //! Run it in several fresh processes (each run is one cold start); the
 //! one-time costs it exposes are those of the first solve in a process
@@ -24,6 +26,21 @@ const FRESNEL: &str = "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 2.0\nalbedo =
 const SLAB: &str = "[light]\ntheta_deg = 0.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.75\n\
                     [substrate]\nkind = \"transparent\"\nn = 1.0\n";
 
+/// The BRDF case of `peers.py --brdf` at g = 0.5 (theta 10..60 by 10 x
+/// phi 0..180 by 45).
+fn brdf_scene() -> String {
+    let mut dirs = String::new();
+    for t in [10, 20, 30, 40, 50, 60] {
+        for p in [0, 45, 90, 135, 180] {
+            dirs += &format!("[{t}.0, {p}.0], ");
+        }
+    }
+    format!(
+        "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.5\n\
+         [substrate]\nkind = \"black\"\n[output]\ndirections_deg = [{dirs}]\n"
+    )
+}
+
 /// Minor page faults of this process so far (field 10 of `/proc/self/stat`).
 fn minor_faults() -> Option<u64> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
@@ -34,18 +51,19 @@ fn minor_faults() -> Option<u64> {
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: cold_start STREAMS [REPEATS] [fresnel|slab]";
+    let usage = "usage: cold_start STREAMS [REPEATS] [fresnel|slab|brdf]";
     let streams: usize = args.first().context(usage)?.parse().context("STREAMS")?;
     let repeats: usize = match args.get(1) {
         Some(r) => r.parse::<usize>().context("REPEATS")?.max(1),
         None => 50,
     };
     let text = match args.get(2).map(String::as_str) {
-        None | Some("fresnel") => FRESNEL,
-        Some("slab") => SLAB,
+        None | Some("fresnel") => FRESNEL.to_string(),
+        Some("slab") => SLAB.to_string(),
+        Some("brdf") => brdf_scene(),
         Some(other) => anyhow::bail!("unknown scene {other:?}; {usage}"),
     };
-    let scene = km_core::Scene::from_toml_str(text)?;
+    let scene = km_core::Scene::from_toml_str(&text)?;
     let opts = km_multiflux::MultifluxOptions { streams: Some(streams), ..Default::default() };
     let f0 = minor_faults();
     let first = km_multiflux::solve(&scene, &opts)?.seconds;

@@ -138,15 +138,57 @@ impl PeakCorrection {
     /// `docs/multiflux.md`), `beta = 1/mu_x`,
     /// `c_up/dn = ∓mu_x mu_b + sin sin_b cos(phi - 180)`.
     pub fn radiance(&self, mu_b: f64, mu_x: f64, phi_deg: f64, tau_scaled: f64) -> (f64, f64) {
+        self.radiance_along(&self.paths(mu_b, mu_x, tau_scaled), phi_deg)
+    }
+
+    /// The factors of [`Self::radiance`] that do not depend on the azimuth
+    /// (the path integrals of eq. 14 and C4 and the sines): computed once per
+    /// polar angle and shared by the exit directions of every azimuth:
+    /// `beta = 1/mu_x`, `phi(1/mu_b + beta, tau*)`, `E2(1/mu_b, beta, tau*)`,
+    /// `sin theta_x sin theta_b` and the IMS path factor. Domain as
+    /// [`Self::radiance`].
+    ///
+    /// # Reference
+    /// Stamnes, Tsay, Wiscombe & Laszlo 2000 (DISORT report v1.1), eq. 68
+    /// and 72 (the path integrals of the TMS and IMS terms).
+    ///
+    /// ```
+    /// use km_core::phase::Phase;
+    /// use km_multiflux::correction::PeakCorrection;
+    /// let c = PeakCorrection::new(Phase::henyey_greenstein(0.9).unwrap(), 0.95, 16, true);
+    /// let p = c.paths(0.8, 0.75, 1.5);
+    /// for phi in [0.0, 90.0, 170.0, 180.0] {
+    ///     assert_eq!(c.radiance_along(&p, phi), c.radiance(0.8, 0.75, phi, 1.5));
+    /// }
+    /// ```
+    pub fn paths(&self, mu_b: f64, mu_x: f64, tau_scaled: f64) -> PeakPaths {
         let (sx, sb) = ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
-        let cphi = (phi_deg - 180.0).to_radians().cos();
-        let (c_up, c_dn) = (-mu_x * mu_b + sx * sb * cphi, mu_x * mu_b + sx * sb * cphi);
         let beta = 1.0 / mu_x;
         let kb = 1.0 / mu_b;
-        let up = self.single_source(c_up, mu_b) * beta * phi(kb + beta, tau_scaled);
-        let mut down = self.single_source(c_dn, mu_b) * beta * e2(kb, beta, tau_scaled);
-        if self.secondary && tau_scaled.is_finite() {
-            down += self.secondary_radiance(mu_b, mu_x, c_dn, tau_scaled / self.factor());
+        let secondary = (self.secondary && tau_scaled.is_finite())
+            .then(|| self.secondary_path(mu_b, mu_x, tau_scaled / self.factor()));
+        PeakPaths {
+            mu_b,
+            mu_x,
+            sines: sx * sb,
+            beta,
+            up: phi(kb + beta, tau_scaled),
+            down: e2(kb, beta, tau_scaled),
+            secondary,
+        }
+    }
+
+    /// [`Self::radiance`] at azimuth `phi_deg` from the shared factors `p`
+    /// ([`Self::paths`]); the same numbers bit for bit.
+    pub fn radiance_along(&self, p: &PeakPaths, phi_deg: f64) -> (f64, f64) {
+        let (mu_b, mu_x) = (p.mu_b, p.mu_x);
+        let cphi = (phi_deg - 180.0).to_radians().cos();
+        let (c_up, c_dn) = (-mu_x * mu_b + p.sines * cphi, mu_x * mu_b + p.sines * cphi);
+        let up = self.single_source(c_up, mu_b) * p.beta * p.up;
+        let mut down = self.single_source(c_dn, mu_b) * p.beta * p.down;
+        if let Some(path) = p.secondary {
+            // As secondary_radiance: zero outside the cone.
+            down += if path == 0.0 { 0.0 } else { self.peak_pspike(c_dn) * path };
         }
         (up, down)
     }
@@ -179,6 +221,26 @@ impl PeakCorrection {
         let xi = xi(mu_x, mu_b / (1.0 - wf), tau);
         -xi / ((1.0 - wf) * 4.0 * std::f64::consts::PI * mu_b)
     }
+}
+
+/// The factors of [`PeakCorrection::radiance`] that do not depend on the
+/// azimuth, for one beam cosine `mu_b`, exit cosine `mu_x` and layer
+/// ([`PeakCorrection::paths`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeakPaths {
+    mu_b: f64,
+    mu_x: f64,
+    /// `sin theta_x sin theta_b`.
+    sines: f64,
+    /// `1 / mu_x`.
+    beta: f64,
+    /// `phi(1/mu_b + beta, tau*)` (the exit up).
+    up: f64,
+    /// `E2(1/mu_b, beta, tau*)` (the exit down).
+    down: f64,
+    /// The IMS path factor of [`PeakCorrection::secondary_path`] (`None`
+    /// without the IMS term or for a half-space).
+    secondary: Option<f64>,
 }
 
 /// `sum_{l<n} (2l+1) a(l) P_l(c)` by the Legendre recurrence.

@@ -38,6 +38,7 @@ pub mod quadrature;
 pub mod slab;
 pub mod solver;
 mod stack;
+mod workspace;
 
 pub use error::MultifluxError;
 pub use solver::{

@@ -59,6 +59,7 @@ use faer::{Mat, Side};
 use crate::MultifluxError;
 use crate::correction::phi;
 use crate::legendre::LegendreRecurrence;
+use crate::workspace::{Workspace, with_workspace};
 use lu::{Lu, solve_right};
 pub use operators::{absorber_operators, slab_beam_response, slab_operators};
 
@@ -206,52 +207,90 @@ impl SlabSolution {
             faer::Par::Seq,
         );
 
-        // Eq. S4-S5, column by column.
-        let half = tau.is_infinite();
-        let (e, [cp, cp_out, cm, cm_out]) = boundary_matrices(&v, &z, &k, tau);
-        // LU factors of Cp and Cm: every later use is a solve, never an inverse.
-        let lu_p = Lu::new(&cp);
-        let lu_m = (!half).then(|| Lu::new(&cm));
-        let (r, tr) = if full {
-            node_rt(&lu_p, lu_m.as_ref(), [&cp, &cp_out, &cm, &cm_out], &t)
-                .ok_or_else(|| fail("layer operators (non-finite)"))?
+        // Eq. S4-S5, column by column, in matrices and vectors of the
+        // workspace (handed back by `SlabSolution::recycle`).
+        with_workspace(|ws| {
+            let half = tau.is_infinite();
+            let (e, [cp, cp_out, cm, cm_out]) = boundary_matrices(&v, &z, &k, tau, ws);
+            // LU factors of Cp and Cm: every later use is a solve, never an inverse.
+            let lu_p = Lu::new(&cp);
+            let lu_m = (!half).then(|| Lu::new(&cm));
+            let rt = Self::node_parts(
+                n,
+                full,
+                (&lu_p, lu_m.as_ref()),
+                [&cp, &cp_out, &cm, &cm_out],
+                &t,
+                ws,
+            );
+            ws.give_mat(cp);
+            ws.give_mat(cm);
+            let (r, tr) = rt.map_err(fail)?;
+            let (mut mu_c, mut w_c) = (ws.take(n), ws.take(n));
+            mu_c.copy_from_slice(mu);
+            w_c.copy_from_slice(w);
+            Ok(SlabSolution {
+                n,
+                tau,
+                omega,
+                m,
+                t,
+                mu: mu_c,
+                w: w_c,
+                chi,
+                lam,
+                rec,
+                k,
+                ek: e,
+                v,
+                z,
+                hp,
+                hm,
+                lu_p,
+                lu_m,
+                cp_out,
+                cm_out,
+                r,
+                tr,
+                renorm_m0,
+            })
+        })
+    }
+
+    /// The node-to-node `R` and `T` when `full` (eq. S5), else empty after
+    /// checking that the factors are usable; `Err` names the failure.
+    fn node_parts(
+        n: usize,
+        full: bool,
+        (lu_p, lu_m): (&Lu, Option<&Lu>),
+        c: [&Mat<f64>; 4],
+        t: &[f64],
+        ws: &mut Workspace,
+    ) -> Result<(Mat<f64>, Mat<f64>), &'static str> {
+        if full {
+            node_rt(lu_p, lu_m, c, t, ws).ok_or("layer operators (non-finite)")
         } else {
             // Only the factors are kept: check that they are usable.
             let finite = lu_p.lu.iter().all(|x| x.is_finite())
-                && lu_m.as_ref().is_none_or(|l| l.lu.iter().all(|x| x.is_finite()));
-            let regular = (0..n).all(|k| {
-                lu_p.lu[k * n + k] != 0.0 && lu_m.as_ref().is_none_or(|l| l.lu[k * n + k] != 0.0)
-            });
+                && lu_m.is_none_or(|l| l.lu.iter().all(|x| x.is_finite()));
+            let regular = (0..n)
+                .all(|k| lu_p.lu[k * n + k] != 0.0 && lu_m.is_none_or(|l| l.lu[k * n + k] != 0.0));
             if !(finite && regular) {
-                return Err(fail("layer operators (singular boundary matrix)"));
+                return Err("layer operators (singular boundary matrix)");
             }
-            (Mat::zeros(0, 0), Mat::zeros(0, 0))
-        };
-        Ok(SlabSolution {
-            n,
-            tau,
-            omega,
-            m,
-            t,
-            mu: mu.to_vec(),
-            w: w.to_vec(),
-            chi,
-            lam,
-            rec,
-            k,
-            ek: e,
-            v,
-            z,
-            hp,
-            hm,
-            lu_p,
-            lu_m,
-            cp_out,
-            cm_out,
-            r,
-            tr,
-            renorm_m0,
-        })
+            Ok((Mat::zeros(0, 0), Mat::zeros(0, 0)))
+        }
+    }
+
+    /// Hand this solution's matrices and vectors that came from the
+    /// workspace back to it (the end of a layer's order).
+    pub(crate) fn recycle(self, ws: &mut Workspace) {
+        for v in [self.mu, self.w, self.ek] {
+            ws.give(v);
+        }
+        for m in [self.cp_out, self.cm_out, self.r, self.tr] {
+            ws.give_mat(m);
+        }
     }
 
     /// The eigen-solutions (seed 000 fig. 3): `(k, G+, G-)` with column `j` of
@@ -374,15 +413,24 @@ fn h_matrices(
 /// The boundary matrices of eq. S4–S5 from the modes `v~`, `z~`, `k`:
 /// `e = exp(-k tau0)` and `[Cp, Cp_out, Cm, Cm_out]` (the `Cm` pair zero for
 /// a half-space).
-fn boundary_matrices(v: &Mat<f64>, z: &Mat<f64>, k: &[f64], tau: f64) -> (Vec<f64>, [Mat<f64>; 4]) {
+fn boundary_matrices(
+    v: &Mat<f64>,
+    z: &Mat<f64>,
+    k: &[f64],
+    tau: f64,
+    ws: &mut Workspace,
+) -> (Vec<f64>, [Mat<f64>; 4]) {
     let n = k.len();
     let half = tau.is_infinite();
-    let e: Vec<f64> = k.iter().map(|&kj| if half { 0.0 } else { (-kj * tau).exp() }).collect();
-    let ph: Vec<f64> = k.iter().map(|&kj| phi(kj, tau)).collect();
-    let mut cp = Mat::<f64>::zeros(n, n);
-    let mut cp_out = Mat::<f64>::zeros(n, n);
-    let mut cm = Mat::<f64>::zeros(n, n);
-    let mut cm_out = Mat::<f64>::zeros(n, n);
+    let (mut e, mut ph) = (ws.take(n), ws.take(n));
+    for (j, &kj) in k.iter().enumerate() {
+        e[j] = if half { 0.0 } else { (-kj * tau).exp() };
+        ph[j] = phi(kj, tau);
+    }
+    let mut cp = ws.take_mat(n, n);
+    let mut cp_out = ws.take_mat(n, n);
+    let mut cm = ws.take_mat(n, n);
+    let mut cm_out = ws.take_mat(n, n);
     for j in 0..n {
         let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
         let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
@@ -406,6 +454,7 @@ fn boundary_matrices(v: &Mat<f64>, z: &Mat<f64>, k: &[f64], tau: f64) -> (Vec<f6
             }
         }
     }
+    ws.give(ph);
     (e, [cp, cp_out, cm, cm_out])
 }
 
@@ -417,6 +466,7 @@ fn node_rt(
     lu_m: Option<&Lu>,
     c: [&Mat<f64>; 4],
     t: &[f64],
+    ws: &mut Workspace,
 ) -> Option<(Mat<f64>, Mat<f64>)> {
     let [cp, cp_out, cm, cm_out] = c;
     let n = t.len();
@@ -428,8 +478,8 @@ fn node_rt(
         None => xp.clone(),
     };
     // Back to radiances: R_ji = R~_ji t_i / t_j, by columns i of R.
-    let mut r = Mat::<f64>::zeros(n, n);
-    let mut tr = Mat::<f64>::zeros(n, n);
+    let mut r = ws.take_mat(n, n);
+    let mut tr = ws.take_mat(n, n);
     let mut finite = true;
     for i in 0..n {
         let (xpc, xmc) = (&xp[i * n..(i + 1) * n], &xm[i * n..(i + 1) * n]);
@@ -464,13 +514,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// `M x` for a small dense matrix, by columns.
-fn mat_vec(m: &Mat<f64>, x: &[f64]) -> Vec<f64> {
-    let mut y = vec![0.0; m.nrows()];
+/// `y += M x` for a small dense matrix, by columns (`y` zero on entry gives `M x`).
+fn mat_vec_into(m: &Mat<f64>, x: &[f64], y: &mut [f64]) {
     for (j, &xj) in x.iter().enumerate() {
         for (yi, mij) in y.iter_mut().zip(m.col_as_slice(j)) {
             *yi += mij * xj;
         }
     }
-    y
 }

@@ -222,14 +222,23 @@ fn solve_mono_residual(
     let mut small_orders = 0;
     let mut m_used = 0;
     let lone = lone_layer(scene, &layers, beam, n_sub, all);
+    // cos m(phi - 180 deg) once per distinct azimuth and order.
+    let azimuths = Azimuths::new(dirs);
+    let mut cos_m = vec![0.0; azimuths.values.len()];
     for m in 0..=m_max {
         m_used = m;
+        azimuths.cos_order(m, &mut cos_m);
         let (up, down) = if let Some((b, l)) = lone {
             let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
             let t = (tms_on && !dirs.is_empty() && m == 0).then(|| l.correction(n_keep));
             let t = t.as_ref();
             let (cr, ct) = slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?;
-            (cr, if nodes_sub.is_some() { ct } else { Vec::new() })
+            if nodes_sub.is_some() {
+                (cr, ct)
+            } else {
+                crate::workspace::with_workspace(|ws| ws.give(ct));
+                (cr, Vec::new())
+            }
         } else {
             let ops = stack_operators(
                 scene,
@@ -249,14 +258,21 @@ fn solve_mono_residual(
         if m == 0 {
             r_tot = flux(&nodes0, &up[..na0]) + beam.map_or(0.0, |b| up[na0 + b]);
         }
-        let mut term = add_order(&mut out.brdf, dirs, &up[na0..], &ex.brdf_ix, m);
+        let (of, c) = (&azimuths.of, &cos_m);
+        let mut term = add_order(&mut out.brdf, &up[na0..], &ex.brdf_ix, of, c);
         if let Some(ns) = &nodes_sub {
             let nb = ns.mu.len();
             if m == 0 {
                 t_tot = flux(ns, &down[..nb]) + beam.map_or(0.0, |b| down[nb + b]);
             }
-            term = term.max(add_order(&mut out.btdf, dirs, &down[nb..], &ex.btdf_ix, m));
+            term = term.max(add_order(&mut out.btdf, &down[nb..], &ex.btdf_ix, of, c));
         }
+        // The order's exit radiances go back to the workspace (no allocation
+        // for them in the next order).
+        crate::workspace::with_workspace(|ws| {
+            ws.give(up);
+            ws.give(down);
+        });
         if m > 0 && !all {
             let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
             small_orders = if term <= FOURIER_TOL * largest { small_orders + 1 } else { 0 };
@@ -270,15 +286,50 @@ fn solve_mono_residual(
 }
 
 /// Add Fourier order `m` of the exit radiances (`x[ix[k]]` for direction
-/// `k`) to `vals`: `I^m cos m(phi - 180 deg)`; returns the largest `|I^m|`.
-fn add_order(vals: &mut [f64], dirs: &[[f64; 2]], x: &[f64], ix: &[usize], m: usize) -> f64 {
+/// `k`) to `vals`: `I^m cos m(phi - 180 deg)`, the cosine of direction `k`
+/// being `cos_m[of[k]]` ([`Azimuths`]); returns the largest `|I^m|`.
+fn add_order(vals: &mut [f64], x: &[f64], ix: &[usize], of: &[usize], cos_m: &[f64]) -> f64 {
     let mut term = 0.0f64;
-    for (k, d) in dirs.iter().enumerate() {
+    for (k, val) in vals.iter_mut().enumerate() {
         let v = x[ix[k]];
-        vals[k] += v * (m as f64 * (d[1] - 180.0).to_radians()).cos();
+        *val += v * cos_m[of[k]];
         term = term.max(v.abs());
     }
     term
+}
+
+/// The distinct azimuths of the exit directions (exit directions on a grid
+/// share a few), so that `cos m(phi - 180 deg)` is computed once per azimuth
+/// and order rather than once per direction.
+struct Azimuths {
+    /// The distinct azimuths (degrees), in order of first appearance.
+    values: Vec<f64>,
+    /// For each exit direction, its azimuth's index in `values`.
+    of: Vec<usize>,
+}
+
+impl Azimuths {
+    fn new(dirs: &[[f64; 2]]) -> Self {
+        let mut values: Vec<f64> = Vec::new();
+        let of = dirs
+            .iter()
+            .map(|d| match values.iter().position(|&p| p == d[1]) {
+                Some(i) => i,
+                None => {
+                    values.push(d[1]);
+                    values.len() - 1
+                }
+            })
+            .collect();
+        Azimuths { values, of }
+    }
+
+    /// `cos m(phi - 180 deg)` of every distinct azimuth into `out`.
+    fn cos_order(&self, m: usize, out: &mut [f64]) {
+        for (c, &phi) in out.iter_mut().zip(&self.values) {
+            *c = (m as f64 * (phi - 180.0).to_radians()).cos();
+        }
+    }
 }
 
 /// The extra directions of a channel besides the nodes: the beam, then the
@@ -603,7 +654,12 @@ fn eigen_operators(
     p: &SlabOrder<'_>,
     tms: Option<&Tms>,
 ) -> Result<LayerOperators, MultifluxError> {
-    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
+    let s = SlabSolution::build(mu, w, p, true)?;
+    Ok(crate::workspace::with_workspace(|ws| {
+        let ops = s.operators_in(extras, tms, ws);
+        s.recycle(ws);
+        ops
+    }))
 }
 
 /// The scene as the plan's `transmission` rule leaves it (eq. PL1 of

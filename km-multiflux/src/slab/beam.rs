@@ -4,14 +4,17 @@
 use super::probe::Probes;
 use super::{Extra, SlabSolution, Tms, atten, dot};
 use crate::correction::{e2, phi};
+use crate::workspace::Workspace;
 
 impl SlabSolution {
     /// Particular solution for a beam of unit horizontal irradiance entering
-    /// at the top at `mu_b` (eq. S6): `(Z+, Z-)` in radiances at the nodes.
-    pub(super) fn particular(&self, mu_b: f64) -> (Vec<f64>, Vec<f64>) {
+    /// at the top at `mu_b` (eq. S6): `(Z+, Z-)` in radiances at the nodes
+    /// (vectors of the workspace).
+    pub(super) fn particular(&self, mu_b: f64, ws: &mut Workspace) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
-        let lam_b = self.lam_at(mu_b);
-        let (mut ev, mut od) = self.kernels(&lam_b);
+        let lam_b = self.lam_at(mu_b, ws);
+        let (mut ev, mut od) = self.kernels(&lam_b, ws);
+        ws.give(lam_b);
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
         if self.renorm_m0 {
             // Make the scattered beam integrate to omega exactly over the nodes.
@@ -24,16 +27,22 @@ impl SlabSolution {
         // s+ + s- = omega c_m / mu_b * ev ; s+ - s- = omega c_m / mu_b * od.
         let f = self.omega * cm / mu_b;
         // sigma~± = T M^-1 (s+ ± s-) = sqrt(w/mu) (s+ ± s-).
-        let sp: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * ev[i]).collect();
-        let sm: Vec<f64> = (0..n).map(|i| (self.w[i] / self.mu[i]).sqrt() * f * od[i]).collect();
+        let (mut sp, mut sm) = (ws.take(n), ws.take(n));
+        for i in 0..n {
+            sp[i] = (self.w[i] / self.mu[i]).sqrt() * f * ev[i];
+            sm[i] = (self.w[i] / self.mu[i]).sqrt() * f * od[i];
+        }
+        ws.give(ev);
+        ws.give(od);
         // rhs = sigma+ / mu_b + H- sigma-.
-        let rhs: Vec<f64> = (0..n)
+        let mut rhs = ws.take(n);
+        for i in 0..n {
             // H- is symmetric: row i is column i.
-            .map(|i| sp[i] / mu_b + dot(self.hm.col_as_slice(i), &sm))
-            .collect();
+            rhs[i] = sp[i] / mu_b + dot(self.hm.col_as_slice(i), &sm);
+        }
         // Delta = sum_j z_j (v_j . rhs) / (k_j^2 - mu_b^-2).
         let lb = 1.0 / (mu_b * mu_b);
-        let mut delta = vec![0.0; n];
+        let mut delta = ws.take(n);
         for j in 0..n {
             let c: f64 = dot(self.v.col_as_slice(j), &rhs) / (self.k[j] * self.k[j] - lb);
             for i in 0..n {
@@ -41,47 +50,64 @@ impl SlabSolution {
             }
         }
         // Sigma = mu_b (H+ Delta - sigma-).
-        let sigma: Vec<f64> =
-            (0..n).map(|i| mu_b * (dot(self.hp.col_as_slice(i), &delta) - sm[i])).collect();
-        let zp = (0..n).map(|i| 0.5 * (sigma[i] + delta[i]) / self.t[i]).collect();
-        let zm = (0..n).map(|i| 0.5 * (sigma[i] - delta[i]) / self.t[i]).collect();
+        let (mut zp, mut zm) = (ws.take(n), ws.take(n));
+        for i in 0..n {
+            let sigma = mu_b * (dot(self.hp.col_as_slice(i), &delta) - sm[i]);
+            zp[i] = 0.5 * (sigma + delta[i]) / self.t[i];
+            zm[i] = 0.5 * (sigma - delta[i]) / self.t[i];
+        }
+        for v in [sp, sm, rhs, delta] {
+            ws.give(v);
+        }
         (zp, zm)
     }
 
     /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 and eq. 14 of docs/multiflux.md):
     /// particular solution, homogeneous part fixed by the boundary values
     /// `-Z+` at the top and `-Z- e^{-tau/mu_b}` at the bottom, and the source
-    /// integral along each probe.
+    /// integral along each probe (vectors of the workspace).
     pub(super) fn beam_columns(
         &self,
         mu_b: f64,
         extras: &[Extra],
         probes: &Probes,
         tms: Option<&Tms>,
+        ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let dim = n + extras.len();
-        let (mut cr, mut ct) = (vec![0.0; dim], vec![0.0; dim]);
-        let (zp, zm) = self.particular(mu_b);
+        let (mut cr, mut ct) = (ws.take(dim), ws.take(dim));
+        let (zp, zm) = self.particular(mu_b, ws);
         let eb_att = atten(self.tau, mu_b);
         // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
-        let a: Vec<f64> = zp.iter().map(|x| -x).collect();
-        let b: Vec<f64> = zm.iter().map(|x| -x * eb_att).collect();
-        let (hs, hd, sp, sm) = self.homogeneous_out(&a, &b);
+        let (mut a, mut b) = (ws.take(n), ws.take(n));
+        for i in 0..n {
+            a[i] = -zp[i];
+            b[i] = -zm[i] * eb_att;
+        }
+        let (hs, hd, sp, sm) = self.homogeneous_out(&a, &b, ws);
         for i in 0..n {
             cr[i] = zm[i] + hs[i];
             ct[i] = zp[i] * eb_att + hd[i];
         }
+        for v in [a, b, hs, hd] {
+            ws.give(v);
+        }
         // Beam -> probes: homogeneous rows plus the particular source integral,
         // once per distinct probe cosine (`per`); only the peak correction
         // depends on the azimuth.
-        let lam_b = self.lam_at(mu_b);
+        let lam_b = self.lam_at(mu_b, ws);
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
-        let per: Vec<[f64; 4]> = probes
-            .rows
-            .iter()
-            .map(|pr| {
-                let (us, uy, lam_x, ev, od) = (&pr.us, &pr.uy, &pr.lam, &pr.ev, &pr.od);
+        let mut per = ws.take(4 * probes.len());
+        // The peak correction's path factors, once per probe cosine (order 0).
+        let peak: Vec<_> = match (tms, self.m) {
+            (Some(t), 0) => probes.mu.iter().map(|&mu_x| t.paths(mu_b, mu_x, self.tau)).collect(),
+            _ => Vec::new(),
+        };
+        for (p, out) in per.chunks_exact_mut(4).enumerate() {
+            let pr = probes.row(p);
+            let vals: [f64; 4] = {
+                let (us, uy, lam_x, ev, od) = (pr.us, pr.uy, pr.lam, pr.ev, pr.od);
                 // Direct single scattering of the beam into ±mu_x.
                 let (mut se, mut so) = (0.0, 0.0);
                 for l in self.m..self.chi.len() {
@@ -108,15 +134,21 @@ impl SlabSolution {
                     dot(us, &sp),
                     dot(uy, &sm),
                 ]
-            })
-            .collect();
+            };
+            out.copy_from_slice(&vals);
+        }
+        for v in [lam_b, sp, sm, zp, zm] {
+            ws.give(v);
+        }
         for (ex_i, exx) in extras.iter().enumerate() {
             let (Some(p), Some(mu_x)) = (probes.of[ex_i], exx.mu) else { continue };
-            let [mut out_up, mut out_dn, hp, hm] = per[p];
+            let [mut out_up, mut out_dn, hp, hm] =
+                [per[4 * p], per[4 * p + 1], per[4 * p + 2], per[4 * p + 3]];
             if let (Some(t), 0) = (tms, self.m) {
                 // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
                 // (TMS) and the forward peak's second order (IMS), real space.
-                let (du, dd) = t.radiance(mu_b, mu_x, exx.phi_deg, self.tau);
+                debug_assert_eq!(probes.mu[p], mu_x);
+                let (du, dd) = t.radiance_along(&peak[p], exx.phi_deg);
                 out_up += du;
                 out_dn += dd;
             }
@@ -129,6 +161,7 @@ impl SlabSolution {
             cr[n + ex_i] = out_up;
             ct[n + ex_i] = out_dn;
         }
+        ws.give(per);
         (cr, ct)
     }
 
@@ -141,20 +174,35 @@ impl SlabSolution {
         eb: usize,
         tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
+        crate::workspace::with_workspace(|ws| self.beam_response_in(extras, eb, tms, ws))
+    }
+
+    /// [`SlabSolution::beam_response`] with the scratch vectors of `ws`
+    /// (the two returned vectors are the workspace's too).
+    pub(crate) fn beam_response_in(
+        &self,
+        extras: &[Extra],
+        eb: usize,
+        tms: Option<&Tms>,
+        ws: &mut Workspace,
+    ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let dim = n + extras.len();
-        let (mut cr, mut ct) = (vec![0.0; dim], vec![0.0; dim]);
+        let (mut cr, mut ct) = (ws.take(dim), ws.take(dim));
         let (true, Some(mu_b)) = (extras[eb].beam, extras[eb].mu) else {
             return (cr, ct);
         };
-        let probes = self.probes(extras);
-        let (r, t) = self.beam_response_rows(mu_b, extras, &probes, tms);
+        let probes = self.probes(extras, ws);
+        let (r, t) = self.beam_response_rows(mu_b, extras, &probes, tms, ws);
         for i in 0..dim {
             if i < n || probes.of[i - n].is_some() {
                 cr[i] = r[i];
                 ct[i] = t[i];
             }
         }
+        ws.give(r);
+        ws.give(t);
+        probes.recycle(ws);
         // The unscattered beam itself.
         ct[n + eb] = atten(self.tau, mu_b);
         (cr, ct)
@@ -167,6 +215,7 @@ impl SlabSolution {
         extras: &[Extra],
         probes: &Probes,
         tms: Option<&Tms>,
+        ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>) {
         // Eq. S6 is singular at k_j mu_b = 1 (the full response is not): at
         // an exact resonance (|k mu_b - 1| < 1e-9, a set of measure zero)
@@ -175,18 +224,18 @@ impl SlabSolution {
         // log10(1/|k mu_b - 1|) digits.
         let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-9);
         if !near {
-            self.beam_columns(mu_b, extras, probes, tms)
+            self.beam_columns(mu_b, extras, probes, tms, ws)
         } else if mu_b * (1.0 + 1e-6) < 1.0 {
             let (a, b) = (
-                self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms),
-                self.beam_columns(mu_b * (1.0 + 1e-6), extras, probes, tms),
+                self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms, ws),
+                self.beam_columns(mu_b * (1.0 + 1e-6), extras, probes, tms, ws),
             );
             let avg = |x: &[f64], y: &[f64]| -> Vec<f64> {
                 x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect()
             };
             (avg(&a.0, &b.0), avg(&a.1, &b.1))
         } else {
-            self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms)
+            self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms, ws)
         }
     }
 }

@@ -47,7 +47,7 @@ impl SlabSolution {
         let (mut a, mut b) = (top_in.to_vec(), bottom_in.to_vec());
         let mut part = None;
         if let Some((mu_b, f)) = beam {
-            let (zp, zm) = self.particular(mu_b);
+            let (zp, zm) = crate::workspace::with_workspace(|ws| self.particular(mu_b, ws));
             let eb = atten(self.tau, mu_b);
             for i in 0..n {
                 a[i] -= f * zp[i];

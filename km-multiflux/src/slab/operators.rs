@@ -4,15 +4,26 @@
 
 use faer::Mat;
 
-use super::{Extra, SlabOrder, SlabSolution, Tms, atten, mat_vec};
+use super::{Extra, SlabOrder, SlabSolution, Tms, atten, mat_vec_into};
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
+use crate::workspace::{Workspace, with_workspace};
 
 impl SlabSolution {
     /// The operators on the augmented space `[nodes, extras]` (same layout for
     /// down- and up-going vectors; the layer is symmetric, so `r_bottom = r_top`
     /// and `t_up = t_down`).
     pub fn operators(&self, extras: &[Extra], tms: Option<&Tms>) -> LayerOperators {
+        with_workspace(|ws| self.operators_in(extras, tms, ws))
+    }
+
+    /// [`SlabSolution::operators`] with the scratch vectors of `ws`.
+    pub(crate) fn operators_in(
+        &self,
+        extras: &[Extra],
+        tms: Option<&Tms>,
+        ws: &mut Workspace,
+    ) -> LayerOperators {
         let n = self.n;
         let dim = n + extras.len();
         let mut rr = Mat::<f64>::zeros(dim, dim);
@@ -30,8 +41,9 @@ impl SlabSolution {
             tt.col_as_slice_mut(j)[..n].copy_from_slice(tr.col_as_slice(j));
         }
         // Probe rows first (needed by the beam columns), once per distinct cosine.
-        let probes = self.probes(extras);
-        let vectors: Vec<_> = probes.rows.iter().map(|pr| self.probe_row_vectors(pr)).collect();
+        let probes = self.probes(extras, ws);
+        let vectors: Vec<_> =
+            (0..probes.len()).map(|p| self.probe_row_vectors(&probes.row(p), ws)).collect();
         for (e, ex) in extras.iter().enumerate() {
             if let Some(mu_x) = ex.mu {
                 tt[(n + e, n + e)] = atten(self.tau, mu_x);
@@ -46,14 +58,21 @@ impl SlabSolution {
         }
         for (eb, ex) in extras.iter().enumerate() {
             let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
-            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms);
+            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms, ws);
             for i in 0..dim {
                 if i < n || probes.of[i - n].is_some() {
                     rr[(i, n + eb)] = cr[i];
                     tt[(i, n + eb)] = ct[i];
                 }
             }
+            ws.give(cr);
+            ws.give(ct);
         }
+        for (rx, tx) in vectors {
+            ws.give(rx);
+            ws.give(tx);
+        }
+        probes.recycle(ws);
         LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt }
     }
 
@@ -62,32 +81,43 @@ impl SlabSolution {
     /// solves (eq. S5): with `a~ = T a`, `b~ = T b`,
     /// `R~ a~ + T~ b~ = 1/2 [Cp_out Cp^-1 (a~ + b~) + Cm_out Cm^-1 (a~ - b~)]`.
     /// Also returns `Cp^-1 (a~ + b~)` and `Cm^-1 (a~ - b~)` (0 for a half-space).
+    /// All four are vectors of the workspace `ws`.
     pub(super) fn homogeneous_out(
         &self,
         a: &[f64],
         b: &[f64],
+        ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
         let n = self.n;
         // Half-space: R~ = Cp_out Cp^-1, T~ = 0 (nothing enters from below).
         let half = self.lu_m.is_none();
         let bh = |i: usize| if half { 0.0 } else { b[i] };
-        let mut s: Vec<f64> = (0..n).map(|i| self.t[i] * (a[i] + bh(i))).collect();
-        let mut d: Vec<f64> = (0..n).map(|i| self.t[i] * (a[i] - bh(i))).collect();
+        let (mut s, mut d) = (ws.take(n), ws.take(n));
+        for i in 0..n {
+            s[i] = self.t[i] * (a[i] + bh(i));
+            d[i] = self.t[i] * (a[i] - bh(i));
+        }
         self.lu_p.solve(&mut s);
-        let hp = mat_vec(&self.cp_out, &s);
-        let hm = match &self.lu_m {
+        let mut hp = ws.take(n);
+        mat_vec_into(&self.cp_out, &s, &mut hp);
+        let mut hm = ws.take(n);
+        match &self.lu_m {
             Some(lu) => {
                 lu.solve(&mut d);
-                mat_vec(&self.cm_out, &d)
+                mat_vec_into(&self.cm_out, &d, &mut hm);
             }
             None => {
                 d.iter_mut().for_each(|x| *x = 0.0);
-                hp.clone()
+                hm.copy_from_slice(&hp);
             }
-        };
-        let rs = (0..n).map(|i| 0.5 * (hp[i] + hm[i]) / self.t[i]).collect();
-        let td =
-            (0..n).map(|i| if half { 0.0 } else { 0.5 * (hp[i] - hm[i]) / self.t[i] }).collect();
+        }
+        let (mut rs, mut td) = (ws.take(n), ws.take(n));
+        for i in 0..n {
+            rs[i] = 0.5 * (hp[i] + hm[i]) / self.t[i];
+            td[i] = if half { 0.0 } else { 0.5 * (hp[i] - hm[i]) / self.t[i] };
+        }
+        ws.give(hp);
+        ws.give(hm);
         (rs, td, s, d)
     }
 
@@ -162,7 +192,12 @@ pub fn slab_operators(
     if !scatters {
         return Ok(absorber_operators(mu, extras, p.tau));
     }
-    Ok(SlabSolution::build(mu, w, p, true)?.operators(extras, tms))
+    let s = SlabSolution::build(mu, w, p, true)?;
+    Ok(with_workspace(|ws| {
+        let ops = s.operators_in(extras, tms, ws);
+        s.recycle(ws);
+        ops
+    }))
 }
 
 /// The column of the beam `extras[eb]` in the `r_top` and `t_down` of
@@ -192,5 +227,11 @@ pub fn slab_beam_response(
         }
         return Ok((vec![0.0; dim], ct));
     }
-    Ok(SlabSolution::build(mu, w, p, false)?.beam_response(extras, eb, tms))
+    let s = SlabSolution::build(mu, w, p, false)?;
+    // The two vectors come from the workspace; the solver hands them back.
+    Ok(with_workspace(|ws| {
+        let out = s.beam_response_in(extras, eb, tms, ws);
+        s.recycle(ws);
+        out
+    }))
 }

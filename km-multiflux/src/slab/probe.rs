@@ -5,76 +5,138 @@
 
 use super::{Extra, SlabSolution, atten, dot};
 use crate::correction::{e2, phi};
+use crate::workspace::Workspace;
 
 /// What a probe (a user direction of zero weight) needs from one layer and
 /// order: the mode coefficients of its rows `R_xq`, `T_xq` and, for the beam's source integral, its
-/// Legendre values and the even/odd kernels to the nodes.
-pub(super) struct Probe {
+/// Legendre values and the even/odd kernels to the nodes (borrowed from [`Probes`]).
+pub(super) struct Probe<'a> {
     /// The probe's cosine in this layer.
     pub(super) mu: f64,
     /// Path integrals per mode (eq. 14): `R_xq = (us Cp^-1 + uy Cm^-1) T`.
-    pub(super) us: Vec<f64>,
-    pub(super) uy: Vec<f64>,
-    pub(super) lam: Vec<f64>,
-    pub(super) ev: Vec<f64>,
-    pub(super) od: Vec<f64>,
+    pub(super) us: &'a [f64],
+    pub(super) uy: &'a [f64],
+    pub(super) lam: &'a [f64],
+    pub(super) ev: &'a [f64],
+    pub(super) od: &'a [f64],
 }
 
 /// The probes of one layer and order, computed once per distinct cosine:
 /// everything in a probe's rows depends on its polar angle only, so the exit
 /// directions that share one (any number of azimuths) share one [`Probe`].
+/// Stored flat, probe after probe (`n` values per probe for `us`, `uy`,
+/// `ev`, `od`; `nl` for `lam`), in vectors of the workspace.
 pub(super) struct Probes {
-    /// One entry per distinct probe cosine, in order of first appearance.
-    pub(super) rows: Vec<Probe>,
-    /// For each extra: its entry in `rows` (`None` for the beam and for
-    /// directions absent from this medium).
+    /// One cosine per distinct probe, in order of first appearance.
+    pub(super) mu: Vec<f64>,
+    n: usize,
+    nl: usize,
+    us: Vec<f64>,
+    uy: Vec<f64>,
+    lam: Vec<f64>,
+    ev: Vec<f64>,
+    od: Vec<f64>,
+    /// For each extra: its probe (`None` for the beam and for directions
+    /// absent from this medium).
     pub(super) of: Vec<Option<usize>>,
 }
 
+impl Probes {
+    /// The number of distinct probes.
+    pub(super) fn len(&self) -> usize {
+        self.mu.len()
+    }
+
+    /// Probe `p`.
+    pub(super) fn row(&self, p: usize) -> Probe<'_> {
+        let (n, nl) = (self.n, self.nl);
+        Probe {
+            mu: self.mu[p],
+            us: &self.us[p * n..(p + 1) * n],
+            uy: &self.uy[p * n..(p + 1) * n],
+            lam: &self.lam[p * nl..(p + 1) * nl],
+            ev: &self.ev[p * n..(p + 1) * n],
+            od: &self.od[p * n..(p + 1) * n],
+        }
+    }
+
+    /// Hand every vector back to the workspace.
+    pub(super) fn recycle(self, ws: &mut Workspace) {
+        for v in [self.mu, self.us, self.uy, self.lam, self.ev, self.od] {
+            ws.give(v);
+        }
+    }
+}
+
 impl SlabSolution {
-    /// `Lambda_l^m(mu)` for this order.
-    pub(super) fn lam_at(&self, mu: f64) -> Vec<f64> {
-        let mut b = vec![0.0; self.chi.len()];
+    /// `Lambda_l^m(mu)` for this order (a vector of the workspace).
+    pub(super) fn lam_at(&self, mu: f64, ws: &mut Workspace) -> Vec<f64> {
+        let mut b = ws.take(self.chi.len());
         self.rec.eval(mu, &mut b);
         b
     }
 
     /// Even and odd (in l+m) kernels between direction `mu` and every node:
-    /// `sum_{l+m even/odd} (2l+1) chi_l Lambda_l(mu) Lambda_l(mu_j)`.
-    pub(super) fn kernels(&self, lam_x: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    /// `sum_{l+m even/odd} (2l+1) chi_l Lambda_l(mu) Lambda_l(mu_j)`
+    /// (vectors of the workspace).
+    pub(super) fn kernels(&self, lam_x: &[f64], ws: &mut Workspace) -> (Vec<f64>, Vec<f64>) {
         let nl = self.chi.len();
+        let (mut we, mut wo) = (ws.take(nl), ws.take(nl));
+        let (mut ev, mut od) = (ws.take(self.n), ws.take(self.n));
+        self.kernels_into(lam_x, [&mut we, &mut wo], &mut ev, &mut od);
+        ws.give(we);
+        ws.give(wo);
+        (ev, od)
+    }
+
+    /// [`SlabSolution::kernels`] into `ev`, `od` (`n` values each), with
+    /// `scratch` two vectors of `nl` values (overwritten).
+    fn kernels_into(
+        &self,
+        lam_x: &[f64],
+        scratch: [&mut [f64]; 2],
+        ev: &mut [f64],
+        od: &mut [f64],
+    ) {
+        let nl = self.chi.len();
+        let [we, wo] = scratch;
         // The weights split by parity of l + m (zero elsewhere), then dot products.
-        let (mut we, mut wo) = (vec![0.0; nl], vec![0.0; nl]);
+        we.iter_mut().for_each(|x| *x = 0.0);
+        wo.iter_mut().for_each(|x| *x = 0.0);
         for l in self.m..nl {
             let x = self.chi[l] * lam_x[l];
             if (l + self.m).is_multiple_of(2) { we[l] = x } else { wo[l] = x }
         }
-        let (mut ev, mut od) = (vec![0.0; self.n], vec![0.0; self.n]);
         for j in 0..self.n {
             let row = &self.lam[j * nl..(j + 1) * nl];
-            ev[j] = dot(&we, row);
-            od[j] = dot(&wo, row);
+            ev[j] = dot(we, row);
+            od[j] = dot(wo, row);
         }
-        (ev, od)
     }
 
     /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
     /// at `mu_x` leaving the top per unit down-going radiance at each node
     /// entering at the top, and the same from the bottom (eq. 14 of docs/multiflux.md).
-    pub(super) fn probe_rows(&self, mu_x: f64) -> Probe {
+    /// `out` holds the probe's `[us, uy, lam, ev, od]`; `scratch` four
+    /// vectors of at least `nl` values.
+    fn probe_rows_into(&self, mu_x: f64, out: [&mut [f64]; 5], scratch: &mut [Vec<f64>; 4]) {
         let n = self.n;
-        let lam_x = self.lam_at(mu_x);
-        let (ev, od) = self.kernels(&lam_x);
+        let [us, uy, lam_x, ev, od] = out;
+        self.rec.eval(mu_x, lam_x);
+        let nl = self.chi.len();
+        let [s0, s1, fe, fo] = scratch;
+        self.kernels_into(lam_x, [&mut s0[..nl], &mut s1[..nl]], ev, od);
         let beta = 1.0 / mu_x;
         let eb = atten(self.tau, mu_x);
         // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
-        let fe: Vec<f64> = (0..n).map(|i| self.omega * self.w[i] / self.t[i] * ev[i]).collect();
-        let fo: Vec<f64> = (0..n).map(|i| self.omega * self.w[i] / self.t[i] * od[i]).collect();
-        let mut us = vec![0.0; n];
-        let mut uy = vec![0.0; n];
+        let (fe, fo) = (&mut fe[..n], &mut fo[..n]);
+        for i in 0..n {
+            fe[i] = self.omega * self.w[i] / self.t[i] * ev[i];
+            fo[i] = self.omega * self.w[i] / self.t[i] * od[i];
+        }
         for j in 0..n {
-            let a = dot(&fe, self.v.col_as_slice(j));
-            let b = -dot(&fo, self.z.col_as_slice(j));
+            let a = dot(fe, self.v.col_as_slice(j));
+            let b = -dot(fo, self.z.col_as_slice(j));
             let k = self.k[j];
             if self.tau.is_infinite() {
                 // Only top-anchored modes: out = 1/2 (a + b k) beta/(k + beta) c, c = s.
@@ -111,22 +173,27 @@ impl SlabSolution {
         if self.tau.is_infinite() {
             uy.iter_mut().for_each(|x| *x = 0.0);
         }
-        Probe { mu: mu_x, us, uy, lam: lam_x, ev, od }
     }
 
     /// `(R_xq, T_xq)` of a probe: `R_xq = (us Cp^-1 + uy Cm^-1) T`,
     /// `T_xq = (us Cp^-1 - uy Cm^-1) T`, the row vectors by transposed solves
     /// `Cp^-T us`, `Cm^-T uy`.
-    pub(super) fn probe_row_vectors(&self, pr: &Probe) -> (Vec<f64>, Vec<f64>) {
+    pub(super) fn probe_row_vectors(
+        &self,
+        pr: &Probe<'_>,
+        ws: &mut Workspace,
+    ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
-        let (mut p, mut q) = (pr.us.clone(), pr.uy.clone());
+        let (mut p, mut q) = (ws.take(n), ws.take(n));
+        p.copy_from_slice(pr.us);
+        q.copy_from_slice(pr.uy);
         self.lu_p.solve_transpose(&mut p);
         match &self.lu_m {
             Some(lu) => lu.solve_transpose(&mut q),
             None => q.iter_mut().for_each(|x| *x = 0.0),
         }
-        let mut rx = vec![0.0; n];
-        let mut tx = vec![0.0; n];
+        let mut rx = ws.take(n);
+        let mut tx = ws.take(n);
         for i in 0..n {
             rx[i] = (p[i] + q[i]) * self.t[i];
             tx[i] = (p[i] - q[i]) * self.t[i];
@@ -134,26 +201,55 @@ impl SlabSolution {
         if self.tau.is_infinite() {
             tx.iter_mut().for_each(|x| *x = 0.0);
         }
+        ws.give(p);
+        ws.give(q);
         (rx, tx)
     }
 
     /// The probes of `extras`, one [`Probe`] per distinct cosine (the beam
     /// and directions absent from this medium have none).
-    pub(super) fn probes(&self, extras: &[Extra]) -> Probes {
-        let mut rows: Vec<Probe> = Vec::new();
+    pub(super) fn probes(&self, extras: &[Extra], ws: &mut Workspace) -> Probes {
+        let mut mu = ws.take(0);
         let of = extras
             .iter()
             .map(|ex| match (ex.beam, ex.mu) {
-                (false, Some(mu_x)) => Some(match rows.iter().position(|p| p.mu == mu_x) {
+                (false, Some(mu_x)) => Some(match mu.iter().position(|&p| p == mu_x) {
                     Some(i) => i,
                     None => {
-                        rows.push(self.probe_rows(mu_x));
-                        rows.len() - 1
+                        mu.push(mu_x);
+                        mu.len() - 1
                     }
                 }),
                 _ => None,
             })
             .collect();
-        Probes { rows, of }
+        let (n, nl, np) = (self.n, self.chi.len(), mu.len());
+        let mut pr = Probes {
+            n,
+            nl,
+            us: ws.take(np * n),
+            uy: ws.take(np * n),
+            lam: ws.take(np * nl),
+            ev: ws.take(np * n),
+            od: ws.take(np * n),
+            mu,
+            of,
+        };
+        let w = nl.max(n);
+        let mut scratch = [ws.take(w), ws.take(w), ws.take(w), ws.take(w)];
+        for p in 0..np {
+            let out = [
+                &mut pr.us[p * n..(p + 1) * n],
+                &mut pr.uy[p * n..(p + 1) * n],
+                &mut pr.lam[p * nl..(p + 1) * nl],
+                &mut pr.ev[p * n..(p + 1) * n],
+                &mut pr.od[p * n..(p + 1) * n],
+            ];
+            self.probe_rows_into(pr.mu[p], out, &mut scratch);
+        }
+        for v in scratch {
+            ws.give(v);
+        }
+        pr
     }
 }

@@ -1,0 +1,202 @@
+//! Scratch space reused across Fourier orders, layers, channels and solves.
+//!
+//! The per-order work of a layer (probe rows, kernels, the beam's particular
+//! solution and its columns, the boundary-value solves) needs a few dozen
+//! short vectors of `N`, `2N` or `N + extras` values. Allocating them afresh
+//! in every order made allocation a large share of a small solve
+//! (docs/multiflux.md §9 (i)). A [`Workspace`] keeps the vectors handed back
+//! to it and hands them out again, so after the first order of the first
+//! solve on a thread the per-order loop of a lone layer allocates none of
+//! them. The values computed are the same bit for bit: a vector taken from
+//! the workspace is zero-filled to the requested length, as `vec![0.0; len]`.
+//!
+//! One workspace is kept per thread ([`with_workspace`]), so channels solved
+//! on the rayon pool each use their own. It is bounded: at most
+//! [`MAX_VECTORS`] vectors and [`MAX_MATRICES`] matrices of at most
+//! [`MAX_LEN`] values each are kept (10 MiB per thread at most); anything
+//! beyond is freed as usual. The boundary matrices of eq. S4 and the node
+//! operators of a layer come from it too ([`Workspace::take_mat`]).
+
+use std::cell::Cell;
+
+use faer::Mat;
+
+/// Most vectors a workspace keeps.
+pub(crate) const MAX_VECTORS: usize = 128;
+/// Most matrices a workspace keeps.
+pub(crate) const MAX_MATRICES: usize = 32;
+/// Shortest capacity of a new vector (values).
+const MIN_LEN: usize = 64;
+/// Longest vector (values) a workspace keeps: `8192` values = 64 KiB.
+pub(crate) const MAX_LEN: usize = 8192;
+
+/// A pool of `f64` vectors (see the module doc).
+#[derive(Debug, Default)]
+pub(crate) struct Workspace {
+    free: Vec<Vec<f64>>,
+    mats: Vec<Mat<f64>>,
+    /// Vectors handed out, and how many of them needed a fresh allocation
+    /// (none kept, or none long enough): counts for tests and benchmarks.
+    taken: usize,
+    fresh: usize,
+}
+
+impl Workspace {
+    /// A vector of `len` zeros, reusing a kept one where possible: the
+    /// shortest one long enough (best fit, so that short requests do not use
+    /// up the long vectors; the search stops at the first one of at most
+    /// `max(len, MIN_LEN)` values, from the most recently returned).
+    pub(crate) fn take(&mut self, len: usize) -> Vec<f64> {
+        self.taken += 1;
+        let fit = len.max(MIN_LEN);
+        let mut best: Option<(usize, usize)> = None;
+        for (i, v) in self.free.iter().enumerate().rev() {
+            let c = v.capacity();
+            if c >= len && best.is_none_or(|(_, b)| c < b) {
+                best = Some((i, c));
+                if c <= fit {
+                    break;
+                }
+            }
+        }
+        let mut v = match best.map(|(i, _)| i) {
+            Some(i) => self.free.swap_remove(i),
+            None => {
+                // None long enough: a new one (the kept ones stay for shorter
+                // requests), at least MIN_LEN long so it serves most later ones.
+                self.fresh += 1;
+                Vec::with_capacity(len.max(MIN_LEN))
+            }
+        };
+        v.clear();
+        v.resize(len, 0.0);
+        v
+    }
+
+    /// Hand `v` back for reuse (freed instead when the workspace is full or
+    /// `v` is longer than [`MAX_LEN`]).
+    pub(crate) fn give(&mut self, v: Vec<f64>) {
+        if v.capacity() > 0 && v.capacity() <= MAX_LEN && self.free.len() < MAX_VECTORS {
+            self.free.push(v);
+        }
+    }
+
+    /// A zero matrix of `nrows x ncols`, reusing a kept one of that shape.
+    pub(crate) fn take_mat(&mut self, nrows: usize, ncols: usize) -> Mat<f64> {
+        self.taken += 1;
+        match self.mats.iter().rposition(|m| m.nrows() == nrows && m.ncols() == ncols) {
+            Some(i) => {
+                let mut m = self.mats.swap_remove(i);
+                m.as_mut().fill(0.0);
+                m
+            }
+            None => {
+                self.fresh += 1;
+                Mat::zeros(nrows, ncols)
+            }
+        }
+    }
+
+    /// Hand `m` back for reuse (freed instead when empty, when the
+    /// workspace keeps [`MAX_MATRICES`] already, or above [`MAX_LEN`] values).
+    pub(crate) fn give_mat(&mut self, m: Mat<f64>) {
+        let len = m.nrows() * m.ncols();
+        if len > 0 && len <= MAX_LEN && self.mats.len() < MAX_MATRICES {
+            self.mats.push(m);
+        }
+    }
+
+    /// `(taken, fresh)`: vectors handed out since the workspace was made and
+    /// how many of them were new allocations.
+    #[cfg(test)]
+    pub(crate) fn counts(&self) -> (usize, usize) {
+        (self.taken, self.fresh)
+    }
+}
+
+thread_local! {
+    static WORKSPACE: Cell<Option<Workspace>> = const { Cell::new(None) };
+}
+
+/// Run `f` with this thread's workspace. Re-entrant: a nested call (none is
+/// made today) gets a fresh, empty workspace, and the outer one is kept.
+pub(crate) fn with_workspace<R>(f: impl FnOnce(&mut Workspace) -> R) -> R {
+    let mut ws = WORKSPACE.with(Cell::take).unwrap_or_default();
+    let r = f(&mut ws);
+    WORKSPACE.with(|c| c.set(Some(ws)));
+    r
+}
+
+/// `(taken, fresh)` of this thread's workspace (see [`Workspace::counts`]).
+#[cfg(test)]
+pub(crate) fn thread_counts() -> (usize, usize) {
+    with_workspace(|ws| ws.counts())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A vector taken back is zero-filled to the requested length, reused
+    /// (no new allocation) when one long enough was returned, and the pool
+    /// stays within its bounds.
+    #[test]
+    fn reuses_and_zero_fills() {
+        let mut ws = Workspace::default();
+        let mut a = ws.take(5);
+        a.iter_mut().for_each(|x| *x = 7.0);
+        let ptr = a.as_ptr();
+        ws.give(a);
+        let b = ws.take(3);
+        assert_eq!(b, vec![0.0; 3]);
+        assert_eq!(b.as_ptr(), ptr, "the returned vector is reused");
+        assert_eq!(ws.counts(), (2, 1));
+        ws.give(b);
+        for _ in 0..2 * MAX_VECTORS {
+            ws.give(vec![1.0; 4]);
+        }
+        assert_eq!(ws.free.len(), MAX_VECTORS);
+        ws.give(vec![0.0; MAX_LEN + 1]);
+        assert!(ws.free.iter().all(|v| v.capacity() <= MAX_LEN));
+    }
+
+    /// The per-order loop of a lone layer under a beam with exit directions
+    /// (the BRDF case of docs/benchmarks.md §6) uses the workspace, and a
+    /// second, warm solve on the same thread takes no new vector from the
+    /// allocator for it; its answer is the same bit for bit.
+    #[test]
+    fn warm_solve_takes_no_new_vectors() {
+        let mut text = String::from(
+            "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.8\n\
+             [substrate]\nkind = \"black\"\n[output]\ndirections_deg = [",
+        );
+        for t in [10, 20, 30, 40, 50, 60] {
+            for p in [0, 45, 90, 135, 180] {
+                text += &format!("[{t}.0, {p}.0], ");
+            }
+        }
+        text += "]\n";
+        let scene = km_core::Scene::from_toml_str(&text).unwrap();
+        let opts = crate::MultifluxOptions { streams: Some(8), ..Default::default() };
+        let first = crate::solve(&scene, &opts).unwrap();
+        let (t0, f0) = thread_counts();
+        let second = crate::solve(&scene, &opts).unwrap();
+        let (t1, f1) = thread_counts();
+        // 16 Fourier orders, each with a few dozen vectors.
+        assert!(t1 - t0 > 16 * 20, "the solve uses the workspace: {} vectors", t1 - t0);
+        assert_eq!(f1, f0, "no new vector in a warm solve");
+        assert_eq!(first.channels, second.channels);
+    }
+
+    /// Re-entrant use gets its own workspace; the outer one survives.
+    #[test]
+    fn nested_use_is_safe() {
+        with_workspace(|outer| {
+            let v = outer.take(4);
+            let inner = with_workspace(|inner| inner.take(2).len());
+            assert_eq!(inner, 2);
+            outer.give(v);
+        });
+        assert!(with_workspace(|ws| !ws.free.is_empty()));
+    }
+}
