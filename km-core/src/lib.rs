@@ -5,7 +5,9 @@
 //! * [`Layer`]: one homogeneous layer (`sigma_a`, `sigma_s`, thickness, phase, `n`).
 //! * [`phase`]: phase functions ([`phase::Phase`], [`phase::PhaseFunction`]).
 //! * [`fresnel`]: Snell, unpolarised Fresnel, total internal reflection,
-//!   hemispherical averages, Gauss–Legendre quadrature.
+//!   hemispherical averages.
+//! * [`quadrature`]: Gauss–Legendre and Gauss–Radau rules.
+//! * [`legendre`]: Legendre polynomials and normalised associated functions.
 //! * [`two_flux`]: Kubelka–Munk (seed 000 §2).
 //! * [`presets`]: measured materials (Jensen et al. 2001).
 //! * [`plan`]: the planner (docs/planner.md).
@@ -19,9 +21,11 @@ pub mod atomic_file;
 pub mod error;
 pub mod fresnel;
 pub mod layer;
+pub mod legendre;
 pub mod phase;
 pub mod plan;
 pub mod presets;
+pub mod quadrature;
 pub mod scene;
 pub mod set;
 pub mod solution;

@@ -20,7 +20,8 @@ use std::str::FromStr;
 
 use std::sync::OnceLock;
 
-use km_core::fresnel::{critical_cos, egan_hilgeman_fdr, gauss_legendre, reflectance};
+use km_core::fresnel::{critical_cos, egan_hilgeman_fdr, reflectance};
+use km_core::quadrature::gauss_legendre;
 
 use crate::error::DipoleError;
 

@@ -11,7 +11,7 @@ use super::dot;
 /// for small `C` from its LU factors `lu` (already needed by the probes and
 /// the beam, [`Lu::right_solve`]); larger (`n > 32`), faer's blocked LU
 /// wins. A singular `C` gives non-finite entries, which the caller refuses.
-pub(super) fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
+pub fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
     let n = c.nrows();
     let mut x = vec![0.0; n * n];
     if n > 32 {
@@ -36,7 +36,7 @@ pub(super) fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
 /// for the vector solves `C x = b` and `C^T x = b` of the probes, the
 /// beam and the internal field (Golub & Van Loan 2013, alg. 3.4.1). A
 /// singular `C` gives non-finite solutions, which the callers refuse.
-pub(super) struct Lu {
+pub struct Lu {
     pub(super) n: usize,
     /// `L` below and `U` on and above the diagonal: `lu[col * n + row]`.
     pub(super) lu: Vec<f64>,
@@ -45,7 +45,9 @@ pub(super) struct Lu {
 }
 
 impl Lu {
-    pub(super) fn new(c: &Mat<f64>) -> Self {
+    /// Factor `C` (`n x n`): `P C = L U` by Gaussian elimination with
+    /// partial pivoting, no blocking.
+    pub fn new(c: &Mat<f64>) -> Self {
         let n = c.nrows();
         let mut lu = vec![0.0; n * n];
         for j in 0..n {
@@ -83,7 +85,7 @@ impl Lu {
     }
 
     /// `x <- C^-1 x`.
-    pub(super) fn solve(&self, x: &mut [f64]) {
+    pub fn solve(&self, x: &mut [f64]) {
         let n = self.n;
         for k in 0..n {
             x.swap(k, self.piv[k]);
@@ -108,7 +110,7 @@ impl Lu {
     }
 
     /// `x <- C^-T x`.
-    pub(super) fn solve_transpose(&self, x: &mut [f64]) {
+    pub fn solve_transpose(&self, x: &mut [f64]) {
         let n = self.n;
         // U^T y = b: row k of U^T is column k of U (contiguous).
         for k in 0..n {
@@ -129,7 +131,7 @@ impl Lu {
     /// by whole columns (contiguous updates): with `C = P^T L U`, first
     /// `W U = X` (columns left to right), then `Y L = W` (right to left),
     /// then `X = Y P` (the column exchanges in reverse order).
-    pub(super) fn right_solve(&self, x: &mut [f64]) {
+    pub fn right_solve(&self, x: &mut [f64]) {
         let n = self.n;
         // W U = B: W_j = (B_j - sum_{k<j} U_kj W_k) / U_jj.
         for j in 0..n {
