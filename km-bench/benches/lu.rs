@@ -6,10 +6,11 @@
 //! operators `X = C_out C^-1` for both (eq. S5), one solve `C x = b` each
 //! (the beam) and five `C^T x = b` each (the probes).
 //!
-//! Three variants: `hand` (the hand-written LU for everything), `faer`
-//! (faer's `partial_piv_lu` and its in-place solves for everything) and
-//! `slab` (what the slab does: hand-written factors and vector solves, and
-//! `X = C_out C^-1` by faer's LU above 32 nodes, `lu::solve_right`).
+//! Three variants: `hand` (the hand-written LU of `lu.rs` for everything,
+//! forced below its switch), `faer` (faer's `partial_piv_lu` and its in-place
+//! solves for everything) and `slab` (what the slab does: `Lu::new`, which
+//! is the hand-written LU below 32 nodes and faer's factors from 32 on,
+//! `lu::solve_right`, the hand-written vector solves).
 //!
 //! Short run: `cargo bench -p km-bench --bench lu -- --warm-up-time 1 --measurement-time 3`.
 
@@ -66,7 +67,7 @@ fn hand(c: &[Mat<f64>; 4], rhs: &[f64]) -> f64 {
     let n = rhs.len();
     let mut sum = 0.0;
     for (cm, out) in [(&c[0], &c[1]), (&c[2], &c[3])] {
-        let lu = Lu::new(cm);
+        let lu = Lu::hand_written(cm);
         let mut x = vec![0.0; n * n];
         for j in 0..n {
             x[j * n..(j + 1) * n].copy_from_slice(out.col_as_slice(j));
@@ -103,7 +104,7 @@ fn faer_lu(c: &[Mat<f64>; 4], rhs: &Mat<f64>) -> f64 {
     sum
 }
 
-/// What the slab does today (`lu::solve_right` switches to faer above 32).
+/// What the slab does (`Lu::new` switches to faer's factors from 32 nodes on).
 fn slab(c: &[Mat<f64>; 4], rhs: &[f64]) -> f64 {
     let mut sum = 0.0;
     for (cm, out) in [(&c[0], &c[1]), (&c[2], &c[3])] {

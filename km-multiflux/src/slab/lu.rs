@@ -1,22 +1,38 @@
 //! LU factors with partial pivoting of the small matrices `Cp`, `Cm` of
 //! eq. S4 (vector solves for the probes, the beam and the internal field),
 //! and `X = B C^-1` for the node operators.
+//!
+//! Hand-written below 32 nodes, faer's blocked LU from 32 on. Measured by
+//! the criterion bench `km-bench/benches/lu.rs` (the slab's own `Cp`, `Cm`:
+//! factor both, `X = C_out C^-1` for both, one `C x = b` and five
+//! `C^T x = b` each; medians, 2 shared cores, 2026-11): hand-written /
+//! faer = 1.54 / 5.75 us at N = 4 (faer 3.7x slower), 4.24 / 9.33 us at
+//! N = 8 (2.2x), 13.7 / 18.7 us at N = 16 (1.4x), 51.2 / 42.1 us at N = 32
+//! (faer 1.2x faster), 275 / 126 us at N = 64 (faer 2.2x faster). From 32
+//! on the factors and every solve are faer's (the factors are also kept in
+//! this file's layout, the permutation as exchanges, for
+//! [`Lu::right_solve`] and the slab's regularity check); below 32
+//! everything is the code of this file.
 
 use faer::Mat;
-use faer::linalg::solvers::Solve;
+use faer::linalg::solvers::{PartialPivLu, Solve};
 
 use super::dot;
 
-/// `X = B C^-1` for square `C`, `B`, column-major (`x[j * n + i] = X_ij`):
-/// for small `C` from its LU factors `lu` (already needed by the probes and
-/// the beam, [`Lu::right_solve`]); larger (`n > 32`), faer's blocked LU
-/// wins. A singular `C` gives non-finite entries, which the caller refuses.
-pub fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
-    let n = c.nrows();
+/// Size from which [`Lu::new`] factors with faer (see the module header).
+const FAER_FROM: usize = 32;
+
+/// `X = B C^-1` for square `C`, `B`, column-major (`x[j * n + i] = X_ij`),
+/// from the factors `lu` of `C`: by whole-column updates
+/// ([`Lu::right_solve`]) below 32 nodes, by faer's factor object from 32 on
+/// (`C` itself is not read again). A singular `C` gives non-finite entries,
+/// which the caller refuses.
+pub fn solve_right(lu: &Lu, _c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
+    let n = lu.n;
     let mut x = vec![0.0; n * n];
-    if n > 32 {
+    if let Some(f) = &lu.faer {
         // X^T = C^-T B^T.
-        let s = c.partial_piv_lu().solve_transpose(b.transpose());
+        let s = f.solve_transpose(b.transpose());
         for j in 0..n {
             for (i, v) in s.col_as_slice(j).iter().enumerate() {
                 x[i * n + j] = *v;
@@ -42,12 +58,24 @@ pub struct Lu {
     pub(super) lu: Vec<f64>,
     /// Row exchanged with row `k` at elimination step `k`.
     pub(super) piv: Vec<usize>,
+    /// faer's factor object (from [`FAER_FROM`] nodes on), for every solve.
+    faer: Option<PartialPivLu<f64>>,
 }
 
 impl Lu {
-    /// Factor `C` (`n x n`): `P C = L U` by Gaussian elimination with
-    /// partial pivoting, no blocking.
+    /// Factor `C` (`n x n`): `P C = L U` with partial pivoting, by the
+    /// unblocked elimination below [`FAER_FROM`] nodes, by faer's blocked LU
+    /// from there on (module header: the measured times).
     pub fn new(c: &Mat<f64>) -> Self {
+        if c.nrows() >= FAER_FROM {
+            return Self::from_faer(c.partial_piv_lu());
+        }
+        Self::hand_written(c)
+    }
+
+    /// [`Lu::new`] by the hand-written elimination at every size (the
+    /// benchmark's reference).
+    pub fn hand_written(c: &Mat<f64>) -> Self {
         let n = c.nrows();
         let mut lu = vec![0.0; n * n];
         for j in 0..n {
@@ -81,12 +109,45 @@ impl Lu {
                 }
             }
         }
-        Lu { n, lu, piv }
+        Lu { n, lu, piv, faer: None }
     }
 
-    /// `x <- C^-1 x`.
+    /// The factors of faer's `P C = L U` in this layout: `L` below and `U` on
+    /// and above the diagonal, the row permutation (`(P C)_i = C_{perm(i)}`)
+    /// written as the exchanges `piv` of the elimination steps.
+    fn from_faer(f: PartialPivLu<f64>) -> Self {
+        let n = f.L().nrows();
+        let (l, u) = (f.L(), f.U());
+        let mut lu = vec![0.0; n * n];
+        for j in 0..n {
+            for i in 0..n {
+                lu[j * n + i] = if i > j { l[(i, j)] } else { u[(i, j)] };
+            }
+        }
+        // Exchanges that bring row perm(k) to position k, step by step:
+        // `at[r]` is where original row r sits now, `row[p]` the row at p.
+        let perm = f.P().arrays().0;
+        let mut at: Vec<usize> = (0..n).collect();
+        let mut row: Vec<usize> = (0..n).collect();
+        let mut piv = vec![0; n];
+        for k in 0..n {
+            let p = at[perm[k]];
+            piv[k] = p;
+            let (rk, rp) = (row[k], row[p]);
+            row.swap(k, p);
+            at[rk] = p;
+            at[rp] = k;
+        }
+        Lu { n, lu, piv, faer: Some(f) }
+    }
+
+    /// `x <- C^-1 x` (faer's in-place solve from [`FAER_FROM`] nodes on).
     pub fn solve(&self, x: &mut [f64]) {
         let n = self.n;
+        if let Some(f) = &self.faer {
+            f.solve_in_place(faer::MatMut::from_column_major_slice_mut(x, n, 1));
+            return;
+        }
         for k in 0..n {
             x.swap(k, self.piv[k]);
         }
@@ -109,9 +170,13 @@ impl Lu {
         }
     }
 
-    /// `x <- C^-T x`.
+    /// `x <- C^-T x` (faer's in-place solve from [`FAER_FROM`] nodes on).
     pub fn solve_transpose(&self, x: &mut [f64]) {
         let n = self.n;
+        if let Some(f) = &self.faer {
+            f.solve_transpose_in_place(faer::MatMut::from_column_major_slice_mut(x, n, 1));
+            return;
+        }
         // U^T y = b: row k of U^T is column k of U (contiguous).
         for k in 0..n {
             let d = dot(&self.lu[k * n..k * n + k], &x[..k]);
@@ -178,12 +243,38 @@ impl Lu {
 mod tests {
     use super::*;
 
+    /// `C x = b` and `C^T x = b` by the factors (hand-written below 32 nodes,
+    /// faer's from 32 on) give back `b` when multiplied out: residuals at the
+    /// backward error of a pivoted LU (a few hundred ulps here).
+    #[test]
+    fn vector_solves_invert_on_both_sides_of_the_switch() {
+        for n in [3usize, 31, 32, 33, 64] {
+            let mut s = 777u64 + n as u64;
+            let mut rnd = move || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+            };
+            let c = Mat::from_fn(n, n, |i, j| if i == j { 1e-3 * rnd() } else { rnd() });
+            let b: Vec<f64> = (0..n).map(|_| rnd()).collect();
+            let lu = Lu::new(&c);
+            let (mut x, mut y) = (b.clone(), b.clone());
+            lu.solve(&mut x);
+            lu.solve_transpose(&mut y);
+            for i in 0..n {
+                let cx: f64 = (0..n).map(|j| c[(i, j)] * x[j]).sum();
+                let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j]).sum();
+                assert!((cx - b[i]).abs() < 1e-11, "n = {n}, row {i}: C x");
+                assert!((cty - b[i]).abs() < 1e-11, "n = {n}, row {i}: C^T y");
+            }
+        }
+    }
+
     /// `X = B C^-1` by the LU factors (column updates) and by faer's LU
     /// agree, and `X C` gives back `B`: a matrix that needs pivoting (zero
     /// and small leading entries) at sizes on both sides of the switch.
     #[test]
     fn right_solve_inverts_from_the_right() {
-        for n in [1usize, 2, 5, 17, 32, 40] {
+        for n in [1usize, 2, 5, 17, 31, 32, 40, 64] {
             let mut s = 12345u64 + n as u64;
             let mut rnd = move || {
                 s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
