@@ -2,17 +2,25 @@
 //! eq. S4 (vector solves for the probes, the beam and the internal field),
 //! and `X = B C^-1` for the node operators.
 //!
-//! Hand-written below 32 nodes, faer's blocked LU from 32 on. Measured by
-//! the criterion bench `km-bench/benches/lu.rs` (the slab's own `Cp`, `Cm`:
-//! factor both, `X = C_out C^-1` for both, one `C x = b` and five
-//! `C^T x = b` each; medians, 2 shared cores, 2026-11): hand-written /
-//! faer = 1.54 / 5.75 us at N = 4 (faer 3.7x slower), 4.24 / 9.33 us at
-//! N = 8 (2.2x), 13.7 / 18.7 us at N = 16 (1.4x), 51.2 / 42.1 us at N = 32
-//! (faer 1.2x faster), 275 / 126 us at N = 64 (faer 2.2x faster). From 32
-//! on the factors and every solve are faer's (the factors are also kept in
-//! this file's layout, the permutation as exchanges, for
-//! [`Lu::right_solve`] and the slab's regularity check); below 32
-//! everything is the code of this file.
+//! Hand-written below 32 nodes, faer's LU from 32 on. Measured by the
+//! criterion bench `km-bench/benches/lu.rs` on the slab's own `Cp`, `Cm`
+//! (factor both, `X = C_out C^-1` for both, one `C x = b` and five
+//! `C^T x = b` each), medians on 2 shared cores (2026-11), hand-written /
+//! faer's / this file's switch:
+//!
+//! | N | hand | faer | switch | faer / hand |
+//! |---|---|---|---|---|
+//! | 4 | 1.63 us | 5.72 us | 1.60 us | 3.5 (hand faster) |
+//! | 8 | 3.90 us | 10.7 us | 4.22 us | 2.7 |
+//! | 16 | 13.2 us | 18.7 us | 11.6 us | 1.4 |
+//! | 32 | 47.2 us | 40.8 us | 44.4 us | 0.86 (faer faster) |
+//! | 64 | 276 us | 117 us | 139 us | 0.42 |
+//!
+//! From 32 nodes on the factors and every solve are faer's (the factors are
+//! also copied into this file's layout, the permutation as exchanges, for
+//! [`Lu::right_solve`] and the slab's regularity check: the 20 us between
+//! `switch` and `faer` at N = 64); below 32 everything is the code of this
+//! file.
 
 use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};
@@ -31,12 +39,10 @@ pub fn solve_right(lu: &Lu, _c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
     let n = lu.n;
     let mut x = vec![0.0; n * n];
     if let Some(f) = &lu.faer {
-        // X^T = C^-T B^T.
-        let s = f.solve_transpose(b.transpose());
+        let mut xm = b.clone();
+        f.rsolve_in_place(xm.as_mut());
         for j in 0..n {
-            for (i, v) in s.col_as_slice(j).iter().enumerate() {
-                x[i * n + j] = *v;
-            }
+            x[j * n..(j + 1) * n].copy_from_slice(xm.col_as_slice(j));
         }
         return x;
     }
@@ -119,9 +125,11 @@ impl Lu {
         let n = f.L().nrows();
         let (l, u) = (f.L(), f.U());
         let mut lu = vec![0.0; n * n];
-        for j in 0..n {
-            for i in 0..n {
-                lu[j * n + i] = if i > j { l[(i, j)] } else { u[(i, j)] };
+        for (j, col) in lu.chunks_exact_mut(n).enumerate() {
+            for (i, (x, (lij, uij))) in
+                col.iter_mut().zip(l.col(j).iter().zip(u.col(j).iter())).enumerate()
+            {
+                *x = if i > j { *lij } else { *uij };
             }
         }
         // Exchanges that bring row perm(k) to position k, step by step:
