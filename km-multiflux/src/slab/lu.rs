@@ -2,7 +2,7 @@
 //! eq. S4 (vector solves for the probes, the beam and the internal field),
 //! and `X = B C^-1` for the node operators.
 //!
-//! Hand-written below 32 nodes, faer's LU from 32 on. Measured by the
+//! Hand-written up to 32 nodes, faer's LU from 48 on. Measured by the
 //! criterion bench `km-bench/benches/lu.rs` on the slab's own `Cp`, `Cm`
 //! (factor both, `X = C_out C^-1` for both, one `C x = b` and five
 //! `C^T x = b` each), medians on 2 shared cores (2026-11), hand-written /
@@ -16,10 +16,16 @@
 //! | 32 | 47.2 us | 40.8 us | 44.4 us | 0.86 (faer faster) |
 //! | 64 | 276 us | 117 us | 139 us | 0.42 |
 //!
-//! From 32 nodes on the factors and every solve are faer's (the factors are
-//! also copied into this file's layout, the permutation as exchanges, for
-//! [`Lu::right_solve`] and the slab's regularity check: the 20 us between
-//! `switch` and `faer` at N = 64); below 32 everything is the code of this
+//! (the `switch` column with the switch at 32). At N = 32 faer wins only
+//! through `X = C_out C^-1`: the slab's common path (factors, the beam and
+//! the probes, no node operators) was 3–4 % slower with faer's factors at
+//! N = 32 in the `multiflux` bench (totals 79.8 -> 81.8 us, full BRDF
+//! 1.70 -> 1.76 ms) and 3–4 % faster at N = 64 (totals 328 -> 317 us, full
+//! BRDF 6.95 -> 6.72 ms). So from 48 nodes on the factors and every solve
+//! are faer's (the factors are also copied into this file's layout, the
+//! permutation as exchanges, for [`Lu::right_solve`] and the slab's
+//! regularity check: the 20 us between `switch` and `faer` at N = 64); up
+//! to 32 nodes (the default stream counts) everything is the code of this
 //! file.
 
 use faer::Mat;
@@ -28,14 +34,15 @@ use faer::linalg::solvers::{PartialPivLu, Solve};
 use super::dot;
 
 /// Size from which [`Lu::new`] factors with faer (see the module header).
-const FAER_FROM: usize = 32;
+const FAER_FROM: usize = 48;
 
 /// `X = B C^-1` for square `C`, `B`, column-major (`x[j * n + i] = X_ij`),
 /// from the factors `lu` of `C`: by whole-column updates
-/// ([`Lu::right_solve`]) below 32 nodes, by faer's factor object from 32 on
-/// (`C` itself is not read again). A singular `C` gives non-finite entries,
+/// ([`Lu::right_solve`]) up to 32 nodes, by faer's blocked LU of `C` from 33
+/// to 47 (the hand-written factors then serve the vector solves only), by
+/// faer's factor object in `lu` from [`FAER_FROM`] on. A singular `C` gives non-finite entries,
 /// which the caller refuses.
-pub fn solve_right(lu: &Lu, _c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
+pub fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
     let n = lu.n;
     let mut x = vec![0.0; n * n];
     if let Some(f) = &lu.faer {
@@ -43,6 +50,17 @@ pub fn solve_right(lu: &Lu, _c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
         f.rsolve_in_place(xm.as_mut());
         for j in 0..n {
             x[j * n..(j + 1) * n].copy_from_slice(xm.col_as_slice(j));
+        }
+        return x;
+    }
+    if n > 32 {
+        // Between 33 and 47 nodes: the hand-written factors serve the vector
+        // solves, faer's blocked LU of `C` the node operators (X^T = C^-T B^T).
+        let s = c.partial_piv_lu().solve_transpose(b.transpose());
+        for j in 0..n {
+            for (i, v) in s.col_as_slice(j).iter().enumerate() {
+                x[i * n + j] = *v;
+            }
         }
         return x;
     }
@@ -251,12 +269,12 @@ impl Lu {
 mod tests {
     use super::*;
 
-    /// `C x = b` and `C^T x = b` by the factors (hand-written below 32 nodes,
-    /// faer's from 32 on) give back `b` when multiplied out: residuals at the
+    /// `C x = b` and `C^T x = b` by the factors (hand-written below 48 nodes,
+    /// faer's from 48 on) give back `b` when multiplied out: residuals at the
     /// backward error of a pivoted LU (a few hundred ulps here).
     #[test]
     fn vector_solves_invert_on_both_sides_of_the_switch() {
-        for n in [3usize, 31, 32, 33, 64] {
+        for n in [3usize, 32, 47, 48, 64] {
             let mut s = 777u64 + n as u64;
             let mut rnd = move || {
                 s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -282,7 +300,7 @@ mod tests {
     /// and small leading entries) at sizes on both sides of the switch.
     #[test]
     fn right_solve_inverts_from_the_right() {
-        for n in [1usize, 2, 5, 17, 31, 32, 40, 64] {
+        for n in [1usize, 2, 5, 17, 32, 47, 48, 64] {
             let mut s = 12345u64 + n as u64;
             let mut rnd = move || {
                 s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
