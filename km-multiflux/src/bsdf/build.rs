@@ -174,17 +174,7 @@ pub(super) fn channel(
     let nodes_sub = n_sub.map(|n| grid.medium(n));
     let mut coefs_r: Vec<Vec<f64>> = Vec::new(); // per m, [i * no + o]
     let mut coefs_t: Vec<Vec<f64>> = Vec::new();
-    let mut out = ChannelBsdf {
-        coef_r: Vec::new(),
-        coef_t: Vec::new(),
-        orders: 0,
-        tms: Vec::new(),
-        reflectance: vec![0.0; ni],
-        transmittance: vec![0.0; ni],
-        reflectance_specular: vec![0.0; ni],
-        transmittance_direct: vec![0.0; ni],
-        streams,
-    };
+    let mut out = empty_table(ni, streams);
     let mut largest = 0.0f64;
     let mut small_orders = 0;
     for m in 0..=m_max {
@@ -241,6 +231,22 @@ pub(super) fn channel(
         );
     }
     Ok((out, n_sub))
+}
+
+/// A channel's table before its first order: no coefficients, zero totals
+/// for `ni` incidence angles.
+fn empty_table(ni: usize, streams: usize) -> ChannelBsdf {
+    ChannelBsdf {
+        coef_r: Vec::new(),
+        coef_t: Vec::new(),
+        orders: 0,
+        tms: Vec::new(),
+        reflectance: vec![0.0; ni],
+        transmittance: vec![0.0; ni],
+        reflectance_specular: vec![0.0; ni],
+        transmittance_direct: vec![0.0; ni],
+        streams,
+    }
 }
 
 /// The operators of one Fourier order read out at the extras: the nodes of
