@@ -9,7 +9,7 @@
 //! Three variants: `hand` (the hand-written LU of `lu.rs` for everything,
 //! forced below its switch), `faer` (faer's `partial_piv_lu` and its in-place
 //! solves for everything) and `slab` (what the slab does: `Lu::new`, which
-//! is the hand-written LU below 32 nodes and faer's factors from 32 on,
+//! is the hand-written LU below 48 nodes and faer's factors from 48 on,
 //! `lu::solve_right`, the hand-written vector solves).
 //!
 //! Short run: `cargo bench -p km-bench --bench lu -- --warm-up-time 1 --measurement-time 3`.
@@ -104,7 +104,7 @@ fn faer_lu(c: &[Mat<f64>; 4], rhs: &Mat<f64>) -> f64 {
     sum
 }
 
-/// What the slab does (`Lu::new` switches to faer's factors from 32 nodes on).
+/// What the slab does (`Lu::new` switches to faer's factors from 48 nodes on).
 fn slab(c: &[Mat<f64>; 4], rhs: &[f64]) -> f64 {
     let mut sum = 0.0;
     for (cm, out) in [(&c[0], &c[1]), (&c[2], &c[3])] {

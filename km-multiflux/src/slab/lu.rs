@@ -2,7 +2,7 @@
 //! eq. S4 (vector solves for the probes, the beam and the internal field),
 //! and `X = B C^-1` for the node operators.
 //!
-//! Hand-written up to 32 nodes, faer's LU from 48 on. Measured by the
+//! Hand-written up to 47 nodes, faer's LU from 48 on. Measured by the
 //! criterion bench `km-bench/benches/lu.rs` on the slab's own `Cp`, `Cm`
 //! (factor both, `X = C_out C^-1` for both, one `C x = b` and five
 //! `C^T x = b` each), medians on 2 shared cores (2026-11), hand-written /
@@ -26,7 +26,12 @@
 //! permutation as exchanges, for [`Lu::right_solve`] and the slab's
 //! regularity check: the 20 us between `switch` and `faer` at N = 64); up
 //! to 32 nodes (the default stream counts) everything is the code of this
-//! file.
+//! file, from 33 to 47 the node operators use faer's LU as before. With
+//! this switch the `multiflux` bench (medians of three alternated runs,
+//! before / after the restructuring that brought it) gave: one layer,
+//! totals 79.0 / 78.7 us at N = 32, 327.7 / 314.8 us at N = 64; full BRDF
+//! 1.69 / 1.70 ms at N = 32, 6.99 / 6.64 ms at N = 64; the 3-layer stack
+//! (N = 16 in up to 48 nodes) 918.8 / 856.1 us.
 
 use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};
