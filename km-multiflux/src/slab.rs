@@ -19,7 +19,7 @@
 //! `L^T H- L y = k^2 y`, `v~ = L y`, `z~ = L^-T y` (S3), solved by
 //! [`crate::eigen::half_size_modes`] (N x N instead of 2N x 2N; the same
 //! solve serves the direction set). The phase matrix `P` comes from
-//! [`crate::phase_matrix::fourier_blocks`].
+//! `phase_matrix::fourier_blocks`.
 //!
 //! Every mode is anchored where it decays from: `c_j g±_j e^{-k tau}` at the
 //! top and `d_j g∓_j e^{-k (tau0 - tau)}` at the bottom (Stamnes & Conklin

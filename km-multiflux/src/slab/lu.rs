@@ -45,7 +45,7 @@ const FAER_FROM: usize = 48;
 /// from the factors `lu` of `C`: by whole-column updates
 /// ([`Lu::right_solve`]) up to 32 nodes, by faer's blocked LU of `C` from 33
 /// to 47 (the hand-written factors then serve the vector solves only), by
-/// faer's factor object in `lu` from [`FAER_FROM`] on. A singular `C` gives non-finite entries,
+/// faer's factor object in `lu` from `FAER_FROM` (48) on. A singular `C` gives non-finite entries,
 /// which the caller refuses.
 pub fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
     let n = lu.n;
@@ -87,13 +87,13 @@ pub struct Lu {
     pub(super) lu: Vec<f64>,
     /// Row exchanged with row `k` at elimination step `k`.
     pub(super) piv: Vec<usize>,
-    /// faer's factor object (from [`FAER_FROM`] nodes on), for every solve.
+    /// faer's factor object (from `FAER_FROM` (48) nodes on), for every solve.
     faer: Option<PartialPivLu<f64>>,
 }
 
 impl Lu {
     /// Factor `C` (`n x n`): `P C = L U` with partial pivoting, by the
-    /// unblocked elimination below [`FAER_FROM`] nodes, by faer's blocked LU
+    /// unblocked elimination below `FAER_FROM` (48) nodes, by faer's blocked LU
     /// from there on (module header: the measured times).
     pub fn new(c: &Mat<f64>) -> Self {
         if c.nrows() >= FAER_FROM {
@@ -172,7 +172,7 @@ impl Lu {
         Lu { n, lu, piv, faer: Some(f) }
     }
 
-    /// `x <- C^-1 x` (faer's in-place solve from [`FAER_FROM`] nodes on).
+    /// `x <- C^-1 x` (faer's in-place solve from `FAER_FROM` (48) nodes on).
     pub fn solve(&self, x: &mut [f64]) {
         let n = self.n;
         if let Some(f) = &self.faer {
@@ -201,7 +201,7 @@ impl Lu {
         }
     }
 
-    /// `x <- C^-T x` (faer's in-place solve from [`FAER_FROM`] nodes on).
+    /// `x <- C^-T x` (faer's in-place solve from `FAER_FROM` (48) nodes on).
     pub fn solve_transpose(&self, x: &mut [f64]) {
         let n = self.n;
         if let Some(f) = &self.faer {
