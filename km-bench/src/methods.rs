@@ -1,20 +1,17 @@
 //! "A method at a setting" for the recipes, run through the library's one
 //! solver interface ([`km::Solver`]), so that the studies can compare the
-//! answers. The direction-set mode of km-multiflux, a study of the seed's
-//! own discretisation, is not one of the library's methods and is run here.
+//! answers; the seed's direction-set mode included
+//! ([`km::Method::DirectionSet`], [`km::DirectionSetOptions`]).
 
 use std::fmt;
-use std::time::Instant;
 
 use km::Solver;
-use km_core::{ChannelResult, Light, Scene, Solution};
-use km_multiflux::direction_set::{self, Combine};
+use km_core::{Scene, Solution};
 
 /// The studies' name for [`Setting`].
 pub use self::Setting as Method;
 
-/// A method of the library ([`km::Method`]) at one accuracy setting, or the
-/// direction-set mode.
+/// A method of the library ([`km::Method`]) at one accuracy setting.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Setting {
     /// Two-flux Kubelka–Munk (km-core, seed 000 §2), the seed's identity mapping.
@@ -62,21 +59,21 @@ impl fmt::Display for Setting {
 }
 
 impl Setting {
-    /// The library's method, if it is one of them (`None`: the direction set).
-    pub fn method(&self) -> Option<km::Method> {
+    /// The library's method.
+    pub fn method(&self) -> km::Method {
         match self {
-            Method::TwoFlux => Some(km::Method::Km),
-            Method::Multiflux { .. } | Method::Neumann { .. } => Some(km::Method::Multiflux),
-            Method::MonteCarlo { .. } => Some(km::Method::Mc),
-            Method::Dipole => Some(km::Method::Dipole),
-            Method::DirectionSet { .. } => None,
+            Method::TwoFlux => km::Method::Km,
+            Method::Multiflux { .. } | Method::Neumann { .. } => km::Method::Multiflux,
+            Method::MonteCarlo { .. } => km::Method::Mc,
+            Method::Dipole => km::Method::Dipole,
+            Method::DirectionSet { .. } => km::Method::DirectionSet,
         }
     }
 
-    /// The library options of this setting (`None`: the direction set).
-    pub fn options(&self) -> Option<km::MethodOptions> {
+    /// The library options of this setting.
+    pub fn options(&self) -> km::MethodOptions {
         use km::MethodOptions as O;
-        Some(match *self {
+        match *self {
             Method::TwoFlux => O::Km(km::KmOptions::default()),
             Method::Multiflux { streams } => {
                 O::Multiflux(km::MultifluxOptions { streams: Some(streams), ..Default::default() })
@@ -87,8 +84,10 @@ impl Setting {
             }),
             Method::MonteCarlo { samples, seed } => O::Mc(mc_options(samples, seed)),
             Method::Dipole => O::Dipole(km::DipoleOptions::default()),
-            Method::DirectionSet { .. } => return None,
-        })
+            Method::DirectionSet { directions } => {
+                O::DirectionSet(km::DirectionSetOptions { directions })
+            }
+        }
     }
 
     /// The family name (one Pareto curve per family).
@@ -140,11 +139,15 @@ pub fn mc_options(samples: u64, seed: u64) -> km_montecarlo::McOptions {
 /// # Errors
 /// The solver's refusal (e.g. the dipole on a finite slab), as text.
 pub fn solve(method: Method, scene: &Scene) -> anyhow::Result<Solution> {
-    match (method, method.options()) {
-        (_, Some(opts)) => Ok(opts.solve(scene)?),
-        (Method::DirectionSet { directions }, None) => direction_set_solve(scene, directions),
-        (m, None) => anyhow::bail!("{m}: no solver"),
+    if let Method::DirectionSet { .. } = method {
+        // The direction set gives totals only (its angular values live on its
+        // own nodes) and refuses output directions: the studies compare its
+        // totals, so the scene is solved without them.
+        let channels = scene.channels().iter().map(|c| c.with_directions(Vec::new()));
+        let totals_only = scene.with_channels(channels.collect::<Result<_, _>>()?)?;
+        return Ok(method.options().solve(&totals_only)?);
     }
+    Ok(method.options().solve(scene)?)
 }
 
 /// As [`solve`], with the Monte Carlo work bounded: at most `max_steps`
@@ -171,45 +174,6 @@ pub fn solve_bounded(
         }
         _ => solve(method, scene),
     }
-}
-
-/// The direction-set solver as a [`Solution`] (totals and delta parts; no
-/// BRDF at the output directions).
-fn direction_set_solve(scene: &Scene, directions: usize) -> anyhow::Result<Solution> {
-    let start = Instant::now();
-    let mut channels = Vec::with_capacity(scene.channels().len());
-    for mono in scene.channels() {
-        let c = match mono.light() {
-            Light::Collimated { .. } => {
-                let r = direction_set::brdf_for_incidence(mono, directions, Combine::Exact)?;
-                ChannelResult {
-                    reflectance: r.reflectance,
-                    reflectance_specular: r.reflectance_specular,
-                    transmittance: r.transmittance,
-                    transmittance_direct: r.transmittance_direct,
-                    absorptance: r.absorptance,
-                    ..Default::default()
-                }
-            }
-            Light::Diffuse => {
-                let (r, t) = direction_set::totals(mono, directions)?;
-                ChannelResult {
-                    reflectance: r,
-                    transmittance: t,
-                    absorptance: 1.0 - r - t,
-                    ..Default::default()
-                }
-            }
-        };
-        channels.push(c);
-    }
-    Ok(Solution {
-        method: "direction-set".into(),
-        channels,
-        labels: scene.labels().to_vec(),
-        seconds: start.elapsed().as_secs_f64(),
-        ..Default::default()
-    })
 }
 
 /// Time a solve: the best of `repeats` runs of the solver's own wall time

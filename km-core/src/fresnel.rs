@@ -15,7 +15,7 @@
 //! * Hemispherical (diffuse) reflectance for light incident from the `n_i` side
 //!   with a Lambertian (cosine-weighted) distribution:
 //!   `R_h = 2 integral_0^1 R(mu) mu dmu`  (eq. F4), computed by Gauss–Legendre
-//!   quadrature on sub-intervals split at the critical cosine.
+//!   quadrature ([`crate::quadrature`]) on sub-intervals split at the critical cosine.
 //! * Egan & Hilgeman (1979) fit of the internal diffuse reflectance, as quoted
 //!   by Jensen et al. 2001 eq. 5 (for `eta = n_inside / n_outside`):
 //!   `F_dr = -1.440/eta^2 + 0.710/eta + 0.668 + 0.0636 eta`  (eq. F5).
@@ -68,59 +68,13 @@ pub fn reflectance(cos_i: f64, n_i: f64, n_t: f64) -> f64 {
     (0.5 * (rs * rs + rp * rp)).min(1.0)
 }
 
-/// Gauss–Legendre nodes and weights on `[-1, 1]` (Newton on `P_n`, Golub–Welsch
-/// not needed at these sizes). Accurate to ~1e-15 for `n <= 1000`.
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut x = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    let m = n.div_ceil(2);
-    for i in 0..m {
-        // Initial guess (Tricomi), then Newton iterations on P_n.
-        let mut z = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            if n == 1 {
-                p1 = z;
-                p0 = 1.0;
-            }
-            dp = n as f64 * (z * p1 - p0) / (z * z - 1.0);
-            let dz = p1 / dp;
-            z -= dz;
-            if dz.abs() < 1e-16 {
-                break;
-            }
-        }
-        x[i] = -z;
-        x[n - 1 - i] = z;
-        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
-        w[n - 1 - i] = w[i];
-    }
-    (x, w)
-}
+/// The Gauss–Legendre rule and integral, kept here for compatibility: they
+/// live in [`crate::quadrature`].
+pub use crate::quadrature::{gauss_legendre, integrate_gl};
 
-/// `integral_a^b f` by `n`-point Gauss–Legendre.
-pub fn integrate_gl(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
-    let (h, c) = (0.5 * (b - a), 0.5 * (b + a));
-    let sum =
-        |x: &[f64], w: &[f64]| x.iter().zip(w).map(|(xi, wi)| wi * f(c + h * xi)).sum::<f64>();
-    if n == DIFFUSE_NODES {
-        // The rule of the hemispherical integrals is computed once per process.
-        let (x, w) = DIFFUSE_RULE.get_or_init(|| gauss_legendre(DIFFUSE_NODES));
-        return sum(x, w) * h;
-    }
-    let (x, w) = gauss_legendre(n);
-    sum(&x, &w) * h
-}
-
-/// Nodes per sub-interval of [`diffuse_reflectance`].
-const DIFFUSE_NODES: usize = 24;
-static DIFFUSE_RULE: std::sync::OnceLock<(Vec<f64>, Vec<f64>)> = std::sync::OnceLock::new();
+/// Nodes per sub-interval of [`diffuse_reflectance`] (the rule
+/// [`integrate_gl`] keeps for the process).
+const DIFFUSE_NODES: usize = crate::quadrature::CACHED_NODES;
 
 /// Hemispherical (diffuse) reflectance `2 integral_0^1 R(mu) mu dmu` (eq. F4)
 /// for Lambertian light incident from index `n_i` on an interface to `n_t`.
@@ -165,16 +119,6 @@ pub fn egan_hilgeman_fdr(eta: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn gauss_legendre_integrates_polynomials_exactly() {
-        let (x, w) = gauss_legendre(8);
-        let s: f64 = w.iter().sum();
-        assert!((s - 2.0).abs() < 1e-14);
-        // Degree 15 is exact for 8 points: integral of x^14 = 2/15.
-        let m: f64 = x.iter().zip(&w).map(|(a, b)| b * a.powi(14)).sum();
-        assert!((m - 2.0 / 15.0).abs() < 1e-14);
-    }
 
     #[test]
     fn reflectance_limits_and_reciprocity() {

@@ -11,7 +11,9 @@
 //! and their `with_*` variants), each check written once, so the solvers take
 //! them as valid and check nothing again (docs/architecture.md).
 //! * [`fresnel`]: Snell, unpolarised Fresnel, total internal reflection,
-//!   hemispherical averages, Gauss–Legendre quadrature.
+//!   hemispherical averages.
+//! * [`quadrature`]: Gauss–Legendre and Gauss–Radau rules.
+//! * [`legendre`]: Legendre polynomials and normalised associated functions.
 //! * [`two_flux`]: Kubelka–Munk (seed 000 §2).
 //! * [`presets`]: measured materials (Jensen et al. 2001).
 //! * [`plan`]: the planner (docs/planner.md).
@@ -25,9 +27,11 @@ pub mod atomic_file;
 pub mod error;
 pub mod fresnel;
 pub mod layer;
+pub mod legendre;
 pub mod phase;
 pub mod plan;
 pub mod presets;
+pub mod quadrature;
 pub mod scene;
 pub mod set;
 pub mod solution;

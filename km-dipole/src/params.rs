@@ -22,7 +22,8 @@ use km_core::phase::Anisotropy;
 
 use std::sync::OnceLock;
 
-use km_core::fresnel::{critical_cos, egan_hilgeman_fdr, gauss_legendre, reflectance};
+use km_core::fresnel::{critical_cos, egan_hilgeman_fdr, reflectance};
+use km_core::quadrature::gauss_legendre;
 
 use crate::error::DipoleError;
 

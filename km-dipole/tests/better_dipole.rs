@@ -3,7 +3,8 @@
 use km_core::phase::Anisotropy;
 use std::f64::consts::PI;
 
-use km_core::fresnel::{diffuse_reflectance, gauss_legendre};
+use km_core::fresnel::diffuse_reflectance;
+use km_core::quadrature::gauss_legendre;
 use km_dipole::better_dipole::{BetterDipole, fresnel_moment};
 
 /// pbrt-v3's polynomial fits of the Fresnel moments for `eta > 1`

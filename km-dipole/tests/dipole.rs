@@ -4,7 +4,7 @@
 use km_core::phase::Anisotropy;
 use std::f64::consts::PI;
 
-use km_core::fresnel::gauss_legendre;
+use km_core::quadrature::gauss_legendre;
 use km_dipole::dipole::{
     bssrdf, exit_constant, fluence, fresnel_transmittance, rd_radial, rd_total,
 };

@@ -4,7 +4,8 @@ use km_core::phase::Anisotropy;
 use std::f64::consts::PI;
 
 use km_core::Scene;
-use km_core::fresnel::{diffuse_reflectance, gauss_legendre, reflectance};
+use km_core::fresnel::{diffuse_reflectance, reflectance};
+use km_core::quadrature::gauss_legendre;
 use km_dipole::dipole::rd_total;
 use km_dipole::{DiffusionParams, DipoleError, DipoleOptions, FdrModel, profile, solve};
 

@@ -44,6 +44,7 @@
 //! function of moments `chi_l^2` (Henyey–Greenstein: HG of `g^2`), so the term
 //! vanishes smoothly as `f -> 0`.
 
+use km_core::legendre::legendre_polynomials;
 use km_core::phase::{Phase, PhaseFunction};
 
 /// Half-width of the cone around the beam's polar angle where the IMS term is
@@ -243,41 +244,21 @@ pub struct PeakPaths {
     secondary: Option<f64>,
 }
 
-/// `sum_{l<n} (2l+1) a(l) P_l(c)` by the Legendre recurrence.
+/// `sum_{l<n} (2l+1) a(l) P_l(c)` with the polynomials of
+/// [`km_core::legendre::legendre_polynomials`] (recurrence LG1).
 fn legendre_sum(c: f64, n: usize, a: impl Fn(usize) -> f64) -> f64 {
-    let (mut p0, mut p1) = (1.0, c);
     let mut sum = 0.0;
-    for l in 0..n {
-        let pl = match l {
-            0 => 1.0,
-            1 => c,
-            _ => {
-                let p2 = ((2 * l - 1) as f64 * c * p1 - (l - 1) as f64 * p0) / l as f64;
-                p0 = p1;
-                p1 = p2;
-                p2
-            }
-        };
+    for (l, pl) in legendre_polynomials(c).take(n).enumerate() {
         sum += (2 * l + 1) as f64 * a(l) * pl;
     }
     sum
 }
 
-/// `(S, S1, S2) = sum_{l<n} (2l+1) {1, chi_l, chi_l^2} P_l(c)` in one recurrence.
+/// `(S, S1, S2) = sum_{l<n} (2l+1) {1, chi_l, chi_l^2} P_l(c)` in one pass of
+/// the recurrence LG1 ([`km_core::legendre::legendre_polynomials`]).
 fn legendre_sums3(c: f64, n: usize, chi: &[f64]) -> (f64, f64, f64) {
-    let (mut p0, mut p1) = (1.0, c);
     let (mut s, mut s1, mut s2) = (0.0, 0.0, 0.0);
-    for l in 0..n {
-        let pl = match l {
-            0 => 1.0,
-            1 => c,
-            _ => {
-                let p2 = ((2 * l - 1) as f64 * c * p1 - (l - 1) as f64 * p0) / l as f64;
-                p0 = p1;
-                p1 = p2;
-                p2
-            }
-        };
+    for (l, pl) in legendre_polynomials(c).take(n).enumerate() {
         let w = (2 * l + 1) as f64 * pl;
         s += w;
         s1 += w * chi[l];

@@ -24,9 +24,11 @@
 //!   total-internal-reflection cone gets rings of its own.
 //! * **Phase matrix** `P_ij = p(s_i . s_j) w_j`, rescaled symmetrically
 //!   (`p_ij -> d_i d_j p_ij`, symmetric Sinkhorn–Knopp) so every row sums to 1
-//!   while `w_i P_ij = w_j P_ji` (reciprocity) is kept (eq. DS3).
+//!   while `w_i P_ij = w_j P_ji` (reciprocity) is kept (eq. DS3): built and
+//!   rescaled in `crate::phase_matrix`, with the Fourier–Gauss blocks.
 //! * **Eigen-solution** ([`DiscreteModes`]): the plus/minus symmetry reduces
-//!   the `2N x 2N` problem to a symmetric `N x N` one (Stamnes & Swanson 1981);
+//!   the `2N x 2N` problem to a symmetric `N x N` one (Stamnes & Swanson 1981),
+//!   solved by [`crate::eigen`] as for the Fourier–Gauss slab;
 //!   the slab operators are written with `tanh` and `sech^2` of `lambda z0 / 2`
 //!   only, so no exponential grows, the half-space is the limit `z0 = inf`,
 //!   and conservative scattering (`lambda = 0`) needs no special case.
@@ -38,20 +40,21 @@
 
 use std::f64::consts::PI;
 
+use faer::Mat;
 use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
-use km_core::fresnel::{gauss_legendre, reflectance};
+use km_core::fresnel::reflectance;
 use km_core::phase::{Phase, PhaseFunction};
+use km_core::quadrature::gauss_legendre;
 use km_core::{Layer, Light, MonoScene, Substrate};
 
 use crate::adding::{LayerOperators, add, add_truncated};
 use crate::error::MultifluxError;
+use crate::phase_matrix::direction_blocks;
 
 mod modes;
 mod stack;
 
 pub use modes::DiscreteModes;
-pub(crate) use modes::renormalised_blocks;
 pub(crate) use stack::absorber_operators;
 pub use stack::{
     Combine, Distribution, StackResponse, brdf_for_incidence, full_brdf, interface_operators,
@@ -71,59 +74,10 @@ fn numerical(what: &'static str, detail: impl Into<String>) -> MultifluxError {
 // ---------------------------------------------------------------------------
 // Quadrature
 
-/// `(P_n(x), P_{n-1}(x))` by the three-term recurrence.
-fn legendre_pair(n: usize, x: f64) -> (f64, f64) {
-    let (mut p0, mut p1) = (1.0, x);
-    if n == 0 {
-        return (1.0, 0.0);
-    }
-    for k in 2..=n {
-        let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-        p0 = p1;
-        p1 = p2;
-    }
-    (p1, p0)
-}
-
-/// Gauss–Radau rule on `[-1, 1]` with the fixed node `x = 1`, `n >= 1` points,
-/// exact for polynomials of degree `2n - 2` (Abramowitz & Stegun 25.4.31,
-/// reflected): the free nodes are the roots of `P_{n-1}(x) - P_n(x)` in
-/// `(-1, 1)`, with weights `(1 + x_i) / (n^2 P_{n-1}(x_i)^2)`; the fixed node
-/// has weight `2 / n^2`. Returned with the fixed node first, then descending.
-pub fn gauss_radau_upper(n: usize) -> Result<(Vec<f64>, Vec<f64>)> {
-    if n == 0 {
-        return Err(invalid("radau points", 0.0, "need at least one point"));
-    }
-    let nf = n as f64;
-    let mut x = vec![1.0];
-    let mut w = vec![2.0 / (nf * nf)];
-    for k in 1..n {
-        // Chebyshev–Radau node as the initial guess, then Newton on
-        // f = P_{n-1} - P_n, f' from P_k' = k (x P_k - P_{k-1}) / (x^2 - 1).
-        let mut z = (2.0 * PI * k as f64 / (2.0 * nf - 1.0)).cos();
-        for _ in 0..100 {
-            let (pn, pn1) = legendre_pair(n, z);
-            let (_, pn2) = legendre_pair(n - 1, z);
-            let f = pn1 - pn;
-            let dpn = nf * (z * pn - pn1) / (z * z - 1.0);
-            let dpn1 = if n >= 2 { (nf - 1.0) * (z * pn1 - pn2) / (z * z - 1.0) } else { 0.0 };
-            let dz = f / (dpn1 - dpn);
-            z -= dz;
-            if dz.abs() < 1e-15 {
-                break;
-            }
-        }
-        let (_, pn1) = legendre_pair(n, z);
-        x.push(z);
-        w.push((1.0 + z) / (nf * nf * pn1 * pn1));
-    }
-    // The rule must integrate 1 exactly; anything else means Newton failed.
-    let total: f64 = w.iter().sum();
-    if (total - 2.0).abs() > 1e-10 || x.iter().any(|v| !v.is_finite() || v.abs() > 1.0) {
-        return Err(numerical("gauss_radau_upper", format!("n = {n}: weights sum to {total}")));
-    }
-    Ok((x, w))
-}
+/// The Gauss–Radau rule with the fixed node `x = 1` lives in
+/// [`km_core::quadrature`] beside the Gauss–Legendre rule; re-exported under
+/// its old path.
+pub use km_core::quadrature::gauss_radau_upper;
 
 /// Nodes `(mu, dmu)` of one panel `[a, b]` in `mu` with about `n` points, and
 /// optionally a node exactly at `fixed`: at `fixed = b` a Gauss–Radau panel,
@@ -289,15 +243,16 @@ impl DirectionSet {
     pub fn phase_blocks(&self, phase: &Phase) -> Result<(Mat<f64>, Mat<f64>)> {
         let n = self.len();
         let dirs: Vec<[f64; 3]> = (0..n).map(|j| self.direction(j)).collect();
-        let pp = Mat::from_fn(n, n, |i, j| {
+        // Cosines between direction i and direction j or its mirror (x, y, -z).
+        let cos_same = |i: usize, j: usize| {
             let (a, b) = (dirs[i], dirs[j]);
-            phase.eval((a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0))
-        });
-        let pm = Mat::from_fn(n, n, |i, j| {
+            (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0)
+        };
+        let cos_mirror = |i: usize, j: usize| {
             let (a, b) = (dirs[i], dirs[j]);
-            phase.eval((a[0] * b[0] + a[1] * b[1] - a[2] * b[2]).clamp(-1.0, 1.0))
-        });
-        renormalised_blocks(pp, pm, &self.weight)
+            (a[0] * b[0] + a[1] * b[1] - a[2] * b[2]).clamp(-1.0, 1.0)
+        };
+        direction_blocks(&self.weight, cos_same, cos_mirror, |c| phase.eval(c))
     }
 
     /// The eigen-solution of a homogeneous medium on this set (seed eq. 18–19).

@@ -25,8 +25,9 @@ use faer::Mat;
 use km_core::phase::{Anisotropy, henyey_greenstein_2d};
 
 use crate::adding::LayerOperators;
-use crate::direction_set::{DiscreteModes, absorber_operators, renormalised_blocks};
+use crate::direction_set::{DiscreteModes, absorber_operators};
 use crate::error::MultifluxError;
+use crate::phase_matrix::direction_blocks;
 
 type Result<T> = std::result::Result<T, MultifluxError>;
 
@@ -101,11 +102,11 @@ impl CircleSet {
     /// None today (the renormalisation's own failures).
     pub fn phase_blocks(&self, g: Anisotropy) -> Result<(Mat<f64>, Mat<f64>)> {
         let g = g.get();
-        let n = self.len();
         let t = &self.theta;
-        let pp = Mat::from_fn(n, n, |i, j| henyey_greenstein_2d(g, (t[i] - t[j]).cos()));
-        let pm = Mat::from_fn(n, n, |i, j| henyey_greenstein_2d(g, (t[i] - PI + t[j]).cos()));
-        renormalised_blocks(pp, pm, &self.w)
+        // Cosines between direction i and direction j or its mirror pi - theta_j.
+        let cos_same = |i: usize, j: usize| (t[i] - t[j]).cos();
+        let cos_mirror = |i: usize, j: usize| (t[i] - PI + t[j]).cos();
+        direction_blocks(&self.w, cos_same, cos_mirror, |c| henyey_greenstein_2d(g, c))
     }
 
     /// The modes of a medium on this set (seed eq. 18–19 in 2-D).

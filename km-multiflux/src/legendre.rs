@@ -1,5 +1,6 @@
-//! Normalised associated Legendre functions, the Fourier components of the
-//! phase function in azimuth, and delta-M scaling.
+//! The Fourier components of the phase function in azimuth (tables of the
+//! normalised associated Legendre functions of [`km_core::legendre`]) and
+//! delta-M scaling.
 //!
 //! With `Lambda_l^m(mu) = sqrt((l-m)!/(l+m)!) P_l^m(mu)` the addition theorem
 //! gives, for a phase function with Legendre moments `chi_l`
@@ -19,80 +20,10 @@
 //! `chi*_l = (chi_l - f)/(1 - f)`, `omega* = omega (1 - f)/(1 - omega f)`,
 //! `tau* = tau (1 - omega f)`  (eq. L3).
 
-/// `Lambda_l^m(mu)` for `l = 0..out.len()` (zero for `l < m`), by the
-/// upward recurrence of DISORT's `LEPOLY` (Dave & Armstrong 1970):
-/// `Lambda_m^m = prod_{i<=m} sqrt((2i-1)/(2i)) (1-mu^2)^(m/2)`,
-/// `Lambda_l^m = ((2l-1) mu Lambda_{l-1}^m - sqrt((l-1)^2 - m^2) Lambda_{l-2}^m) / sqrt(l^2 - m^2)`.
-pub fn normalized_legendre(m: usize, mu: f64, out: &mut [f64]) {
-    out.iter_mut().for_each(|x| *x = 0.0);
-    if m >= out.len() {
-        return;
-    }
-    let sin = ((1.0 - mu) * (1.0 + mu)).max(0.0).sqrt();
-    let mut pmm = 1.0;
-    for i in 1..=m {
-        pmm *= ((2 * i - 1) as f64 / (2 * i) as f64).sqrt() * sin;
-    }
-    out[m] = pmm;
-    if m + 1 < out.len() {
-        out[m + 1] = ((2 * m + 1) as f64).sqrt() * mu * pmm;
-    }
-    let mf = m as f64;
-    for l in m + 2..out.len() {
-        let lf = l as f64;
-        out[l] = ((2.0 * lf - 1.0) * mu * out[l - 1]
-            - ((lf - 1.0) * (lf - 1.0) - mf * mf).sqrt() * out[l - 2])
-            / (lf * lf - mf * mf).sqrt();
-    }
-}
-
-/// The recurrence of [`normalized_legendre`] for one order `m` and `nl`
-/// degrees with its coefficients computed once (no square root per value):
-/// `Lambda_m^m = c0 (1-mu^2)^(m/2)`, `Lambda_{m+1}^m = c1 mu Lambda_m^m`,
-/// `Lambda_l^m = a_l mu Lambda_{l-1}^m - b_l Lambda_{l-2}^m`.
-#[derive(Debug, Clone)]
-pub struct LegendreRecurrence {
-    m: usize,
-    a: Vec<f64>,
-    b: Vec<f64>,
-    c0: f64,
-    c1: f64,
-}
-
-impl LegendreRecurrence {
-    /// The coefficients for order `m` and degrees `l = 0..nl`.
-    pub fn new(m: usize, nl: usize) -> Self {
-        let mf = m as f64;
-        let (mut a, mut b) = (vec![0.0; nl], vec![0.0; nl]);
-        for l in (m + 2).min(nl)..nl {
-            let lf = l as f64;
-            let d = (lf * lf - mf * mf).sqrt();
-            a[l] = (2.0 * lf - 1.0) / d;
-            b[l] = ((lf - 1.0) * (lf - 1.0) - mf * mf).sqrt() / d;
-        }
-        let c0: f64 = (1..=m).map(|i| ((2 * i - 1) as f64 / (2 * i) as f64).sqrt()).product();
-        let c1 = ((2 * m + 1) as f64).sqrt();
-        LegendreRecurrence { m, a, b, c0, c1 }
-    }
-
-    /// `Lambda_l^m(mu)` for `l = 0..nl` into `out` (`nl` long; zero for `l < m`).
-    pub fn eval(&self, mu: f64, out: &mut [f64]) {
-        let (m, nl) = (self.m, self.a.len());
-        out.iter_mut().for_each(|x| *x = 0.0);
-        if m >= nl {
-            return;
-        }
-        let sin = ((1.0 - mu) * (1.0 + mu)).max(0.0).sqrt();
-        let pmm = self.c0 * sin.powi(m as i32);
-        out[m] = pmm;
-        if m + 1 < nl {
-            out[m + 1] = self.c1 * mu * pmm;
-        }
-        for l in m + 2..nl {
-            out[l] = self.a[l] * mu * out[l - 1] - self.b[l] * out[l - 2];
-        }
-    }
-}
+/// The normalised associated Legendre functions `Lambda_l^m` and their
+/// recurrence live in [`km_core::legendre`] (eq. LG2 there), the one home of
+/// the Legendre recurrences; re-exported here under their old paths.
+pub use km_core::legendre::{LegendreRecurrence, normalized_legendre};
 
 /// `Lambda_l^m(mu_i)` for every `mu_i` and `l = 0..nl`, node-major
 /// (`out[i * nl + l]`), with the recurrence coefficients of

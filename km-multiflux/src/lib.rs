@@ -14,6 +14,9 @@
 //! * [`slab`]: one homogeneous layer and Fourier order (seed eq. 17–20): the
 //!   half-size symmetric eigenproblem, scaled so no exponential grows, the
 //!   collimated beam's particular solution, exit directions of any angle.
+//! * [`eigen`]: the half-size symmetric eigen-solution of a slab (seed eq. 18–19),
+//!   shared by both discretisations; `phase_matrix` builds the phase matrix of
+//!   each discretisation and renormalises it (one Sinkhorn–Knopp scaling).
 //! * [`correction`]: the intensity correction for peaked phase functions at
 //!   exit directions (TMS and IMS, Nakajima & Tanaka 1988).
 //! * [`interface`]: Fresnel interfaces and Lambertian substrates as layers (seed §3.4).
@@ -28,12 +31,14 @@ pub mod bsdf;
 pub mod budget;
 pub mod correction;
 pub mod direction_set;
+pub mod eigen;
 pub mod error;
 pub mod field;
 pub mod flatland;
 pub mod interface;
 pub mod legendre;
 pub mod options;
+mod phase_matrix;
 pub mod quadrature;
 pub mod slab;
 pub mod solver;

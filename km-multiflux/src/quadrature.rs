@@ -31,7 +31,7 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use km_core::fresnel::gauss_legendre;
+use km_core::quadrature::gauss_legendre;
 
 /// Stream counts whose Gauss–Legendre rule a thread keeps (the oldest goes).
 const RULES_KEPT: usize = 8;

@@ -16,8 +16,10 @@
 //! `v = g+ + g-`, `g+ - g- = k z`, `z = (alpha + beta)^-1 v` (S2). With
 //! `T = diag(sqrt(w mu))`, `H± = T (alpha ± beta) T^-1` are symmetric, and
 //! with the Cholesky factor `H+ = L L^T` the problem becomes the symmetric
-//! `L^T H- L y = k^2 y`, `v~ = L y`, `z~ = L^-T y` (S3), solved by faer's
-//! `self_adjoint_eigen` (N x N instead of 2N x 2N).
+//! `L^T H- L y = k^2 y`, `v~ = L y`, `z~ = L^-T y` (S3), solved by
+//! [`crate::eigen::half_size_modes`] (N x N instead of 2N x 2N; the same
+//! solve serves the direction set). The phase matrix `P` comes from
+//! `phase_matrix::fourier_blocks`.
 //!
 //! Every mode is anchored where it decays from: `c_j g±_j e^{-k tau}` at the
 //! top and `d_j g∓_j e^{-k (tau0 - tau)}` at the bottom (Stamnes & Conklin
@@ -50,15 +52,19 @@
 
 mod beam;
 mod field;
-mod lu;
+/// Public only for the LU benchmark of km-bench (`benches/lu.rs`).
+#[doc(hidden)]
+pub mod lu;
 mod operators;
 mod probe;
 
-use faer::{Mat, Side};
+use faer::Mat;
 
 use crate::MultifluxError;
 use crate::correction::phi;
+use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes};
 use crate::legendre::LegendreRecurrence;
+use crate::phase_matrix::fourier_blocks;
 use crate::workspace::{Workspace, with_workspace};
 use lu::{Lu, solve_right};
 pub use operators::{absorber_operators, slab_beam_response, slab_operators};
@@ -178,7 +184,7 @@ impl SlabSolution {
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
-        let (pe, po) = phase_blocks(w, m, &chi, &lam, n);
+        let (pe, po) = fourier_blocks(w, m, &chi, &lam, n);
         let renorm_m0 = m == 0;
         let (hp, hm) = h_matrices(mu, w, omega, &pe, &po);
 
@@ -186,26 +192,14 @@ impl SlabSolution {
             what,
             detail: format!("N = {n}, tau = {tau}, omega = {omega}, m = {m}"),
         };
-        let llt = hp.llt(Side::Lower).map_err(|_| fail("Cholesky of H+"))?;
-        let lf = llt.L().to_owned();
-        let sym = lf.transpose() * (&hm * &lf);
-        let evd = sym.self_adjoint_eigen(Side::Lower).map_err(|_| fail("eigen-solver"))?;
-        let s = evd.S().column_vector().to_owned();
-        let y = evd.U().to_owned();
-        let mut k: Vec<f64> = (0..n).map(|j| s[j].max(0.0).sqrt()).collect();
-        if m == 0 && omega == 1.0 {
-            // Conservative scattering: the discrete system conserves energy exactly
-            // (renormalised above), so the smallest eigenvalue is exactly 0.
-            k[0] = 0.0;
-        }
-        let v = &lf * &y;
-        // z~ = H+^-1 v~ = L^-T y: one triangular solve (eq. S3).
-        let mut z = y.clone();
-        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-            lf.transpose(),
-            z.as_mut(),
-            faer::Par::Seq,
-        );
+        // Eq. S3 (crate::eigen eq. EG1). Conservative scattering: the discrete
+        // system conserves energy exactly (renormalised above), so the smallest
+        // eigenvalue is exactly 0.
+        let HalfSizeModes { k, v, z } =
+            half_size_modes(&hp, &hm, m == 0 && omega == 1.0).map_err(|e| match e {
+                EigenFailure::Cholesky(_) => fail("Cholesky of H+"),
+                EigenFailure::Eigen(_) => fail("eigen-solver"),
+            })?;
 
         // Eq. S4-S5, column by column, in matrices and vectors of the
         // workspace (handed back by `SlabSolution::recycle`).
@@ -317,69 +311,6 @@ impl SlabSolution {
     pub fn t(&self) -> &Mat<f64> {
         &self.tr
     }
-}
-
-/// The even and odd (in `l + m`) parts of the phase matrix between the
-/// nodes, `P(mu_i, mu_j) ± P(mu_i, -mu_j) = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j)`
-/// (`c_l = (2l+1) chi_l`, Legendre table `lam` node-major), for `m = 0`
-/// renormalised symmetrically so every row integrates to 1 over the nodes.
-fn phase_blocks(w: &[f64], m: usize, chi: &[f64], lam: &[f64], n: usize) -> (Mat<f64>, Mat<f64>) {
-    let nl = chi.len();
-    // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
-    // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
-    let mut ae = Mat::<f64>::zeros(n, nl);
-    let mut ao = Mat::<f64>::zeros(n, nl);
-    let mut lt = Mat::<f64>::zeros(nl, n);
-    for i in 0..n {
-        let c = lt.col_as_slice_mut(i);
-        c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
-    }
-    for l in m..nl {
-        let (ce, co) = (ae.col_as_slice_mut(l), ao.col_as_slice_mut(l));
-        let even = (l + m).is_multiple_of(2);
-        for i in 0..n {
-            let x = chi[l] * lam[i * nl + l];
-            if even { ce[i] = x } else { co[i] = x }
-        }
-    }
-    let mut pe = &ae * &lt;
-    let mut po = &ao * &lt;
-    // m = 0: renormalise symmetrically so that sum_j P_even,ij w_j = 1 exactly
-    // (energy conservation of the discrete scattering; docs/multiflux.md). Symmetric
-    // Sinkhorn–Knopp scaling d_i P_ij d_j keeps reciprocity.
-    if m == 0 {
-        let mut d = vec![1.0; n];
-        let mut r = vec![0.0; n];
-        for _ in 0..60 {
-            r.iter_mut().for_each(|x| *x = 0.0);
-            for j in 0..n {
-                let c = pe.col_as_slice(j);
-                let f = w[j] * d[j];
-                for i in 0..n {
-                    r[i] += c[i] * f;
-                }
-            }
-            let mut worst = 0.0f64;
-            for i in 0..n {
-                r[i] *= d[i];
-                worst = worst.max((r[i] - 1.0).abs());
-            }
-            if worst < 1e-15 || r.iter().any(|&x| x <= 0.0) {
-                break;
-            }
-            for i in 0..n {
-                d[i] /= r[i].sqrt();
-            }
-        }
-        for j in 0..n {
-            let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
-            for i in 0..n {
-                ce[i] *= d[i] * d[j];
-                co[i] *= d[i] * d[j];
-            }
-        }
-    }
-    (pe, po)
 }
 
 /// `H± = diag(1/mu) - omega sqrt(w/mu) P_{odd/even} sqrt(w/mu)` (eq. S3).

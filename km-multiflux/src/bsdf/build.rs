@@ -3,6 +3,7 @@
 //! assembled by [`crate::stack::add_stack`].
 
 use super::*;
+use crate::quadrature::MediumNodes;
 
 /// Kinds of extra directions in the augmented operators.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,6 +46,97 @@ fn scrub_ops(ops: &mut LayerOperators, kinds: &[Kind]) {
     scrub(&mut ops.t_up, kinds);
 }
 
+/// The extra directions of one channel (eq. B1): beams, BRDF probes, BTDF
+/// probes, then (for `m = 0`) the markers of the corrected layers, each as
+/// `(Snell invariant, kind)`.
+struct Extras {
+    ex: Vec<(f64, Kind)>,
+    /// First BRDF probe, first BTDF probe, end of beams and probes.
+    r0: usize,
+    t0: usize,
+    base_len: usize,
+    /// Per marker (in the order of `ex[base_len..]`): (probe extra, layer, slot).
+    marker_of: Vec<(usize, usize, usize)>,
+}
+
+/// What one channel's extras need to know of its layers.
+struct ExtraSetup<'a> {
+    n0: f64,
+    n_sub: Option<f64>,
+    layers: &'a [Scaled],
+    tms_layers: &'a [usize],
+    corr: &'a [Option<crate::correction::PeakCorrection>],
+    secondary: bool,
+}
+
+impl Extras {
+    /// Beams at `theta_i`, probes at `theta_o` (above, and below if light
+    /// leaves there), and per probe and corrected layer the markers R and T
+    /// (and I where the second-order term can matter, eq. B2).
+    fn new(theta_i: &[f64], theta_o: &[f64], c: &ExtraSetup<'_>) -> Self {
+        let mut ex: Vec<(f64, Kind)> = Vec::new();
+        for &t in theta_i {
+            ex.push((c.n0 * t.to_radians().sin(), Kind::Beam));
+        }
+        let r0 = ex.len();
+        for &t in theta_o {
+            ex.push((c.n0 * t.to_radians().sin(), Kind::Probe));
+        }
+        let t0 = ex.len();
+        if let Some(ns) = c.n_sub {
+            for &t in theta_o {
+                ex.push((ns * t.to_radians().sin(), Kind::Probe));
+            }
+        }
+        let base_len = ex.len();
+        let ni = theta_i.len();
+        // Whether a layer's IMS term can matter: it scales as (omega f)^2 times
+        // Legendre sums of at most ~1e3 (2N terms and the tails beyond them), so
+        // below omega f = 1e-8 it is under ~1e-13 of a unit radiance and the
+        // layer needs no IMS marker.
+        let ims_on = |l: usize| {
+            c.secondary && c.corr[l].as_ref().is_some_and(|k| c.layers[l].omega_true * k.f() > 1e-8)
+        };
+        // The IMS term lives only within the cone around the beam's polar angle
+        // (in the layer): its marker is needed where some beam is that close
+        // (a margin of 1e-6 rad; inside, the solver's own test decides).
+        let in_cone = |p: usize, l: usize| {
+            let n = c.layers[l].n;
+            let cone = crate::correction::IMS_CONE_DEG.to_radians() + 1e-6;
+            mu_of_invariant(ex[p].0, n).is_some_and(|mx| {
+                (0..ni).any(|i| {
+                    mu_of_invariant(ex[i].0, n)
+                        .is_some_and(|mb| (mb.acos() - mx.acos()).abs() <= cone)
+                })
+            })
+        };
+        // Markers: per probe, per corrected layer, R and T kinds (and I).
+        let slots: Vec<usize> = (r0..base_len)
+            .flat_map(|p| c.tms_layers.iter().map(move |&l| (p, l)))
+            .map(|(p, l)| if ims_on(l) && in_cone(p, l) { 3 } else { 2 })
+            .collect();
+        let mut slots = slots.into_iter();
+        let mut marker_of = Vec::new();
+        for p in r0..base_len {
+            for &l in c.tms_layers {
+                for slot in 0..slots.next().unwrap_or(2) {
+                    marker_of.push((p, l, slot));
+                    ex.push((ex[p].0, Kind::Marker { l, slot }));
+                }
+            }
+        }
+        Extras { ex, r0, t0, base_len, marker_of }
+    }
+
+    /// The first `count` extras as [`Extra`]s in the medium of index `n`.
+    fn in_medium(&self, n: f64, count: usize) -> Vec<Extra> {
+        self.ex[..count]
+            .iter()
+            .map(|&(s, k)| Extra { mu: mu_of_invariant(s, n), beam: k == Kind::Beam, phi_deg: 0.0 })
+            .collect()
+    }
+}
+
 /// One channel: returns its BSDF and the far-side index if light leaves there.
 pub(super) fn channel(
     scene: &MonoScene,
@@ -60,174 +152,61 @@ pub(super) fn channel(
     let (n_sub, grid) = media_grid(scene, streams);
     let layers = scale_layers(scene, &opts, 2 * streams);
     let (ni, no) = (theta_i.len(), theta_o.len());
-
     let tms_layers = corrected_layers(&layers, opts.delta_m);
-
-    // Extras: beams, BRDF probes, BTDF probes, then (for m = 0) markers.
-    let mut ex: Vec<(f64, Kind)> = Vec::new();
-    for &t in theta_i {
-        ex.push((n0 * t.to_radians().sin(), Kind::Beam));
-    }
-    let r0 = ex.len();
-    for &t in theta_o {
-        ex.push((n0 * t.to_radians().sin(), Kind::Probe));
-    }
-    let t0 = ex.len();
-    if let Some(ns) = n_sub {
-        for &t in theta_o {
-            ex.push((ns * t.to_radians().sin(), Kind::Probe));
-        }
-    }
-    let base_len = ex.len();
-    // The solver's correction per layer (TMS and IMS, eq. C2-C4 of
-    // `docs/multiflux.md`), and whether its IMS term can matter: it scales
-    // as (omega f)^2 times Legendre sums of at most ~1e3 (2N terms and the
-    // tails beyond them), so below omega f = 1e-8 it is under ~1e-13 of a
-    // unit radiance and the layer needs no IMS marker.
+    // The solver's correction per layer (TMS and IMS, eq. C2-C4 of `docs/multiflux.md`).
     let corr: Vec<Option<crate::correction::PeakCorrection>> = (0..layers.len())
         .map(|l| tms_layers.contains(&l).then(|| layers[l].correction(2 * streams)))
         .collect();
-    let ims_on = |l: usize| {
-        opts.secondary_correction
-            && corr[l].as_ref().is_some_and(|c| layers[l].omega_true * c.f() > 1e-8)
+    let setup = ExtraSetup {
+        n0,
+        n_sub,
+        layers: &layers,
+        tms_layers: &tms_layers,
+        corr: &corr,
+        secondary: opts.secondary_correction,
     };
-    // The IMS term lives only within the cone around the beam's polar angle
-    // (in the layer): its marker is needed where some beam is that close
-    // (a margin of 1e-6 rad; inside, the solver's own test decides).
-    let in_cone = |p: usize, l: usize| {
-        let n = layers[l].n;
-        let cone = crate::correction::IMS_CONE_DEG.to_radians() + 1e-6;
-        mu_of_invariant(ex[p].0, n).is_some_and(|mx| {
-            (0..ni).any(|i| {
-                mu_of_invariant(ex[i].0, n).is_some_and(|mb| (mb.acos() - mx.acos()).abs() <= cone)
-            })
-        })
-    };
-    // Markers: per probe, per corrected layer, R and T kinds (and I).
-    let mut marker_of: Vec<(usize, usize, usize)> = Vec::new(); // (probe extra, layer, slot)
-    let slots: Vec<usize> = (r0..base_len)
-        .flat_map(|p| tms_layers.iter().map(move |&l| (p, l)))
-        .map(|(p, l)| if ims_on(l) && in_cone(p, l) { 3 } else { 2 })
-        .collect();
-    let mut slots = slots.into_iter();
-    for p in r0..base_len {
-        for &l in &tms_layers {
-            for slot in 0..slots.next().unwrap_or(2) {
-                marker_of.push((p, l, slot));
-                ex.push((ex[p].0, Kind::Marker { l, slot }));
-            }
-        }
-    }
-    let kinds_all: Vec<Kind> = ex.iter().map(|e| e.1).collect();
-    let extras_for = |n: f64, count: usize| -> Vec<Extra> {
-        ex[..count]
-            .iter()
-            .map(|&(s, k)| Extra { mu: mu_of_invariant(s, n), beam: k == Kind::Beam, phi_deg: 0.0 })
-            .collect()
-    };
+    let extras = Extras::new(theta_i, theta_o, &setup);
+    let kinds_all: Vec<Kind> = extras.ex.iter().map(|e| e.1).collect();
 
     // Fourier orders (as the solver: up to the last non-negligible moment).
     let m_max = last_moment(&layers).min(opts.max_fourier_order.unwrap_or(usize::MAX));
-
     let nodes0 = grid.medium(n0);
-    let na0 = nodes0.mu.len();
     let nodes_sub = n_sub.map(|n| grid.medium(n));
-    let nb = nodes_sub.as_ref().map_or(0, |n| n.mu.len());
     let mut coefs_r: Vec<Vec<f64>> = Vec::new(); // per m, [i * no + o]
     let mut coefs_t: Vec<Vec<f64>> = Vec::new();
-    let mut out = ChannelBsdf {
-        coef_r: Vec::new(),
-        coef_t: Vec::new(),
-        orders: 0,
-        tms: Vec::new(),
-        reflectance: vec![0.0; ni],
-        transmittance: vec![0.0; ni],
-        reflectance_specular: vec![0.0; ni],
-        transmittance_direct: vec![0.0; ni],
-        streams,
-    };
+    let mut out = empty_table(ni, streams);
     let mut largest = 0.0f64;
     let mut small_orders = 0;
     for m in 0..=m_max {
         // Markers only where the correction lives (m = 0).
-        let count = if m == 0 { ex.len() } else { base_len };
+        let count = if m == 0 { extras.ex.len() } else { extras.base_len };
         let kinds = &kinds_all[..count];
-        let extras_in = |n: f64| extras_for(n, count);
+        let extras_in = |n: f64| extras.in_medium(n, count);
         let ops =
             stack(scene, &grid, &layers, &corr, n_sub, &extras_in, kinds, m, opts.neumann_order)?;
-        let (mut cr, mut ct) = (vec![0.0; ni * no], vec![0.0; ni * no]);
-        let mut term = 0.0f64;
-        for i in 0..ni {
-            for o in 0..no {
-                let x = ops.r_top[(na0 + r0 + o, na0 + i)];
-                cr[i * no + o] = x;
-                term = term.max(x.abs());
-                if n_sub.is_some() {
-                    let y = ops.t_down[(nb + t0 + o, na0 + i)];
-                    ct[i * no + o] = y;
-                    term = term.max(y.abs());
-                }
-            }
-        }
+        let read = Readout {
+            ops: &ops,
+            extras: &extras,
+            na0: nodes0.mu.len(),
+            nb: nodes_sub.as_ref().map_or(0, |n| n.mu.len()),
+            ni,
+            no,
+            below: n_sub.is_some(),
+        };
+        let (cr, ct, term) = read.coefficients();
         if m == 0 {
             // Totals from the azimuthal mean (nodes) plus the beams' delta parts.
             for i in 0..ni {
-                let col: Vec<f64> = (0..na0).map(|q| ops.r_top[(q, na0 + i)]).collect();
-                out.reflectance[i] = flux(&nodes0, &col) + ops.r_top[(na0 + i, na0 + i)];
-                if let Some(ns) = &nodes_sub {
-                    let col: Vec<f64> = (0..nb).map(|q| ops.t_down[(q, na0 + i)]).collect();
-                    out.transmittance[i] = flux(ns, &col) + ops.t_down[(nb + i, na0 + i)];
-                }
-                let (spec, direct) = delta_parts(scene, &layers, n_sub, ex[i].0);
+                (out.reflectance[i], out.transmittance[i]) =
+                    read.totals(i, &nodes0, nodes_sub.as_ref());
+                let (spec, direct) = delta_parts(scene, &layers, n_sub, extras.ex[i].0);
                 out.reflectance_specular[i] = spec;
                 out.transmittance_direct[i] = direct;
             }
             // Correction weights per layer from the markers.
             for &l in &tms_layers {
-                let s = &layers[l];
-                let chiw: Vec<f64> =
-                    s.chi.iter().enumerate().map(|(k, c)| (2 * k + 1) as f64 * c).collect();
-                let mu_in = |a: usize| mu_of_invariant(ex[a].0, s.n);
-                let rec = (0..chiw.len())
-                    .map(|l| {
-                        let lf = l.max(1) as f64;
-                        ((2.0 * lf - 1.0) / lf, (lf - 1.0) / lf)
-                    })
-                    .collect();
-                let mut tl = TmsLayer {
-                    omega_true: s.omega_true,
-                    f: corr[l].as_ref().map_or(0.0, |c| c.f()),
-                    omega: s.omega,
-                    chiw,
-                    rec,
-                    phase: s.phase,
-                    mu_b: (0..ni).map(mu_in).collect(),
-                    mu_r: (r0..r0 + no).map(mu_in).collect(),
-                    mu_t: if n_sub.is_some() {
-                        (t0..t0 + no).map(mu_in).collect()
-                    } else {
-                        vec![None; no]
-                    },
-                    w_r: vec![[0.0; 3]; ni * no],
-                    w_t: vec![[0.0; 3]; ni * no],
-                    corr: s.correction(2 * streams),
-                };
-                for (k, &(p, ml, slot)) in marker_of.iter().enumerate() {
-                    if ml != l {
-                        continue;
-                    }
-                    let e = base_len + k;
-                    for i in 0..ni {
-                        if p < t0 {
-                            let o = p - r0;
-                            tl.w_r[i * no + o][slot] = ops.r_top[(na0 + e, na0 + i)];
-                        } else {
-                            let o = p - t0;
-                            tl.w_t[i * no + o][slot] = ops.t_down[(nb + e, na0 + i)];
-                        }
-                    }
-                }
-                out.tms.push(tl);
+                let f = corr[l].as_ref().map_or(0.0, |c| c.f());
+                out.tms.push(read.marker_weights(&layers[l], l, f, streams));
             }
         }
         coefs_r.push(cr);
@@ -241,8 +220,7 @@ pub(super) fn channel(
             }
         }
     }
-    let orders = coefs_r.len();
-    out.orders = orders;
+    out.orders = coefs_r.len();
     out.coef_r = by_pair(&coefs_r, ni * no);
     out.coef_t = by_pair(&coefs_t, ni * no);
     let finite =
@@ -253,6 +231,121 @@ pub(super) fn channel(
         );
     }
     Ok((out, n_sub))
+}
+
+/// A channel's table before its first order: no coefficients, zero totals
+/// for `ni` incidence angles.
+fn empty_table(ni: usize, streams: usize) -> ChannelBsdf {
+    ChannelBsdf {
+        coef_r: Vec::new(),
+        coef_t: Vec::new(),
+        orders: 0,
+        tms: Vec::new(),
+        reflectance: vec![0.0; ni],
+        transmittance: vec![0.0; ni],
+        reflectance_specular: vec![0.0; ni],
+        transmittance_direct: vec![0.0; ni],
+        streams,
+    }
+}
+
+/// The operators of one Fourier order read out at the extras: the nodes of
+/// the ambient medium (`na0`) and of the medium below (`nb`, 0 without one)
+/// come first in each operator, the extras after them.
+struct Readout<'a> {
+    ops: &'a LayerOperators,
+    extras: &'a Extras,
+    na0: usize,
+    nb: usize,
+    /// Incidence and exit counts.
+    ni: usize,
+    no: usize,
+    /// Light leaves below (a transparent substrate).
+    below: bool,
+}
+
+impl Readout<'_> {
+    /// The Fourier coefficients of this order between beams and probes,
+    /// `[i * no + o]` for reflection and transmission (eq. B1), and the
+    /// largest of them (the azimuthal convergence test).
+    fn coefficients(&self) -> (Vec<f64>, Vec<f64>, f64) {
+        let (ops, na0, nb, no) = (self.ops, self.na0, self.nb, self.no);
+        let (mut cr, mut ct) = (vec![0.0; self.ni * no], vec![0.0; self.ni * no]);
+        let mut term = 0.0f64;
+        for i in 0..self.ni {
+            for o in 0..no {
+                let x = ops.r_top[(na0 + self.extras.r0 + o, na0 + i)];
+                cr[i * no + o] = x;
+                term = term.max(x.abs());
+                if self.below {
+                    let y = ops.t_down[(nb + self.extras.t0 + o, na0 + i)];
+                    ct[i * no + o] = y;
+                    term = term.max(y.abs());
+                }
+            }
+        }
+        (cr, ct, term)
+    }
+
+    /// Reflectance and transmittance of beam `i` from the azimuthal mean
+    /// (`m = 0`): the flux of the node columns plus the beam's own extra.
+    fn totals(
+        &self,
+        i: usize,
+        nodes0: &MediumNodes,
+        nodes_sub: Option<&MediumNodes>,
+    ) -> (f64, f64) {
+        let (ops, na0, nb) = (self.ops, self.na0, self.nb);
+        let col: Vec<f64> = (0..na0).map(|q| ops.r_top[(q, na0 + i)]).collect();
+        let r = flux(nodes0, &col) + ops.r_top[(na0 + i, na0 + i)];
+        let t = nodes_sub.map_or(0.0, |ns| {
+            let col: Vec<f64> = (0..nb).map(|q| ops.t_down[(q, na0 + i)]).collect();
+            flux(ns, &col) + ops.t_down[(nb + i, na0 + i)]
+        });
+        (r, t)
+    }
+
+    /// The single-scattering correction of layer `l` (scaled as `s`, truncation
+    /// fraction `f`; eq. B1–B2): its scaled moments and cosines, and the
+    /// weights `W_R`, `W_T`, `W_I` per (incidence, exit) read from the marker
+    /// rows of the `m = 0` operators.
+    fn marker_weights(&self, s: &Scaled, l: usize, f: f64, streams: usize) -> TmsLayer {
+        let (ops, extras, na0, nb, ni, no) =
+            (self.ops, self.extras, self.na0, self.nb, self.ni, self.no);
+        let (r0, t0) = (extras.r0, extras.t0);
+        let chiw: Vec<f64> =
+            s.chi.iter().enumerate().map(|(k, c)| (2 * k + 1) as f64 * c).collect();
+        let mu_in = |a: usize| mu_of_invariant(extras.ex[a].0, s.n);
+        let rec = km_core::legendre::legendre_coefficients(chiw.len());
+        let mut tl = TmsLayer {
+            omega_true: s.omega_true,
+            f,
+            omega: s.omega,
+            chiw,
+            rec,
+            phase: s.phase,
+            mu_b: (0..ni).map(mu_in).collect(),
+            mu_r: (r0..r0 + no).map(mu_in).collect(),
+            mu_t: if self.below { (t0..t0 + no).map(mu_in).collect() } else { vec![None; no] },
+            w_r: vec![[0.0; 3]; ni * no],
+            w_t: vec![[0.0; 3]; ni * no],
+            corr: s.correction(2 * streams),
+        };
+        for (k, &(p, ml, slot)) in extras.marker_of.iter().enumerate() {
+            if ml != l {
+                continue;
+            }
+            let e = extras.base_len + k;
+            for i in 0..ni {
+                if p < t0 {
+                    tl.w_r[i * no + (p - r0)][slot] = ops.r_top[(na0 + e, na0 + i)];
+                } else {
+                    tl.w_t[i * no + (p - t0)][slot] = ops.t_down[(nb + e, na0 + i)];
+                }
+            }
+        }
+        tl
+    }
 }
 
 /// The stack's operators for order `m` on nodes plus extras, with the

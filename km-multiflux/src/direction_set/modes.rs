@@ -1,59 +1,10 @@
-//! The direction set's phase matrix, renormalised symmetrically (eq. DS3), and
-//! the eigen-solution of a slab on the set (seed eq. 18–20, the half-size
-//! symmetric form) with its reflection and transmission operators.
+//! The eigen-solution of a slab on a direction set (seed eq. 18–20: the
+//! operators `H_o`, `H_e` of docs eq. DS7 handed to the half-size solve of
+//! [`crate::eigen`]) with its reflection and transmission operators. The
+//! phase matrix is built and renormalised in `crate::phase_matrix` (eq. DS3).
 
 use super::*;
-
-/// Symmetric rescaling of a discrete phase function (docs eq. DS3): given raw
-/// values `p++_ij = p(s_i . s_j)`, `p+-_ij = p(s_i . s'_j)` (symmetric
-/// matrices) and weights `w`, find `d > 0` with
-/// `sum_j d_i d_j (p++_ij + p+-_ij) w_j = 1` by the symmetric Sinkhorn–Knopp
-/// iteration `d_i <- sqrt(d_i / sum_j k_ij w_j d_j)` (Knight 2008), and return
-/// `P++_ij = d_i d_j p++_ij w_j`, `P+-_ij = d_i d_j p+-_ij w_j`. The result
-/// conserves energy (rows sum to 1) and keeps `w_i P_ij = w_j P_ji`.
-pub(crate) fn renormalised_blocks(
-    pp: Mat<f64>,
-    pm: Mat<f64>,
-    w: &[f64],
-) -> Result<(Mat<f64>, Mat<f64>)> {
-    let n = w.len();
-    let k = Mat::from_fn(n, n, |i, j| (pp[(i, j)] + pp[(j, i)] + pm[(i, j)] + pm[(j, i)]) * 0.5);
-    let mut d = vec![1.0; n];
-    // Linear convergence to rounding level; stop when the worst row error is
-    // at rounding level (< 1e-12) and has stopped improving.
-    let (mut best, mut stall) = (f64::INFINITY, 0);
-    for _ in 0..5_000 {
-        let mut worst: f64 = 0.0;
-        let sums: Vec<f64> =
-            (0..n).map(|i| (0..n).map(|j| k[(i, j)] * w[j] * d[j]).sum::<f64>() * d[i]).collect();
-        for i in 0..n {
-            worst = worst.max((sums[i] - 1.0).abs());
-            if sums[i].is_nan() || sums[i] <= 0.0 {
-                return Err(numerical(
-                    "phase renormalisation",
-                    format!("row {i} sums to {}", sums[i]),
-                ));
-            }
-            d[i] /= sums[i].sqrt();
-        }
-        if worst < 0.5 * best {
-            best = worst;
-            stall = 0;
-        } else {
-            stall += 1;
-        }
-        if best < 1e-12 && stall >= 3 {
-            break;
-        }
-    }
-    if best >= 1e-12 {
-        return Err(numerical("phase renormalisation", format!("row sums off by {best:e}")));
-    }
-    let sym = |m: &Mat<f64>, i: usize, j: usize| 0.5 * (m[(i, j)] + m[(j, i)]);
-    let PP = Mat::from_fn(n, n, |i, j| d[i] * d[j] * sym(&pp, i, j) * w[j]);
-    let PM = Mat::from_fn(n, n, |i, j| d[i] * d[j] * sym(&pm, i, j) * w[j]);
-    Ok((PP, PM))
-}
+use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes};
 
 // ---------------------------------------------------------------------------
 // Eigen-solution of one homogeneous medium
@@ -117,36 +68,18 @@ impl DiscreteModes {
         };
         let h_odd = h(-1.0);
         let h_even = h(1.0);
-        // H_o = L L^T (positive definite for |g| < 1).
-        let llt = h_odd
-            .llt(Side::Lower)
-            .map_err(|e| numerical("Cholesky of the odd operator", format!("{e:?}")))?;
-        let L = llt.L().to_owned();
-        let mut m = L.transpose() * &h_even * &L;
-        for i in 0..n {
-            for j in 0..i {
-                let v = 0.5 * (m[(i, j)] + m[(j, i)]);
-                m[(i, j)] = v;
-                m[(j, i)] = v;
-            }
-        }
-        let evd = m
-            .self_adjoint_eigen(Side::Lower)
-            .map_err(|e| numerical("symmetric eigen-decomposition", format!("{e:?}")))?;
-        let Y = evd.U().to_owned();
-        let nu = evd.S().column_vector().to_owned();
-        // lambda^2 >= 0 in exact arithmetic: clamp rounding. Conservative
-        // scattering has exactly one null mode (the isotropic radiance; docs
-        // eq. DS7): rounding would give it lambda ~ 1e-8 sigma_t / mu_min, which
-        // matters at tau ~ 1e4 and above, so its value is set to 0.
-        let mut nu: Vec<f64> = (0..n).map(|k| nu[k].max(0.0)).collect();
-        if sigma_a == 0.0 {
-            nu[0] = 0.0;
-        }
-        let lambda: Vec<f64> = nu.iter().map(|v| v.sqrt()).collect();
-        let mut S = &L * &Y;
-        let mut F = Y.clone();
-        L.transpose().solve_upper_triangular_in_place(F.as_mut());
+        // H_o = L L^T (positive definite for |g| < 1), L^T H_e L Y = lambda^2 Y
+        // (crate::eigen eq. EG1). Conservative scattering has exactly one null
+        // mode (the isotropic radiance; docs eq. DS7): rounding would give it
+        // lambda ~ 1e-8 sigma_t / mu_min, which matters at tau ~ 1e4 and above,
+        // so its value is set to 0.
+        let HalfSizeModes { k: lambda, v, z } = half_size_modes(&h_odd, &h_even, sigma_a == 0.0)
+            .map_err(|e| match e {
+                EigenFailure::Cholesky(d) => numerical("Cholesky of the odd operator", d),
+                EigenFailure::Eigen(d) => numerical("symmetric eigen-decomposition", d),
+            })?;
+        // Back from the symmetric coordinates: S = (MW)^-1/2 v~, F = (MW)^-1/2 z~.
+        let (mut S, mut F) = (v, z);
         for i in 0..n {
             for k in 0..n {
                 S[(i, k)] *= rs[i];

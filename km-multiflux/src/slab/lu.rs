@@ -1,21 +1,66 @@
 //! LU factors with partial pivoting of the small matrices `Cp`, `Cm` of
 //! eq. S4 (vector solves for the probes, the beam and the internal field),
 //! and `X = B C^-1` for the node operators.
+//!
+//! Hand-written up to 47 nodes, faer's LU from 48 on. Measured by the
+//! criterion bench `km-bench/benches/lu.rs` on the slab's own `Cp`, `Cm`
+//! (factor both, `X = C_out C^-1` for both, one `C x = b` and five
+//! `C^T x = b` each), medians on 2 shared cores (2026-11), hand-written /
+//! faer's / this file's switch:
+//!
+//! | N | hand | faer | switch | faer / hand |
+//! |---|---|---|---|---|
+//! | 4 | 1.63 us | 5.72 us | 1.60 us | 3.5 (hand faster) |
+//! | 8 | 3.90 us | 10.7 us | 4.22 us | 2.7 |
+//! | 16 | 13.2 us | 18.7 us | 11.6 us | 1.4 |
+//! | 32 | 47.2 us | 40.8 us | 44.4 us | 0.86 (faer faster) |
+//! | 64 | 276 us | 117 us | 139 us | 0.42 |
+//!
+//! (the `switch` column with the switch at 32). At N = 32 faer wins only
+//! through `X = C_out C^-1`: the slab's common path (factors, the beam and
+//! the probes, no node operators) was 3–4 % slower with faer's factors at
+//! N = 32 in the `multiflux` bench (totals 79.8 -> 81.8 us, full BRDF
+//! 1.70 -> 1.76 ms) and 3–4 % faster at N = 64 (totals 328 -> 317 us, full
+//! BRDF 6.95 -> 6.72 ms). So from 48 nodes on the factors and every solve
+//! are faer's (the factors are also copied into this file's layout, the
+//! permutation as exchanges, for [`Lu::right_solve`] and the slab's
+//! regularity check: the 20 us between `switch` and `faer` at N = 64); up
+//! to 32 nodes (the default stream counts) everything is the code of this
+//! file, from 33 to 47 the node operators use faer's LU as before. With
+//! this switch the `multiflux` bench (medians of three alternated runs,
+//! before / after the restructuring that brought it) gave: one layer,
+//! totals 79.0 / 78.7 us at N = 32, 327.7 / 314.8 us at N = 64; full BRDF
+//! 1.69 / 1.70 ms at N = 32, 6.99 / 6.64 ms at N = 64; the 3-layer stack
+//! (N = 16 in up to 48 nodes) 918.8 / 856.1 us.
 
 use faer::Mat;
-use faer::linalg::solvers::Solve;
+use faer::linalg::solvers::{PartialPivLu, Solve};
 
 use super::dot;
 
-/// `X = B C^-1` for square `C`, `B`, column-major (`x[j * n + i] = X_ij`):
-/// for small `C` from its LU factors `lu` (already needed by the probes and
-/// the beam, [`Lu::right_solve`]); larger (`n > 32`), faer's blocked LU
-/// wins. A singular `C` gives non-finite entries, which the caller refuses.
-pub(super) fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
-    let n = c.nrows();
+/// Size from which [`Lu::new`] factors with faer (see the module header).
+const FAER_FROM: usize = 48;
+
+/// `X = B C^-1` for square `C`, `B`, column-major (`x[j * n + i] = X_ij`),
+/// from the factors `lu` of `C`: by whole-column updates
+/// ([`Lu::right_solve`]) up to 32 nodes, by faer's blocked LU of `C` from 33
+/// to 47 (the hand-written factors then serve the vector solves only), by
+/// faer's factor object in `lu` from `FAER_FROM` (48) on. A singular `C` gives non-finite entries,
+/// which the caller refuses.
+pub fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
+    let n = lu.n;
     let mut x = vec![0.0; n * n];
+    if let Some(f) = &lu.faer {
+        let mut xm = b.clone();
+        f.rsolve_in_place(xm.as_mut());
+        for j in 0..n {
+            x[j * n..(j + 1) * n].copy_from_slice(xm.col_as_slice(j));
+        }
+        return x;
+    }
     if n > 32 {
-        // X^T = C^-T B^T.
+        // Between 33 and 47 nodes: the hand-written factors serve the vector
+        // solves, faer's blocked LU of `C` the node operators (X^T = C^-T B^T).
         let s = c.partial_piv_lu().solve_transpose(b.transpose());
         for j in 0..n {
             for (i, v) in s.col_as_slice(j).iter().enumerate() {
@@ -36,16 +81,30 @@ pub(super) fn solve_right(lu: &Lu, c: &Mat<f64>, b: &Mat<f64>) -> Vec<f64> {
 /// for the vector solves `C x = b` and `C^T x = b` of the probes, the
 /// beam and the internal field (Golub & Van Loan 2013, alg. 3.4.1). A
 /// singular `C` gives non-finite solutions, which the callers refuse.
-pub(super) struct Lu {
+pub struct Lu {
     pub(super) n: usize,
     /// `L` below and `U` on and above the diagonal: `lu[col * n + row]`.
     pub(super) lu: Vec<f64>,
     /// Row exchanged with row `k` at elimination step `k`.
     pub(super) piv: Vec<usize>,
+    /// faer's factor object (from `FAER_FROM` (48) nodes on), for every solve.
+    faer: Option<PartialPivLu<f64>>,
 }
 
 impl Lu {
-    pub(super) fn new(c: &Mat<f64>) -> Self {
+    /// Factor `C` (`n x n`): `P C = L U` with partial pivoting, by the
+    /// unblocked elimination below `FAER_FROM` (48) nodes, by faer's blocked LU
+    /// from there on (module header: the measured times).
+    pub fn new(c: &Mat<f64>) -> Self {
+        if c.nrows() >= FAER_FROM {
+            return Self::from_faer(c.partial_piv_lu());
+        }
+        Self::hand_written(c)
+    }
+
+    /// [`Lu::new`] by the hand-written elimination at every size (the
+    /// benchmark's reference).
+    pub fn hand_written(c: &Mat<f64>) -> Self {
         let n = c.nrows();
         let mut lu = vec![0.0; n * n];
         for j in 0..n {
@@ -79,12 +138,47 @@ impl Lu {
                 }
             }
         }
-        Lu { n, lu, piv }
+        Lu { n, lu, piv, faer: None }
     }
 
-    /// `x <- C^-1 x`.
-    pub(super) fn solve(&self, x: &mut [f64]) {
+    /// The factors of faer's `P C = L U` in this layout: `L` below and `U` on
+    /// and above the diagonal, the row permutation (`(P C)_i = C_{perm(i)}`)
+    /// written as the exchanges `piv` of the elimination steps.
+    fn from_faer(f: PartialPivLu<f64>) -> Self {
+        let n = f.L().nrows();
+        let (l, u) = (f.L(), f.U());
+        let mut lu = vec![0.0; n * n];
+        for (j, col) in lu.chunks_exact_mut(n).enumerate() {
+            for (i, (x, (lij, uij))) in
+                col.iter_mut().zip(l.col(j).iter().zip(u.col(j).iter())).enumerate()
+            {
+                *x = if i > j { *lij } else { *uij };
+            }
+        }
+        // Exchanges that bring row perm(k) to position k, step by step:
+        // `at[r]` is where original row r sits now, `row[p]` the row at p.
+        let perm = f.P().arrays().0;
+        let mut at: Vec<usize> = (0..n).collect();
+        let mut row: Vec<usize> = (0..n).collect();
+        let mut piv = vec![0; n];
+        for k in 0..n {
+            let p = at[perm[k]];
+            piv[k] = p;
+            let (rk, rp) = (row[k], row[p]);
+            row.swap(k, p);
+            at[rk] = p;
+            at[rp] = k;
+        }
+        Lu { n, lu, piv, faer: Some(f) }
+    }
+
+    /// `x <- C^-1 x` (faer's in-place solve from `FAER_FROM` (48) nodes on).
+    pub fn solve(&self, x: &mut [f64]) {
         let n = self.n;
+        if let Some(f) = &self.faer {
+            f.solve_in_place(faer::MatMut::from_column_major_slice_mut(x, n, 1));
+            return;
+        }
         for k in 0..n {
             x.swap(k, self.piv[k]);
         }
@@ -107,9 +201,13 @@ impl Lu {
         }
     }
 
-    /// `x <- C^-T x`.
-    pub(super) fn solve_transpose(&self, x: &mut [f64]) {
+    /// `x <- C^-T x` (faer's in-place solve from `FAER_FROM` (48) nodes on).
+    pub fn solve_transpose(&self, x: &mut [f64]) {
         let n = self.n;
+        if let Some(f) = &self.faer {
+            f.solve_transpose_in_place(faer::MatMut::from_column_major_slice_mut(x, n, 1));
+            return;
+        }
         // U^T y = b: row k of U^T is column k of U (contiguous).
         for k in 0..n {
             let d = dot(&self.lu[k * n..k * n + k], &x[..k]);
@@ -129,7 +227,7 @@ impl Lu {
     /// by whole columns (contiguous updates): with `C = P^T L U`, first
     /// `W U = X` (columns left to right), then `Y L = W` (right to left),
     /// then `X = Y P` (the column exchanges in reverse order).
-    pub(super) fn right_solve(&self, x: &mut [f64]) {
+    pub fn right_solve(&self, x: &mut [f64]) {
         let n = self.n;
         // W U = B: W_j = (B_j - sum_{k<j} U_kj W_k) / U_jj.
         for j in 0..n {
@@ -176,12 +274,38 @@ impl Lu {
 mod tests {
     use super::*;
 
+    /// `C x = b` and `C^T x = b` by the factors (hand-written below 48 nodes,
+    /// faer's from 48 on) give back `b` when multiplied out: residuals at the
+    /// backward error of a pivoted LU (a few hundred ulps here).
+    #[test]
+    fn vector_solves_invert_on_both_sides_of_the_switch() {
+        for n in [3usize, 32, 47, 48, 64] {
+            let mut s = 777u64 + n as u64;
+            let mut rnd = move || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+            };
+            let c = Mat::from_fn(n, n, |i, j| if i == j { 1e-3 * rnd() } else { rnd() });
+            let b: Vec<f64> = (0..n).map(|_| rnd()).collect();
+            let lu = Lu::new(&c);
+            let (mut x, mut y) = (b.clone(), b.clone());
+            lu.solve(&mut x);
+            lu.solve_transpose(&mut y);
+            for i in 0..n {
+                let cx: f64 = (0..n).map(|j| c[(i, j)] * x[j]).sum();
+                let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j]).sum();
+                assert!((cx - b[i]).abs() < 1e-11, "n = {n}, row {i}: C x");
+                assert!((cty - b[i]).abs() < 1e-11, "n = {n}, row {i}: C^T y");
+            }
+        }
+    }
+
     /// `X = B C^-1` by the LU factors (column updates) and by faer's LU
     /// agree, and `X C` gives back `B`: a matrix that needs pivoting (zero
     /// and small leading entries) at sizes on both sides of the switch.
     #[test]
     fn right_solve_inverts_from_the_right() {
-        for n in [1usize, 2, 5, 17, 32, 40] {
+        for n in [1usize, 2, 5, 17, 32, 47, 48, 64] {
             let mut s = 12345u64 + n as u64;
             let mut rnd = move || {
                 s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);

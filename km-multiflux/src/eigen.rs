@@ -1,0 +1,99 @@
+//! The eigen-solution of a homogeneous slab (seed eq. 18–19) in the
+//! half-size symmetric form shared by both discretisations.
+//!
+//! The discrete radiative transfer equation of a homogeneous medium (seed
+//! eq. 18) couples the down- and up-going radiances `I+`, `I-` by
+//! `d/dz [I+; I-] = [[-alpha, beta], [-beta, alpha]] [I+; I-]`. Its
+//! eigenvalues come in pairs `±k` (seed eq. 19); with `v = g+ + g-` the
+//! decaying mode `g± e^{-k z}` satisfies the half-size problem
+//! `(alpha + beta)(alpha - beta) v = k^2 v`, `g+ - g- = k z`,
+//! `z = (alpha + beta)^-1 v` (Stamnes & Swanson 1981). Each discretisation
+//! scales its operators to the symmetric `H+ = T (alpha + beta) T^-1`,
+//! `H- = T (alpha - beta) T^-1` (`T = diag(sqrt(w mu))`): the Fourier–Gauss
+//! slab (docs/multiflux.md eq. 9) and the direction set (docs eq. DS7). With
+//! the Cholesky factor `H+ = L L^T` the problem becomes
+//!
+//! ```text
+//!   L^T H- L y = k^2 y,   v~ = L y,   z~ = L^-T y                             (EG1)
+//! ```
+//!
+//! with `y` orthonormal, solved here once for both: `N x N` symmetric
+//! instead of `2N x 2N` general. The callers build `H±` and map `v~`, `z~`
+//! back to radiances (`T^-1`).
+
+use faer::{Mat, Side};
+
+/// The modes of eq. EG1 in the scaled coordinates: decay constants `k_j >= 0`
+/// ascending, and the columns `v~_j = L y_j`, `z~_j = L^-T y_j`.
+pub struct HalfSizeModes {
+    /// Decay constants `k_j = sqrt(max(k_j^2, 0))`, ascending.
+    pub k: Vec<f64>,
+    /// `v~ = L Y` (columns per mode).
+    pub v: Mat<f64>,
+    /// `z~ = L^-T Y = H+^-1 v~` (columns per mode).
+    pub z: Mat<f64>,
+}
+
+/// Which step of eq. EG1 failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EigenFailure {
+    /// `H+` is not numerically positive definite.
+    Cholesky(String),
+    /// The symmetric eigen-solver did not converge.
+    Eigen(String),
+}
+
+/// Solve eq. EG1 for the symmetric `H+` (positive definite) and `H-`
+/// (`N x N`; the lower triangles are read). `conservative` marks a system
+/// whose smallest eigenvalue is exactly 0 (conservative scattering with a
+/// renormalised phase matrix: the isotropic radiance is a null mode):
+/// rounding would leave `k_0 ~ 1e-8`, which matters at `tau ~ 1e4`, so it is
+/// set to 0.
+///
+/// # Reference
+/// Seed 000 eq. 18–19; Stamnes & Swanson (1981); docs/multiflux.md eq. 8–9,
+/// docs/multiflux-direction-set.md eq. DS6–DS7.
+///
+/// # Errors
+/// [`EigenFailure`] naming the failed step (the callers add the layer's
+/// parameters).
+///
+/// ```
+/// use faer::Mat;
+/// use km_multiflux::eigen::half_size_modes;
+/// // H+ = I, H- = diag(4, 1): k = (1, 2), z~ = v~ (L = I).
+/// let hp = Mat::<f64>::identity(2, 2);
+/// let hm = Mat::from_fn(2, 2, |i, j| if i == j { [4.0, 1.0][i] } else { 0.0 });
+/// let m = half_size_modes(&hp, &hm, false).unwrap();
+/// assert!((m.k[0] - 1.0).abs() < 1e-15 && (m.k[1] - 2.0).abs() < 1e-15);
+/// ```
+pub fn half_size_modes(
+    hp: &Mat<f64>,
+    hm: &Mat<f64>,
+    conservative: bool,
+) -> Result<HalfSizeModes, EigenFailure> {
+    let n = hp.nrows();
+    // H+ = L L^T.
+    let llt = hp.llt(Side::Lower).map_err(|e| EigenFailure::Cholesky(format!("{e:?}")))?;
+    let lf = llt.L().to_owned();
+    // L^T H- L y = k^2 y (eq. EG1).
+    let sym = lf.transpose() * (hm * &lf);
+    let evd =
+        sym.self_adjoint_eigen(Side::Lower).map_err(|e| EigenFailure::Eigen(format!("{e:?}")))?;
+    let s = evd.S().column_vector().to_owned();
+    let y = evd.U().to_owned();
+    // k^2 >= 0 in exact arithmetic: clamp rounding.
+    let mut k: Vec<f64> = (0..n).map(|j| s[j].max(0.0).sqrt()).collect();
+    if conservative && n > 0 {
+        k[0] = 0.0;
+    }
+    let v = &lf * &y;
+    // z~ = H+^-1 v~ = L^-T y: one triangular solve.
+    let mut z = y;
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        lf.transpose(),
+        z.as_mut(),
+        faer::Par::Seq,
+    );
+    Ok(HalfSizeModes { k, v, z })
+}
