@@ -133,7 +133,7 @@ pub fn ring_projected_solid_angle(mu_lo: f64, mu_hi: f64) -> f64 {
 /// assert!((e[8] - 1.0).abs() < 1e-14);
 /// ```
 pub fn gauss_ring_edges(n: usize) -> Vec<f64> {
-    let (x, w) = km_core::fresnel::gauss_legendre(n);
+    let (x, w) = km_core::quadrature::gauss_legendre(n);
     // Ascending nodes on [-1, 1] mapped to [0, 1]: mu = (x + 1) / 2, weight w / 2.
     let mut pairs: Vec<(f64, f64)> =
         x.iter().zip(&w).map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w)).collect();
@@ -158,7 +158,7 @@ mod tests {
     fn gauss_cells_hold_their_nodes() {
         for n in [1, 2, 8, 32] {
             let e = gauss_ring_edges(n);
-            let (x, _) = km_core::fresnel::gauss_legendre(n);
+            let (x, _) = km_core::quadrature::gauss_legendre(n);
             let mut mu: Vec<f64> = x.iter().map(|x| 0.5 * (x + 1.0)).collect();
             mu.sort_by(f64::total_cmp);
             for (i, m) in mu.iter().enumerate() {

@@ -559,6 +559,43 @@ pub fn merge(parts: &[Partial]) -> Result<Solution, McError> {
     Ok(build_solution(parts, &m))
 }
 
+/// `f(idx(k)) / norm[k]` for `k < n` (`norm` 1 where it has no entry): a
+/// tally's bins per direction, layer, ring or annulus, divided by their
+/// solid angle or area.
+fn per(idx: &dyn Fn(usize) -> usize, n: usize, norm: &[f64], f: &dyn Fn(usize) -> f64) -> Vec<f64> {
+    (0..n).map(|k| f(idx(k)) / norm.get(k).copied().unwrap_or(1.0)).collect()
+}
+
+/// One channel's values and standard errors from its merged batch statistics.
+fn channel_result(s: &BatchStats, l: &Layout, meta: &ChannelMeta) -> ChannelResult {
+    let mean = |j: usize| s.mean(j);
+    let se = |j: usize| s.stderr(j);
+    let ones = vec![1.0; l.layers];
+    let err = km_core::Uncertainty {
+        reflectance: Some(se(Layout::R)),
+        reflectance_specular: Some(se(Layout::R_SPEC)),
+        transmittance: Some(se(Layout::T)),
+        transmittance_direct: Some(se(Layout::T_DIRECT)),
+        absorptance: Some(se(Layout::A)),
+        absorptance_layers: Some(per(&|k| l.a_layer(k), l.layers, &ones, &se)),
+        brdf: Some(per(&|k| l.brdf(k), l.dirs, &meta.cone, &se)),
+        btdf: Some(per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &se)),
+        ..Default::default()
+    };
+    ChannelResult {
+        reflectance: mean(Layout::R),
+        reflectance_specular: mean(Layout::R_SPEC),
+        transmittance: mean(Layout::T),
+        transmittance_direct: mean(Layout::T_DIRECT),
+        absorptance: mean(Layout::A),
+        brdf: per(&|k| l.brdf(k), l.dirs, &meta.cone, &mean),
+        btdf: per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &mean),
+        stderr: Some(err),
+        error_estimate: None,
+        absorptance_layers: Some(per(&|k| l.a_layer(k), l.layers, &ones, &mean)),
+    }
+}
+
 /// Turn merged statistics into the contract [`Solution`].
 pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
     let p0 = &parts[0];
@@ -579,41 +616,9 @@ pub(crate) fn build_solution(parts: &[Partial], m: &Merged) -> Solution {
     for (c, meta) in p0.channels.iter().enumerate() {
         let s = &m.stats[c];
         let l = meta.layout();
-        let per = |idx: &dyn Fn(usize) -> usize,
-                   n: usize,
-                   norm: &[f64],
-                   f: &dyn Fn(usize) -> f64| {
-            (0..n).map(|k| f(idx(k)) / norm.get(k).copied().unwrap_or(1.0)).collect::<Vec<f64>>()
-        };
         let mean = |j: usize| s.mean(j);
         let se = |j: usize| s.stderr(j);
-        let ones = vec![1.0; l.layers];
-        let brdf = per(&|k| l.brdf(k), l.dirs, &meta.cone, &mean);
-        let btdf = per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &mean);
-        let layers = per(&|k| l.a_layer(k), l.layers, &ones, &mean);
-        let err = km_core::Uncertainty {
-            reflectance: Some(se(Layout::R)),
-            reflectance_specular: Some(se(Layout::R_SPEC)),
-            transmittance: Some(se(Layout::T)),
-            transmittance_direct: Some(se(Layout::T_DIRECT)),
-            absorptance: Some(se(Layout::A)),
-            absorptance_layers: Some(per(&|k| l.a_layer(k), l.layers, &ones, &se)),
-            brdf: Some(per(&|k| l.brdf(k), l.dirs, &meta.cone, &se)),
-            btdf: Some(per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &se)),
-            ..Default::default()
-        };
-        channels.push(ChannelResult {
-            reflectance: mean(Layout::R),
-            reflectance_specular: mean(Layout::R_SPEC),
-            transmittance: mean(Layout::T),
-            transmittance_direct: mean(Layout::T_DIRECT),
-            absorptance: mean(Layout::A),
-            brdf,
-            btdf,
-            stderr: Some(err),
-            error_estimate: None,
-            absorptance_layers: Some(layers),
-        });
+        channels.push(channel_result(s, &l, meta));
         lost.push(mean(Layout::LOST));
         a_sub.push(mean(Layout::A_SUB));
         rings_r.push(per(&|k| l.ring_r(k), l.rings, &meta.ring, &mean));

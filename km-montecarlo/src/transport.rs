@@ -265,8 +265,6 @@ impl Tracer {
         }
     }
 
-    /// Trace one photon from the light source to its end (escape, absorption,
-    /// roulette or the step cap).
     /// Absorption at an interaction that absorbs the fraction `absorb` and
     /// keeps `albedo = 1 - absorb`, booked to the tally `slot` (a layer or the
     /// Lambertian substrate) and to the total. Survival biasing deposits the
@@ -317,11 +315,85 @@ impl Tracer {
         true
     }
 
+    /// Trace one photon from the light source to its end (escape, absorption,
+    /// roulette or the step cap): launch, then free paths, interactions and
+    /// boundaries until it ends.
     fn trace(&self, rng: &mut Pcg64, sums: &mut [f64], counts: &mut Counts) {
         let survival = self.estimator == Estimator::SurvivalBiasing;
+        let Some(mut p) = self.launch(survival, rng, sums) else {
+            return;
+        };
+        let mut steps = 0u64;
+        loop {
+            steps += 1;
+            if steps > self.max_steps {
+                // Stopped by the step cap: the weight is booked as lost (bias bound).
+                sums[Layout::LOST] += p.w;
+                counts.capped += 1;
+                break;
+            }
+            let slab = &self.slabs[p.layer];
+            // Step 1: fresh optical path length (eq. M1); 1 - u lies in (0, 1].
+            if p.s_left <= 0.0 {
+                p.s_left = -(1.0 - uniform(rng)).ln();
+            }
+            // Step 2: distance to the boundary ahead and free path. The
+            // boundary is chosen by a select (no jump on the sign of uz, which
+            // is a coin toss); only a horizontal path (uz = 0) takes a branch.
+            let z_b = if p.uz > 0.0 { slab.bottom } else { slab.top };
+            let d_b = if p.uz != 0.0 { (z_b - p.z) / p.uz } else { f64::INFINITY };
+            // A clear layer has inv_sigma_t = inf: d is inf (or NaN for a
+            // zero path, s_left = 0), and either fails `d < d_b` below.
+            let d = p.s_left * slab.inv_sigma_t;
+
+            if d < d_b {
+                // Step 3a: interaction inside the layer.
+                p.x += d * p.ux;
+                p.y += d * p.uy;
+                p.z += d * p.uz;
+                p.s_left = 0.0;
+                counts.interactions += 1;
+                let ja = self.layout.a_layer(p.layer);
+                if !self.absorb(survival, slab.absorb, slab.albedo, ja, &mut p.w, sums, rng) {
+                    break;
+                }
+                // Scattering (eq. M3).
+                let cos_t = slab.phase.sample_cos(uniform(rng));
+                let (cos_p, sin_p) = azimuth(rng);
+                (p.ux, p.uy, p.uz) = spin(p.ux, p.uy, p.uz, cos_t, cos_p, sin_p);
+                p.scattered = true;
+                continue;
+            }
+
+            // Step 3b: reach the boundary ahead.
+            if d_b.is_infinite() {
+                // A clear half-space (or a horizontal path): the photon never comes back.
+                if p.uz > 0.0 {
+                    self.escape_bottom(sums, p.w, [p.ux, p.uy, p.uz], p.scattered);
+                } else {
+                    sums[Layout::LOST] += p.w;
+                    counts.capped += 1;
+                }
+                break;
+            }
+            p.x += d_b * p.ux;
+            p.y += d_b * p.uy;
+            p.s_left = (p.s_left - d_b * slab.sigma_t).max(0.0);
+            p.z = if p.uz > 0.0 { slab.bottom } else { slab.top };
+            if !self.cross(&mut p, survival, rng, sums) {
+                break;
+            }
+        }
+        counts.steps += steps;
+    }
+
+    /// The photon's start: its direction in the ambient medium (the light
+    /// comes from azimuth 0, so it travels towards azimuth 180), and the top
+    /// surface's Fresnel split (survival) or choice (analog) with refraction
+    /// into the first layer (eq. M2). `None` when nothing enters.
+    #[inline]
+    fn launch(&self, survival: bool, rng: &mut Pcg64, sums: &mut [f64]) -> Option<Photon> {
         let n0 = self.ambient_n;
-        // --- Launch: direction of propagation in the ambient medium.
-        // The light comes from azimuth 0, so it travels towards azimuth 180.
         let (mut ux, mut uy, mut uz) = match self.light {
             Light::Collimated { theta_deg } => {
                 let t = theta_deg.to_radians();
@@ -336,7 +408,6 @@ impl Tracer {
             }
         };
         let mut w = 1.0;
-        // --- Top surface: Fresnel split (survival) or choice (analog).
         let n1 = self.slabs[0].n;
         // The plan's `interface` rule: no Fresnel test where the indices match.
         if n1 != n0 || self.all_effects {
@@ -348,11 +419,11 @@ impl Tracer {
                 }
                 w -= spec;
                 if w <= 0.0 {
-                    return;
+                    return None;
                 }
             } else if uniform(rng) < r {
                 self.escape_top(sums, w, [ux, uy, -uz], false, 0.0, 0.0);
-                return;
+                return None;
             }
             // Refraction into layer 0 (eq. M2); r < 1 here, so Snell has a solution.
             let cos_t = fresnel::snell_cos_t(uz, n0, n1).unwrap_or(1.0);
@@ -361,139 +432,113 @@ impl Tracer {
             uy *= eta;
             uz = cos_t;
         }
-        let (mut x, mut y, mut z) = (0.0f64, 0.0f64, 0.0f64);
-        let mut layer = 0usize;
-        let mut scattered = false;
-        let mut s_left = 0.0f64;
-        let mut steps = 0u64;
+        Some(Photon {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            ux,
+            uy,
+            uz,
+            w,
+            layer: 0,
+            scattered: false,
+            s_left: 0.0,
+        })
+    }
+
+    /// Step 4: the photon at the boundary of its layer (`p.z` on it) meets
+    /// the medium on the other side: a Lambertian or black substrate, or an
+    /// interface (Fresnel reflection or refraction, eq. M2) into the next
+    /// layer, the ambient medium or a clear substrate. Returns `false` when
+    /// the photon has left or ended.
+    #[inline]
+    fn cross(&self, p: &mut Photon, survival: bool, rng: &mut Pcg64, sums: &mut [f64]) -> bool {
+        enum Other {
+            Layer(usize),
+            Ambient,
+            Substrate,
+        }
+        let down = p.uz > 0.0;
+        let n_i = self.slabs[p.layer].n;
         let last = self.slabs.len() - 1;
-
-        loop {
-            steps += 1;
-            if steps > self.max_steps {
-                // Stopped by the step cap: the weight is booked as lost (bias bound).
-                sums[Layout::LOST] += w;
-                counts.capped += 1;
-                break;
-            }
-            let slab = &self.slabs[layer];
-            // Step 1: fresh optical path length (eq. M1); 1 - u lies in (0, 1].
-            if s_left <= 0.0 {
-                s_left = -(1.0 - uniform(rng)).ln();
-            }
-            // Step 2: distance to the boundary ahead and free path. The
-            // boundary is chosen by a select (no jump on the sign of uz, which
-            // is a coin toss); only a horizontal path (uz = 0) takes a branch.
-            let z_b = if uz > 0.0 { slab.bottom } else { slab.top };
-            let d_b = if uz != 0.0 { (z_b - z) / uz } else { f64::INFINITY };
-            // A clear layer has inv_sigma_t = inf: d is inf (or NaN for a
-            // zero path, s_left = 0), and either fails `d < d_b` below.
-            let d = s_left * slab.inv_sigma_t;
-
-            if d < d_b {
-                // Step 3a: interaction inside the layer.
-                x += d * ux;
-                y += d * uy;
-                z += d * uz;
-                s_left = 0.0;
-                counts.interactions += 1;
-                let ja = self.layout.a_layer(layer);
-                if !self.absorb(survival, slab.absorb, slab.albedo, ja, &mut w, sums, rng) {
-                    break;
-                }
-                // Scattering (eq. M3).
-                let cos_t = slab.phase.sample_cos(uniform(rng));
-                let (cos_p, sin_p) = azimuth(rng);
-                (ux, uy, uz) = spin(ux, uy, uz, cos_t, cos_p, sin_p);
-                scattered = true;
-                continue;
-            }
-
-            // Step 3b: reach the boundary ahead.
-            if d_b.is_infinite() {
-                // A clear half-space (or a horizontal path): the photon never comes back.
-                if uz > 0.0 {
-                    self.escape_bottom(sums, w, [ux, uy, uz], scattered);
-                } else {
-                    sums[Layout::LOST] += w;
-                    counts.capped += 1;
-                }
-                break;
-            }
-            x += d_b * ux;
-            y += d_b * uy;
-            s_left = (s_left - d_b * slab.sigma_t).max(0.0);
-            let down = uz > 0.0;
-            z = if down { slab.bottom } else { slab.top };
-            let n_i = slab.n;
-
-            // Step 4: the interface. Which medium is on the other side?
-            enum Other {
-                Layer(usize),
-                Ambient,
-                Substrate,
-            }
-            let other = if down {
-                if layer == last { Other::Substrate } else { Other::Layer(layer + 1) }
-            } else if layer == 0 {
-                Other::Ambient
-            } else {
-                Other::Layer(layer - 1)
-            };
-            let n_t = match other {
-                Other::Layer(j) => self.slabs[j].n,
-                Other::Ambient => n0,
-                Other::Substrate => match self.below {
-                    Below::Transparent(n) => n,
-                    Below::Lambertian(a) => {
-                        // Opaque Lambertian reflector in optical contact.
-                        scattered = true;
-                        if !self.absorb(survival, 1.0 - a, a, Layout::A_SUB, &mut w, sums, rng) {
-                            break;
-                        }
-                        // Cosine-weighted re-emission upward.
-                        let mu = uniform(rng).sqrt();
-                        let (cos_p, sin_p) = azimuth(rng);
-                        let s = (1.0 - mu * mu).max(0.0).sqrt();
-                        (ux, uy, uz) = (s * cos_p, s * sin_p, -mu);
-                        continue;
+        let other = if down {
+            if p.layer == last { Other::Substrate } else { Other::Layer(p.layer + 1) }
+        } else if p.layer == 0 {
+            Other::Ambient
+        } else {
+            Other::Layer(p.layer - 1)
+        };
+        let n_t = match other {
+            Other::Layer(j) => self.slabs[j].n,
+            Other::Ambient => self.ambient_n,
+            Other::Substrate => match self.below {
+                Below::Transparent(n) => n,
+                Below::Lambertian(a) => {
+                    // Opaque Lambertian reflector in optical contact.
+                    p.scattered = true;
+                    if !self.absorb(survival, 1.0 - a, a, Layout::A_SUB, &mut p.w, sums, rng) {
+                        return false;
                     }
-                    Below::Black => {
-                        sums[Layout::A_SUB] += w;
-                        sums[Layout::A] += w;
-                        break;
-                    }
-                },
-            };
-            if n_t != n_i || self.all_effects {
-                let cos_i = uz.abs();
-                let r = fresnel::reflectance(cos_i, n_i, n_t);
-                if uniform(rng) < r {
-                    // Specular reflection at the interface.
-                    uz = -uz;
-                    continue;
+                    // Cosine-weighted re-emission upward.
+                    let mu = uniform(rng).sqrt();
+                    let (cos_p, sin_p) = azimuth(rng);
+                    let s = (1.0 - mu * mu).max(0.0).sqrt();
+                    (p.ux, p.uy, p.uz) = (s * cos_p, s * sin_p, -mu);
+                    return true;
                 }
-                // Refraction (eq. M2).
-                let cos_t = fresnel::snell_cos_t(cos_i, n_i, n_t).unwrap_or(1.0);
-                let eta = n_i / n_t;
-                ux *= eta;
-                uy *= eta;
-                uz = if down { cos_t } else { -cos_t };
+                Below::Black => {
+                    sums[Layout::A_SUB] += p.w;
+                    sums[Layout::A] += p.w;
+                    return false;
+                }
+            },
+        };
+        if n_t != n_i || self.all_effects {
+            let cos_i = p.uz.abs();
+            let r = fresnel::reflectance(cos_i, n_i, n_t);
+            if uniform(rng) < r {
+                // Specular reflection at the interface.
+                p.uz = -p.uz;
+                return true;
             }
-            match other {
-                Other::Layer(j) => layer = j,
-                Other::Ambient => {
-                    self.escape_top(sums, w, [ux, uy, uz], scattered, x, y);
-                    break;
-                }
-                Other::Substrate => {
-                    self.escape_bottom(sums, w, [ux, uy, uz], scattered);
-                    break;
-                }
+            // Refraction (eq. M2).
+            let cos_t = fresnel::snell_cos_t(cos_i, n_i, n_t).unwrap_or(1.0);
+            let eta = n_i / n_t;
+            p.ux *= eta;
+            p.uy *= eta;
+            p.uz = if down { cos_t } else { -cos_t };
+        }
+        match other {
+            Other::Layer(j) => {
+                p.layer = j;
+                true
+            }
+            Other::Ambient => {
+                self.escape_top(sums, p.w, [p.ux, p.uy, p.uz], p.scattered, p.x, p.y);
+                false
+            }
+            Other::Substrate => {
+                self.escape_bottom(sums, p.w, [p.ux, p.uy, p.uz], p.scattered);
+                false
             }
         }
-        counts.steps += steps;
     }
+}
+
+/// The state of one photon between events: position, direction of
+/// propagation, weight, the layer it is in, whether it has scattered, and
+/// the optical path still to run (eq. M1).
+struct Photon {
+    x: f64,
+    y: f64,
+    z: f64,
+    ux: f64,
+    uy: f64,
+    uz: f64,
+    w: f64,
+    layer: usize,
+    scattered: bool,
+    s_left: f64,
 }
 
 /// Critical polar angle (radians) beyond which no light can leave on one

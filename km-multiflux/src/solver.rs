@@ -216,10 +216,7 @@ fn solve_mono_residual(
     };
     let (mut r_tot, mut t_tot) = (0.0, 0.0);
 
-    // Azimuthal convergence (as DISORT's ACCUR test): stop after two
-    // consecutive orders whose Fourier amplitudes |I^m| are all below
-    // `FOURIER_TOL` times the largest BRDF/BTDF value so far.
-    let mut small_orders = 0;
+    let mut stop = FourierStop::default();
     let mut m_used = 0;
     let lone = lone_layer(scene, &layers, beam, n_sub, all);
     // cos m(phi - 180 deg) once per distinct azimuth and order.
@@ -267,22 +264,31 @@ fn solve_mono_residual(
             }
             term = term.max(add_order(&mut out.btdf, &down[nb..], &ex.btdf_ix, of, c));
         }
-        // The order's exit radiances go back to the workspace (no allocation
-        // for them in the next order).
-        crate::workspace::with_workspace(|ws| {
-            ws.give(up);
-            ws.give(down);
-        });
-        if m > 0 && !all {
-            let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
-            small_orders = if term <= FOURIER_TOL * largest { small_orders + 1 } else { 0 };
-            if small_orders == 2 {
-                break;
-            }
+        // The order's exit radiances go back to the workspace (reused by the next order).
+        crate::workspace::with_workspace(|ws| [up, down].into_iter().for_each(|v| ws.give(v)));
+        if m > 0 && !all && stop.converged(term, &out) {
+            break;
         }
     }
     finish(scene, &layers, n_sub, &ex, &nodes0, (r_tot, t_tot), &mut out, out_residual)?;
     Ok((out, m_used + 1))
+}
+
+/// Azimuthal convergence (as DISORT's ACCUR test): stop after two
+/// consecutive orders whose Fourier amplitudes `|I^m|` are all below
+/// [`FOURIER_TOL`] times the largest BRDF/BTDF value so far.
+#[derive(Default)]
+struct FourierStop {
+    small_orders: usize,
+}
+
+impl FourierStop {
+    /// After an order whose largest amplitude is `term`: whether the series has converged.
+    fn converged(&mut self, term: f64, out: &ChannelResult) -> bool {
+        let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
+        self.small_orders = if term <= FOURIER_TOL * largest { self.small_orders + 1 } else { 0 };
+        self.small_orders == 2
+    }
 }
 
 /// Add Fourier order `m` of the exit radiances (`x[ix[k]]` for direction

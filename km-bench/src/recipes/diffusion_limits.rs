@@ -12,7 +12,8 @@
 
 use std::time::Instant;
 
-use km_core::fresnel::{critical_cos, integrate_gl, reflectance};
+use km_core::fresnel::{critical_cos, reflectance};
+use km_core::quadrature::integrate_gl;
 use km_core::{Scene, Substrate};
 
 use crate::chart::{LineChart, Mark, Series, format_number};
