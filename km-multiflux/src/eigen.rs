@@ -21,7 +21,14 @@
 //! instead of `2N x 2N` general. The callers build `H±` and map `v~`, `z~`
 //! back to radiances (`T^-1`).
 
-use faer::{Mat, Side};
+use faer::dyn_stack::StackReq;
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::evd::{ComputeEigenvectors, self_adjoint_evd, self_adjoint_evd_scratch};
+use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
+use faer::{Accum, Mat, Par};
+
+use crate::workspace::Workspace;
 
 /// The modes of eq. EG1 in the scaled coordinates: decay constants `k_j >= 0`
 /// ascending, and the columns `v~_j = L y_j`, `z~_j = L^-T y_j`.
@@ -72,28 +79,78 @@ pub fn half_size_modes(
     hm: &Mat<f64>,
     conservative: bool,
 ) -> Result<HalfSizeModes, EigenFailure> {
+    half_size_modes_in(hp, hm, conservative, &mut Workspace::default())
+}
+
+/// [`half_size_modes`] with its matrices, vectors and faer's scratch taken
+/// from `ws` (the per-order loop of a solve allocates nothing here once the
+/// workspace is warm). The columns `v`, `z` and `k` are the workspace's: the
+/// caller hands them back ([`Workspace::give_mat`], [`Workspace::give`]).
+/// The steps are those of faer's `Mat::llt`, `Mat::self_adjoint_eigen` and
+/// `*` (the same low-level routines, default parameters, `Par::Seq`), so
+/// the result is the same bit for bit.
+pub(crate) fn half_size_modes_in(
+    hp: &Mat<f64>,
+    hm: &Mat<f64>,
+    conservative: bool,
+    ws: &mut Workspace,
+) -> Result<HalfSizeModes, EigenFailure> {
     let n = hp.nrows();
-    // H+ = L L^T.
-    let llt = hp.llt(Side::Lower).map_err(|e| EigenFailure::Cholesky(format!("{e:?}")))?;
-    let lf = llt.L().to_owned();
+    let par = Par::Seq;
+    let req = StackReq::any_of(&[
+        cholesky_in_place_scratch::<f64>(n, par, Default::default()),
+        self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::Yes, par, Default::default()),
+    ]);
+    // H+ = L L^T: the lower triangle of H+, factored in place; the strict
+    // upper triangle stays zero (the workspace matrix is zero-filled).
+    let mut lf = ws.take_mat(n, n);
+    lf.copy_from_triangular_lower(hp);
+    if let Err(e) =
+        cholesky_in_place(lf.as_mut(), Default::default(), par, ws.stack(req), Default::default())
+    {
+        ws.give_mat(lf);
+        return Err(EigenFailure::Cholesky(format!("{e:?}")));
+    }
+    for j in 1..n {
+        lf.col_as_slice_mut(j)[..j].fill(0.0);
+    }
     // L^T H- L y = k^2 y (eq. EG1).
-    let sym = lf.transpose() * (hm * &lf);
-    let evd =
-        sym.self_adjoint_eigen(Side::Lower).map_err(|e| EigenFailure::Eigen(format!("{e:?}")))?;
-    let s = evd.S().column_vector().to_owned();
-    let y = evd.U().to_owned();
+    let mut hl = ws.take_mat(n, n);
+    matmul(hl.as_mut(), Accum::Replace, hm.as_ref(), lf.as_ref(), 1.0, par);
+    let mut sym = ws.take_mat(n, n);
+    matmul(sym.as_mut(), Accum::Replace, lf.transpose(), hl.as_ref(), 1.0, par);
+    let mut s = ws.take_mat(n, 1);
+    let mut y = ws.take_mat(n, n);
+    let evd = self_adjoint_evd(
+        sym.as_ref(),
+        s.col_mut(0).as_diagonal_mut(),
+        Some(y.as_mut()),
+        par,
+        ws.stack(req),
+        Default::default(),
+    );
+    ws.give_mat(hl);
+    ws.give_mat(sym);
+    if let Err(e) = evd {
+        for m in [lf, s, y] {
+            ws.give_mat(m);
+        }
+        return Err(EigenFailure::Eigen(format!("{e:?}")));
+    }
     // k^2 >= 0 in exact arithmetic: clamp rounding.
-    let mut k: Vec<f64> = (0..n).map(|j| s[j].max(0.0).sqrt()).collect();
+    let mut k = ws.take(n);
+    for (kj, &sj) in k.iter_mut().zip(s.col_as_slice(0)) {
+        *kj = sj.max(0.0).sqrt();
+    }
+    ws.give_mat(s);
     if conservative && n > 0 {
         k[0] = 0.0;
     }
-    let v = &lf * &y;
+    let mut v = ws.take_mat(n, n);
+    matmul(v.as_mut(), Accum::Replace, lf.as_ref(), y.as_ref(), 1.0, par);
     // z~ = H+^-1 v~ = L^-T y: one triangular solve.
     let mut z = y;
-    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-        lf.transpose(),
-        z.as_mut(),
-        faer::Par::Seq,
-    );
+    solve_upper_triangular_in_place(lf.transpose(), z.as_mut(), par);
+    ws.give_mat(lf);
     Ok(HalfSizeModes { k, v, z })
 }

@@ -13,28 +13,38 @@
 //! One workspace is kept per thread ([`with_workspace`]), so channels solved
 //! on the rayon pool each use their own. It is bounded: at most
 //! [`MAX_VECTORS`] vectors and [`MAX_MATRICES`] matrices of at most
-//! [`MAX_LEN`] values each are kept (10 MiB per thread at most); anything
+//! [`MAX_LEN`] values each are kept (12 MiB per thread at most, besides
+//! faer's scratch); anything
 //! beyond is freed as usual. The boundary matrices of eq. S4 and the node
-//! operators of a layer come from it too ([`Workspace::take_mat`]).
+//! operators of a layer come from it too ([`Workspace::take_mat`]), and so
+//! do the matrices of the eigen-solve ([`crate::eigen`]: `H+-`, the Cholesky
+//! factor, the products, the eigenvectors, `v~`, `z~`) and faer's scratch
+//! for its Cholesky factorisation and symmetric eigen-solver
+//! ([`Workspace::stack`]: one buffer, grown to the largest request, that
+//! is `O(N^2)` values for `N` nodes).
 
 use std::cell::Cell;
 
 use faer::Mat;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 
 /// Most vectors a workspace keeps.
 pub(crate) const MAX_VECTORS: usize = 128;
 /// Most matrices a workspace keeps.
-pub(crate) const MAX_MATRICES: usize = 32;
+pub(crate) const MAX_MATRICES: usize = 64;
 /// Shortest capacity of a new vector (values).
 const MIN_LEN: usize = 64;
 /// Longest vector (values) a workspace keeps: `8192` values = 64 KiB.
 pub(crate) const MAX_LEN: usize = 8192;
 
 /// A pool of `f64` vectors (see the module doc).
-#[derive(Debug, Default)]
+#[derive(Default)]
 pub(crate) struct Workspace {
     free: Vec<Vec<f64>>,
     mats: Vec<Mat<f64>>,
+    /// faer's scratch (the Cholesky factorisation and the symmetric
+    /// eigen-solver of [`crate::eigen`]), grown to the largest request seen.
+    stack: Option<MemBuffer>,
     /// Vectors handed out, and how many of them needed a fresh allocation
     /// (none kept, or none long enough): counts for tests and benchmarks.
     taken: usize,
@@ -104,6 +114,19 @@ impl Workspace {
         if len > 0 && len <= MAX_LEN && self.mats.len() < MAX_MATRICES {
             self.mats.push(m);
         }
+    }
+
+    /// faer's scratch for a request `req`: the kept buffer when it can hold
+    /// `req`, else a new one of `req` (the old one is freed). Its contents
+    /// are arbitrary, as those of a new buffer.
+    pub(crate) fn stack(&mut self, req: StackReq) -> &mut MemStack {
+        let fits = self.stack.as_mut().is_some_and(|b| MemStack::new(b).can_hold(req));
+        if !fits {
+            self.fresh += 1;
+            self.stack = Some(MemBuffer::new(req));
+        }
+        self.taken += 1;
+        MemStack::new(self.stack.as_mut().expect("set above"))
     }
 
     /// `(taken, fresh)`: vectors handed out since the workspace was made and
