@@ -154,3 +154,95 @@ pub(crate) fn half_size_modes_in(
     ws.give_mat(lf);
     Ok(HalfSizeModes { k, v, z })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Side;
+
+    /// A symmetric positive definite `H+` and a symmetric `H-` of the
+    /// slab's shape (diagonal `1/mu` minus a dense symmetric part).
+    fn operators(n: usize) -> (Mat<f64>, Mat<f64>) {
+        let s = |i: usize, j: usize, c: f64| 0.3 / (1.0 + (i + j) as f64 + c * (i * j) as f64);
+        let hp =
+            Mat::from_fn(
+                n,
+                n,
+                |i, j| {
+                    if i == j { 2.0 + i as f64 - s(i, j, 0.1) } else { -s(i, j, 0.1) }
+                },
+            );
+        let hm =
+            Mat::from_fn(
+                n,
+                n,
+                |i, j| {
+                    if i == j { 1.5 + i as f64 - s(i, j, 0.7) } else { -s(i, j, 0.7) }
+                },
+            );
+        (hp, hm)
+    }
+
+    /// The workspace path gives the same bits as faer's high-level calls
+    /// (`Mat::llt`, the `*` products, `Mat::self_adjoint_eigen`), which it
+    /// replaces; a warm workspace hands out every matrix, vector and the
+    /// scratch without a new allocation; and `k^2`, `v~`, `z~` satisfy eq.
+    /// EG1: `H- v~ = k^2 z~` and `H+ z~ = v~` (tolerance: 1e-12 relative to
+    /// the largest entry, a few hundred roundings of `N = 8..24` products).
+    #[test]
+    fn workspace_path_is_faers_high_level_path_bit_for_bit() {
+        let mut ws = Workspace::default();
+        for (pass, n) in [1, 3, 8, 24, 8].into_iter().enumerate() {
+            let (hp, hm) = operators(n);
+            let (_, fresh0) = ws.counts();
+            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let (_, fresh1) = ws.counts();
+            if pass == 4 {
+                // The second solve at N = 8: everything kept from the first.
+                assert_eq!(fresh1, fresh0, "a warm eigen-solve takes nothing new");
+            }
+            // The replaced high-level path.
+            let lf = hp.llt(Side::Lower).unwrap().L().to_owned();
+            let sym = lf.transpose() * (&hm * &lf);
+            let evd = sym.self_adjoint_eigen(Side::Lower).unwrap();
+            let y = evd.U().to_owned();
+            let v = &lf * &y;
+            let mut z = y.clone();
+            solve_upper_triangular_in_place(lf.transpose(), z.as_mut(), Par::Seq);
+            for j in 0..n {
+                let kj = evd.S().column_vector()[j].max(0.0).sqrt();
+                assert_eq!(m.k[j].to_bits(), kj.to_bits(), "k_{j}, N = {n}");
+                for i in 0..n {
+                    assert_eq!(m.v[(i, j)].to_bits(), v[(i, j)].to_bits(), "v, N = {n}");
+                    assert_eq!(m.z[(i, j)].to_bits(), z[(i, j)].to_bits(), "z, N = {n}");
+                }
+            }
+            // Eq. EG1.
+            let (hmv, hpz) = (&hm * &m.v, &hp * &m.z);
+            for j in 0..n {
+                for i in 0..n {
+                    let k2z = m.k[j] * m.k[j] * m.z[(i, j)];
+                    assert!((hmv[(i, j)] - k2z).abs() < 1e-12 * (1.0 + hmv[(i, j)].abs()));
+                    assert!((hpz[(i, j)] - m.v[(i, j)]).abs() < 1e-12 * (1.0 + m.v[(i, j)].abs()));
+                }
+            }
+            ws.give(m.k);
+            ws.give_mat(m.v);
+            ws.give_mat(m.z);
+        }
+    }
+
+    /// A non-positive-definite `H+` is refused by name, and the workspace
+    /// gets its matrices back.
+    #[test]
+    fn indefinite_h_plus_is_refused() {
+        let mut ws = Workspace::default();
+        let hp = Mat::from_fn(2, 2, |i, j| if i == j { [1.0, -1.0][i] } else { 0.0 });
+        let hm = Mat::<f64>::identity(2, 2);
+        let e = half_size_modes_in(&hp, &hm, false, &mut ws).err();
+        assert!(matches!(e, Some(EigenFailure::Cholesky(_))));
+        let (_, fresh) = ws.counts();
+        let _ = ws.take_mat(2, 2);
+        assert_eq!(ws.counts().1, fresh, "the factor's matrix is handed back");
+    }
+}
