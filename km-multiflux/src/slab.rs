@@ -174,13 +174,19 @@ impl SlabSolution {
         let n = mu.len();
         let (tau, omega, m) = (p.tau, p.omega, p.m);
         let nl = p.chi.len();
-        let t: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (u * w).sqrt()).collect();
-        let chi: Vec<f64> =
-            (0..nl).map(|l| if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] }).collect();
+        // t = sqrt(w mu), the weighted moments chi and the Legendre table in
+        // vectors of the workspace (handed back by `SlabSolution::recycle`).
+        let (mut t, mut chi, mut lam) =
+            with_workspace(|ws| (ws.take(n), ws.take(nl), ws.take(n * nl)));
+        for ((t, u), w) in t.iter_mut().zip(mu).zip(w) {
+            *t = (u * w).sqrt();
+        }
+        for (l, c) in chi.iter_mut().enumerate() {
+            *c = if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] };
+        }
 
         // Legendre table Lambda_l^m(mu_i), node-major.
         let rec = LegendreRecurrence::new(m, nl);
-        let mut lam = vec![0.0; n * nl];
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
@@ -213,8 +219,8 @@ impl SlabSolution {
             let half = tau.is_infinite();
             let (e, [cp, cp_out, cm, cm_out]) = boundary_matrices(&v, &z, &k, tau, ws);
             // LU factors of Cp and Cm: every later use is a solve, never an inverse.
-            let lu_p = Lu::new(&cp);
-            let lu_m = (!half).then(|| Lu::new(&cm));
+            let lu_p = Lu::new_in(&cp, ws);
+            let lu_m = (!half).then(|| Lu::new_in(&cm, ws));
             let rt = Self::node_parts(
                 n,
                 full,
@@ -285,8 +291,12 @@ impl SlabSolution {
     /// Hand this solution's matrices and vectors that came from the
     /// workspace back to it (the end of a layer's order).
     pub(crate) fn recycle(self, ws: &mut Workspace) {
-        for v in [self.mu, self.w, self.ek, self.k] {
+        for v in [self.mu, self.w, self.ek, self.k, self.t, self.chi, self.lam] {
             ws.give(v);
+        }
+        self.lu_p.recycle(ws);
+        if let Some(lu) = self.lu_m {
+            lu.recycle(ws);
         }
         for m in [self.cp_out, self.cm_out, self.r, self.tr, self.v, self.z, self.hp, self.hm] {
             ws.give_mat(m);
