@@ -62,7 +62,7 @@ use faer::Mat;
 
 use crate::MultifluxError;
 use crate::correction::phi;
-use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes};
+use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes_in};
 use crate::legendre::LegendreRecurrence;
 use crate::phase_matrix::fourier_blocks;
 use crate::workspace::{Workspace, with_workspace};
@@ -174,41 +174,53 @@ impl SlabSolution {
         let n = mu.len();
         let (tau, omega, m) = (p.tau, p.omega, p.m);
         let nl = p.chi.len();
-        let t: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (u * w).sqrt()).collect();
-        let chi: Vec<f64> =
-            (0..nl).map(|l| if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] }).collect();
+        // t = sqrt(w mu), the weighted moments chi and the Legendre table in
+        // vectors of the workspace (handed back by `SlabSolution::recycle`).
+        let (mut t, mut chi, mut lam) =
+            with_workspace(|ws| (ws.take(n), ws.take(nl), ws.take(n * nl)));
+        for ((t, u), w) in t.iter_mut().zip(mu).zip(w) {
+            *t = (u * w).sqrt();
+        }
+        for (l, c) in chi.iter_mut().enumerate() {
+            *c = if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] };
+        }
 
         // Legendre table Lambda_l^m(mu_i), node-major.
         let rec = LegendreRecurrence::new(m, nl);
-        let mut lam = vec![0.0; n * nl];
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
         let (pe, po) = fourier_blocks(w, m, &chi, &lam, n);
         let renorm_m0 = m == 0;
-        let (hp, hm) = h_matrices(mu, w, omega, &pe, &po);
 
         let fail = |what: &'static str| MultifluxError::Numerical {
             what,
             detail: format!("N = {n}, tau = {tau}, omega = {omega}, m = {m}"),
         };
-        // Eq. S3 (crate::eigen eq. EG1). Conservative scattering: the discrete
-        // system conserves energy exactly (renormalised above), so the smallest
-        // eigenvalue is exactly 0.
-        let HalfSizeModes { k, v, z } =
-            half_size_modes(&hp, &hm, m == 0 && omega == 1.0).map_err(|e| match e {
-                EigenFailure::Cholesky(_) => fail("Cholesky of H+"),
-                EigenFailure::Eigen(_) => fail("eigen-solver"),
-            })?;
-
-        // Eq. S4-S5, column by column, in matrices and vectors of the
-        // workspace (handed back by `SlabSolution::recycle`).
+        // Eq. S3-S5 in matrices and vectors of the workspace (handed back by
+        // `SlabSolution::recycle`).
         with_workspace(|ws| {
+            let (hp, hm) = h_matrices(mu, w, omega, &pe, &po, ws);
+            // Eq. S3 (crate::eigen eq. EG1). Conservative scattering: the
+            // discrete system conserves energy exactly (renormalised above),
+            // so the smallest eigenvalue is exactly 0.
+            let modes = half_size_modes_in(&hp, &hm, m == 0 && omega == 1.0, ws);
+            let HalfSizeModes { k, v, z } = match modes {
+                Ok(modes) => modes,
+                Err(e) => {
+                    ws.give_mat(hp);
+                    ws.give_mat(hm);
+                    return Err(match e {
+                        EigenFailure::Cholesky(_) => fail("Cholesky of H+"),
+                        EigenFailure::Eigen(_) => fail("eigen-solver"),
+                    });
+                }
+            };
             let half = tau.is_infinite();
             let (e, [cp, cp_out, cm, cm_out]) = boundary_matrices(&v, &z, &k, tau, ws);
             // LU factors of Cp and Cm: every later use is a solve, never an inverse.
-            let lu_p = Lu::new(&cp);
-            let lu_m = (!half).then(|| Lu::new(&cm));
+            let lu_p = Lu::new_in(&cp, ws);
+            let lu_m = (!half).then(|| Lu::new_in(&cm, ws));
             let rt = Self::node_parts(
                 n,
                 full,
@@ -279,10 +291,14 @@ impl SlabSolution {
     /// Hand this solution's matrices and vectors that came from the
     /// workspace back to it (the end of a layer's order).
     pub(crate) fn recycle(self, ws: &mut Workspace) {
-        for v in [self.mu, self.w, self.ek] {
+        for v in [self.mu, self.w, self.ek, self.k, self.t, self.chi, self.lam] {
             ws.give(v);
         }
-        for m in [self.cp_out, self.cm_out, self.r, self.tr] {
+        self.lu_p.recycle(ws);
+        if let Some(lu) = self.lu_m {
+            lu.recycle(ws);
+        }
+        for m in [self.cp_out, self.cm_out, self.r, self.tr, self.v, self.z, self.hp, self.hm] {
             ws.give_mat(m);
         }
     }
@@ -320,11 +336,15 @@ fn h_matrices(
     omega: f64,
     pe: &Mat<f64>,
     po: &Mat<f64>,
+    ws: &mut Workspace,
 ) -> (Mat<f64>, Mat<f64>) {
     let n = mu.len();
-    let sq: Vec<f64> = mu.iter().zip(w).map(|(u, w)| (w / u).sqrt()).collect();
-    let mut hp = Mat::<f64>::zeros(n, n);
-    let mut hm = Mat::<f64>::zeros(n, n);
+    let mut sq = ws.take(n);
+    for ((s, u), w) in sq.iter_mut().zip(mu).zip(w) {
+        *s = (w / u).sqrt();
+    }
+    let mut hp = ws.take_mat(n, n);
+    let mut hm = ws.take_mat(n, n);
     for j in 0..n {
         let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
         let hpc = hp.col_as_slice_mut(j);
@@ -338,6 +358,7 @@ fn h_matrices(
         }
         hmc[j] += 1.0 / mu[j];
     }
+    ws.give(sq);
     (hp, hm)
 }
 

@@ -13,28 +13,38 @@
 //! One workspace is kept per thread ([`with_workspace`]), so channels solved
 //! on the rayon pool each use their own. It is bounded: at most
 //! [`MAX_VECTORS`] vectors and [`MAX_MATRICES`] matrices of at most
-//! [`MAX_LEN`] values each are kept (10 MiB per thread at most); anything
+//! [`MAX_LEN`] values each are kept (12 MiB per thread at most, besides
+//! faer's scratch); anything
 //! beyond is freed as usual. The boundary matrices of eq. S4 and the node
-//! operators of a layer come from it too ([`Workspace::take_mat`]).
+//! operators of a layer come from it too ([`Workspace::take_mat`]), and so
+//! do the matrices of the eigen-solve ([`crate::eigen`]: `H+-`, the Cholesky
+//! factor, the products, the eigenvectors, `v~`, `z~`) and faer's scratch
+//! for its Cholesky factorisation and symmetric eigen-solver
+//! ([`Workspace::stack`]: one buffer, grown to the largest request, that
+//! is `O(N^2)` values for `N` nodes).
 
 use std::cell::Cell;
 
 use faer::Mat;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 
 /// Most vectors a workspace keeps.
 pub(crate) const MAX_VECTORS: usize = 128;
 /// Most matrices a workspace keeps.
-pub(crate) const MAX_MATRICES: usize = 32;
+pub(crate) const MAX_MATRICES: usize = 64;
 /// Shortest capacity of a new vector (values).
 const MIN_LEN: usize = 64;
 /// Longest vector (values) a workspace keeps: `8192` values = 64 KiB.
 pub(crate) const MAX_LEN: usize = 8192;
 
 /// A pool of `f64` vectors (see the module doc).
-#[derive(Debug, Default)]
+#[derive(Default)]
 pub(crate) struct Workspace {
     free: Vec<Vec<f64>>,
     mats: Vec<Mat<f64>>,
+    /// faer's scratch (the Cholesky factorisation and the symmetric
+    /// eigen-solver of [`crate::eigen`]), grown to the largest request seen.
+    stack: Option<MemBuffer>,
     /// Vectors handed out, and how many of them needed a fresh allocation
     /// (none kept, or none long enough): counts for tests and benchmarks.
     taken: usize,
@@ -106,6 +116,19 @@ impl Workspace {
         }
     }
 
+    /// faer's scratch for a request `req`: the kept buffer when it can hold
+    /// `req`, else a new one of `req` (the old one is freed). Its contents
+    /// are arbitrary, as those of a new buffer.
+    pub(crate) fn stack(&mut self, req: StackReq) -> &mut MemStack {
+        let fits = self.stack.as_mut().is_some_and(|b| MemStack::new(b).can_hold(req));
+        if !fits {
+            self.fresh += 1;
+            self.stack = Some(MemBuffer::new(req));
+        }
+        self.taken += 1;
+        MemStack::new(self.stack.as_mut().expect("set above"))
+    }
+
     /// `(taken, fresh)`: vectors handed out since the workspace was made and
     /// how many of them were new allocations.
     #[cfg(test)]
@@ -162,8 +185,10 @@ mod tests {
 
     /// The per-order loop of a lone layer under a beam with exit directions
     /// (the BRDF case of docs/benchmarks.md §6) uses the workspace, and a
-    /// second, warm solve on the same thread takes no new vector from the
-    /// allocator for it; its answer is the same bit for bit.
+    /// second, warm solve on the same thread takes no new vector, matrix
+    /// (the eigen-solve's `H+-`, factor, products, eigenvectors, the boundary
+    /// matrices) or faer scratch buffer from the allocator for it; its answer
+    /// is the same bit for bit.
     #[test]
     fn warm_solve_takes_no_new_vectors() {
         let mut text = String::from(
@@ -182,9 +207,10 @@ mod tests {
         let (t0, f0) = thread_counts();
         let second = crate::solve(&scene, &opts).unwrap();
         let (t1, f1) = thread_counts();
-        // 16 Fourier orders, each with a few dozen vectors.
-        assert!(t1 - t0 > 16 * 20, "the solve uses the workspace: {} vectors", t1 - t0);
-        assert_eq!(f1, f0, "no new vector in a warm solve");
+        // 16 Fourier orders, each with a few dozen vectors and, in the
+        // eigen-solve alone, 9 matrices and 2 scratch requests.
+        assert!(t1 - t0 > 16 * (20 + 11), "the solve uses the workspace: {} vectors", t1 - t0);
+        assert_eq!(f1, f0, "no new vector, matrix or scratch in a warm solve");
         assert_eq!(first.channels, second.channels);
     }
 

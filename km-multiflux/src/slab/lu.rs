@@ -37,6 +37,7 @@ use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};
 
 use super::dot;
+use crate::workspace::Workspace;
 
 /// Size from which [`Lu::new`] factors with faer (see the module header).
 const FAER_FROM: usize = 48;
@@ -106,7 +107,27 @@ impl Lu {
     /// benchmark's reference).
     pub fn hand_written(c: &Mat<f64>) -> Self {
         let n = c.nrows();
-        let mut lu = vec![0.0; n * n];
+        Self::hand_written_into(c, vec![0.0; n * n])
+    }
+
+    /// [`Lu::new`] with the factors' buffer (below `FAER_FROM` nodes) taken
+    /// from the workspace; [`Lu::recycle`] hands it back.
+    pub(crate) fn new_in(c: &Mat<f64>, ws: &mut Workspace) -> Self {
+        let n = c.nrows();
+        if n >= FAER_FROM {
+            return Self::from_faer(c.partial_piv_lu());
+        }
+        Self::hand_written_into(c, ws.take(n * n))
+    }
+
+    /// Hand the factors' buffer back to the workspace.
+    pub(crate) fn recycle(self, ws: &mut Workspace) {
+        ws.give(self.lu);
+    }
+
+    /// The hand-written elimination in `lu` (`n * n` values, overwritten).
+    fn hand_written_into(c: &Mat<f64>, mut lu: Vec<f64>) -> Self {
+        let n = c.nrows();
         for j in 0..n {
             lu[j * n..(j + 1) * n].copy_from_slice(c.col_as_slice(j));
         }
