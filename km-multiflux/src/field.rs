@@ -48,7 +48,7 @@ impl InternalField {
 /// `d = (I - A.r_bottom B.r_top)^-1 A.t_down a` and `u = B.r_top d` (eq. 19').
 ///
 /// # Errors
-/// A depth outside the stack ([`MultifluxError::Option`]), and those of [`solve`].
+/// A depth outside the stack ([`MultifluxError::Option`]), and those of [`crate::solve`].
 pub fn internal_field(
     scene: &MonoScene,
     opts: &MultifluxOptions,
