@@ -232,30 +232,11 @@ impl MonoScene {
         substrate: Substrate,
         directions_deg: Vec<[f64; 2]>,
     ) -> Result<MonoScene, CoreError> {
-        if layers.is_empty() {
-            return Err(CoreError::scene("layer", None, "the stack has no layer"));
-        }
+        check_layers(&layers)?;
         light.check()?;
-        if !is_refractive_index(ambient_n) {
-            return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
-        }
-        // Each layer is valid by construction; only their order is checked here.
-        if let Some(i) = layers.iter().position(Layer::is_half_space)
-            && i + 1 != layers.len()
-        {
-            return Err(CoreError::scene(
-                format!("layer[{}].thickness", i + 1),
-                None,
-                "only the last layer may be a half-space",
-            ));
-        }
+        check_ambient_n(ambient_n)?;
         substrate.check()?;
-        for d in &directions_deg {
-            check_theta("output.directions_deg", d[0], None)?;
-            if !d[1].is_finite() {
-                return Err(CoreError::scene("output.directions_deg", None, "phi must be finite"));
-            }
-        }
+        check_directions(&directions_deg)?;
         Ok(MonoScene { light, ambient_n, layers, substrate, directions_deg })
     }
 
@@ -264,13 +245,14 @@ impl MonoScene {
     /// # Errors
     /// An empty stack, a half-space that is not last.
     pub fn with_layers(&self, layers: Vec<Layer>) -> Result<MonoScene, CoreError> {
-        MonoScene::new(
-            self.light,
-            self.ambient_n,
+        check_layers(&layers)?;
+        Ok(MonoScene {
+            light: self.light,
+            ambient_n: self.ambient_n,
             layers,
-            self.substrate,
-            self.directions_deg.clone(),
-        )
+            substrate: self.substrate,
+            directions_deg: self.directions_deg.clone(),
+        })
     }
 
     /// This channel with another substrate.
@@ -287,13 +269,14 @@ impl MonoScene {
     /// # Errors
     /// A direction outside `[0, 90)` degrees or a non-finite azimuth.
     pub fn with_directions(&self, directions_deg: Vec<[f64; 2]>) -> Result<MonoScene, CoreError> {
-        MonoScene::new(
-            self.light,
-            self.ambient_n,
-            self.layers.clone(),
-            self.substrate,
+        check_directions(&directions_deg)?;
+        Ok(MonoScene {
+            light: self.light,
+            ambient_n: self.ambient_n,
+            layers: self.layers.clone(),
+            substrate: self.substrate,
             directions_deg,
-        )
+        })
     }
 
     /// This channel cut below layer `i` (0-based): layers `0..=i`, the last
@@ -328,9 +311,7 @@ impl MonoScene {
     /// # Errors
     /// `n` not finite or `< 1`.
     pub fn with_ambient_n(&self, ambient_n: f64) -> Result<MonoScene, CoreError> {
-        if !is_refractive_index(ambient_n) {
-            return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
-        }
+        check_ambient_n(ambient_n)?;
         Ok(MonoScene { ambient_n, ..self.clone() })
     }
 
@@ -548,6 +529,43 @@ impl Scene {
 /// True for a wavelength the scene accepts: finite and `> 0` nm.
 pub(crate) fn is_wavelength(x: f64) -> bool {
     x.is_finite() && x > 0.0
+}
+
+/// A stack: at least one layer, only the last a half-space (each layer is
+/// valid by construction; only their order is checked here).
+fn check_layers(layers: &[Layer]) -> Result<(), CoreError> {
+    if layers.is_empty() {
+        return Err(CoreError::scene("layer", None, "the stack has no layer"));
+    }
+    if let Some(i) = layers.iter().position(Layer::is_half_space)
+        && i + 1 != layers.len()
+    {
+        return Err(CoreError::scene(
+            format!("layer[{}].thickness", i + 1),
+            None,
+            "only the last layer may be a half-space",
+        ));
+    }
+    Ok(())
+}
+
+/// The index of the medium above the stack.
+fn check_ambient_n(ambient_n: f64) -> Result<(), CoreError> {
+    if !is_refractive_index(ambient_n) {
+        return Err(CoreError::scene("ambient.n", None, "must be finite and >= 1"));
+    }
+    Ok(())
+}
+
+/// Exit directions: `theta` in `[0, 90)` degrees, `phi` finite.
+fn check_directions(directions_deg: &[[f64; 2]]) -> Result<(), CoreError> {
+    for d in directions_deg {
+        check_theta("output.directions_deg", d[0], None)?;
+        if !d[1].is_finite() {
+            return Err(CoreError::scene("output.directions_deg", None, "phi must be finite"));
+        }
+    }
+    Ok(())
 }
 
 fn check_theta(key: &str, theta: f64, line: Option<usize>) -> Result<(), CoreError> {
