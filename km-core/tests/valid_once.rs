@@ -88,6 +88,13 @@ fn the_channel_constructor_holds_every_check() {
     assert_eq!(key(m.with_directions(vec![[90.0, 0.0]]).unwrap_err()), "output.directions_deg");
     assert!(m.with_directions(vec![[10.0, f64::NAN]]).is_err());
     assert!(m.with_ambient_n(0.5).is_err());
+    // The edits check what they change and keep the rest.
+    assert_eq!(key(m.with_layers(vec![]).unwrap_err()), "layer");
+    assert_eq!(key(m.with_layers(vec![half, layer()]).unwrap_err()), "layer[1].thickness");
+    let edited = m.with_directions(vec![[10.0, 45.0]]).unwrap().with_layers(vec![layer(), half]);
+    let edited = edited.unwrap();
+    assert_eq!((edited.layers().len(), edited.directions_deg()), (2, &[[10.0, 45.0]][..]));
+    assert_eq!((edited.light(), edited.substrate()), (m.light(), m.substrate()));
     // The Snell invariant of the beam: n0 sin(theta).
     let lit = m.with_light(Light::collimated(30.0).unwrap()).unwrap();
     let lit = lit.with_ambient_n(1.5).unwrap();
