@@ -50,7 +50,7 @@ pub mod write;
 
 use faer::Mat;
 use km_core::phase::PhaseFunction;
-use km_core::{Light, MonoScene, Scene, Substrate};
+use km_core::{MonoScene, Scene, Substrate};
 
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
@@ -59,7 +59,7 @@ use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, slab_operators};
 use crate::solver::{
-    FOURIER_TOL, MultifluxOptions, Scaled, default_streams, flux, last_moment, media_grid,
+    FOURIER_TOL, MultifluxOptions, Scaled, default_bsdf_streams, flux, last_moment, media_grid,
     planned_cutoff, resolve_streams, scale_layers,
 };
 use crate::stack::{StackPieces, add_stack, delta_parts};

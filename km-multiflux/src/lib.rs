@@ -48,6 +48,6 @@ mod workspace;
 pub use error::MultifluxError;
 pub use solver::{
     ChannelPart, DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD,
-    DEFAULT_STREAMS_PEAKED, InternalField, MultifluxOptions, assemble, default_streams,
-    internal_field, solve, solve_channel, solve_mono,
+    DEFAULT_STREAMS_PEAKED, InternalField, MultifluxOptions, assemble, default_bsdf_streams,
+    default_streams, internal_field, solve, solve_channel, solve_mono,
 };

@@ -45,6 +45,21 @@ pub const DEFAULT_STREAMS_ANGULAR: usize = 48;
 /// 32 streams; ask for `streams` explicitly to trade).
 pub fn default_streams(scene: &MonoScene) -> usize {
     let grazing = scene.light().mu0().is_some_and(|mu0| mu0 < 80f64.to_radians().cos());
+    streams_rule(scene, grazing, !scene.directions_deg().is_empty())
+}
+
+/// The default stream count of the whole BSDF of `scene` at the incidences
+/// `theta_i_deg`: [`default_streams`] with exit directions, for the most
+/// demanding incidence (one beyond 80 degrees counts as grazing), so that
+/// every incidence of one table is solved on the same nodes.
+pub fn default_bsdf_streams(scene: &MonoScene, theta_i_deg: &[f64]) -> usize {
+    let grazing = theta_i_deg.iter().any(|t| t.to_radians().cos() < 80f64.to_radians().cos());
+    streams_rule(scene, grazing, true)
+}
+
+/// The rule of [`default_streams`] for an incidence that is `grazing` or not,
+/// with or without exit directions (`angles`).
+fn streams_rule(scene: &MonoScene, grazing: bool, angles: bool) -> usize {
     let peaked_mismatch = scene
         .layers()
         .iter()
@@ -56,7 +71,6 @@ pub fn default_streams(scene: &MonoScene) -> usize {
     // up to 85 degrees; `docs/multiflux.md` §8, table 8b): 48 streams beyond
     // |g| = 0.9 (g = 0.95: 1.0e-2 worst at 32, 1.2e-3 at 48), 32 beyond 0.8
     // (g = 0.9: 8.3e-4 at 24, 1.0e-4 at 32; g = 0.8: 6.9e-5 at 16).
-    let angles = !scene.directions_deg().is_empty();
     let max_g =
         scene.layers().iter().filter(|l| l.albedo() > 0.0).fold(0.0f64, |a, l| a.max(l.g().abs()));
     if angles && max_g > 0.9 {
@@ -112,6 +126,38 @@ impl Default for MultifluxOptions {
             all_effects: false,
             secondary_correction: true,
             max_work: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use km_core::{Layer, Light, Substrate};
+
+    /// The BSDF's default is the largest [`default_streams`] of the channel
+    /// lit at each incidence with an exit direction: checked against that
+    /// definition over stacks that reach each branch of the rule.
+    #[test]
+    fn bsdf_default_is_the_largest_default_over_the_incidences() {
+        let grids: [&[f64]; 3] = [&[0.0, 30.0, 60.0], &[10.0, 80.0], &[5.0, 80.5, 89.5]];
+        for (g, n) in [(0.0, 1.0), (0.5, 1.4), (0.85, 1.0), (0.85, 1.4), (0.93, 1.0), (0.97, 1.0)] {
+            let layer = Layer::new(0.1, 1.0, 1.0, g, n).unwrap();
+            let scene = MonoScene::new(Light::Diffuse, 1.0, vec![layer], Substrate::Black, vec![])
+                .unwrap()
+                .with_directions(vec![[0.0, 0.0]])
+                .unwrap();
+            for grid in grids {
+                let by_scene = grid
+                    .iter()
+                    .map(|&t| {
+                        let lit = scene.with_light(Light::collimated(t.min(89.0)).unwrap());
+                        default_streams(&lit.unwrap())
+                    })
+                    .max()
+                    .unwrap();
+                assert_eq!(default_bsdf_streams(&scene, grid), by_scene, "g = {g}, n = {n}");
+            }
         }
     }
 }

@@ -27,7 +27,7 @@ use crate::interface::{fresnel_operators, lambertian_reflection};
 use crate::legendre::delta_m;
 pub use crate::options::{
     DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED,
-    FOURIER_TOL, MultifluxOptions, default_streams,
+    FOURIER_TOL, MultifluxOptions, default_bsdf_streams, default_streams,
 };
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_beam_response, slab_operators};

@@ -426,17 +426,7 @@ fn bsdf_streams(
 ) -> Result<usize, BsdfError> {
     Ok(match opts.streams {
         Some(_) => resolve_streams(scene, opts)?,
-        None => {
-            let mut s = scene.with_directions(vec![[0.0, 0.0]]).map_err(MultifluxError::from)?;
-            let mut best = 0;
-            for &t in theta_i {
-                // Only theta > 80 degrees counts in the choice, not the grazing margin.
-                let light = Light::Collimated { theta_deg: t.min(89.0) };
-                s = s.with_light(light).map_err(MultifluxError::from)?;
-                best = best.max(default_streams(&s));
-            }
-            best
-        }
+        None => default_bsdf_streams(scene, theta_i),
     })
 }
 

@@ -9,7 +9,7 @@
 
 use km::MultifluxOptions;
 use km::bsdf::{Bsdf, BsdfOptions, Side, gauss_angles};
-use km_core::{Light, Scene};
+use km_core::Scene;
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -22,18 +22,11 @@ use crate::error::Error;
 /// channels, so that every evaluation of one object uses the same streams.
 fn default_streams(scene: &Scene) -> usize {
     let (grid, _) = gauss_angles(32);
-    let mut best = 1;
-    for ch in scene.channels() {
-        for &t in &grid {
-            // Only theta > 80 degrees counts in the choice, not the grazing
-            // margin; the light and the one direction are valid.
-            let light = Light::Collimated { theta_deg: t.min(89.0) };
-            if let Ok(s) = ch.with_light(light).and_then(|s| s.with_directions(vec![[0.0, 0.0]])) {
-                best = best.max(km_multiflux::default_streams(&s));
-            }
-        }
-    }
-    best
+    scene
+        .channels()
+        .iter()
+        .map(|ch| km_multiflux::default_bsdf_streams(ch, &grid))
+        .fold(1, usize::max)
 }
 
 fn side_of(name: &str) -> Result<Side, Error> {
