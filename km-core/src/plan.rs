@@ -292,6 +292,10 @@ impl Plan {
 /// assert_eq!(km_core::plan::distinct_channels(&s), vec![0, 1, 0]);
 /// ```
 pub fn distinct_channels(scene: &Scene) -> Vec<usize> {
+    // One channel (the common case) is distinct from nothing: no hashing.
+    if scene.channels().len() == 1 {
+        return vec![0];
+    }
     // Hash each channel's numbers by their bit patterns (-0.0 folded onto
     // 0.0, as `==` does), then confirm equality within a bucket: linear time
     // (a pairwise search was quadratic: 10^5 channels took 10 s).

@@ -182,16 +182,26 @@ impl PeakCorrection {
     /// [`Self::radiance`] at azimuth `phi_deg` from the shared factors `p`
     /// ([`Self::paths`]); the same numbers bit for bit.
     pub fn radiance_along(&self, p: &PeakPaths, phi_deg: f64) -> (f64, f64) {
-        let (mu_b, mu_x) = (p.mu_b, p.mu_x);
+        (self.radiance_up_along(p, phi_deg), self.radiance_down_along(p, phi_deg))
+    }
+
+    /// The up-going part of [`Self::radiance_along`] alone.
+    pub fn radiance_up_along(&self, p: &PeakPaths, phi_deg: f64) -> f64 {
         let cphi = (phi_deg - 180.0).to_radians().cos();
-        let (c_up, c_dn) = (-mu_x * mu_b + p.sines * cphi, mu_x * mu_b + p.sines * cphi);
-        let up = self.single_source(c_up, mu_b) * p.beta * p.up;
-        let mut down = self.single_source(c_dn, mu_b) * p.beta * p.down;
+        let c_up = -p.mu_x * p.mu_b + p.sines * cphi;
+        self.single_source(c_up, p.mu_b) * p.beta * p.up
+    }
+
+    /// The down-going part of [`Self::radiance_along`] alone.
+    pub fn radiance_down_along(&self, p: &PeakPaths, phi_deg: f64) -> f64 {
+        let cphi = (phi_deg - 180.0).to_radians().cos();
+        let c_dn = p.mu_x * p.mu_b + p.sines * cphi;
+        let mut down = self.single_source(c_dn, p.mu_b) * p.beta * p.down;
         if let Some(path) = p.secondary {
             // As secondary_radiance: zero outside the cone.
             down += if path == 0.0 { 0.0 } else { self.peak_pspike(c_dn) * path };
         }
-        (up, down)
+        down
     }
 
     /// The IMS term of eq. C3 at the bottom of a layer of unscaled optical

@@ -29,9 +29,11 @@
 //! reciprocity. The Fourier–Gauss blocks need it only for `m = 0` (energy is
 //! carried by the azimuthal mean).
 
-use faer::Mat;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
 
 use crate::MultifluxError;
+use crate::workspace::Workspace;
 
 /// Rounding level of a row sum: below it the scaling stops at once.
 const ROUNDING: f64 = 1e-15;
@@ -123,6 +125,18 @@ pub(crate) fn symmetric_scaling(k: &Mat<f64>, w: &[f64]) -> Scaling {
     Scaling { d, outcome: Outcome::NotConverged { residual: best } }
 }
 
+/// [`fourier_blocks_in`] with a workspace of its own.
+#[cfg(test)]
+pub(crate) fn fourier_blocks(
+    w: &[f64],
+    m: usize,
+    chi: &[f64],
+    lam: &[f64],
+    n: usize,
+) -> (Mat<f64>, Mat<f64>) {
+    fourier_blocks_in(w, m, chi, lam, n, &mut Workspace::default())
+}
+
 /// The Fourier–Gauss phase blocks of order `m` on `n` nodes with weights `w`:
 /// `(P_even, P_odd)` with `P_even ± ... = P(mu_i, mu_j) ± P(mu_i, -mu_j)`, the
 /// even and odd (in `l + m`) parts of `sum_l c_l Lambda_l^m(mu_i) Lambda_l^m(mu_j)`
@@ -137,19 +151,24 @@ pub(crate) fn symmetric_scaling(k: &Mat<f64>, w: &[f64]) -> Scaling {
 ///
 /// # Reference
 /// Stamnes et al. (1988) eq. 2–4 (addition theorem); docs eq. DS3 / PM1.
-pub(crate) fn fourier_blocks(
+///
+/// Its matrices are taken from `ws` (the two returned blocks are the
+/// workspace's: the caller hands them back); the products are those of
+/// faer's `*` (`matmul`, replacing, `Par::Seq`), the same bit for bit.
+pub(crate) fn fourier_blocks_in(
     w: &[f64],
     m: usize,
     chi: &[f64],
     lam: &[f64],
     n: usize,
+    ws: &mut Workspace,
 ) -> (Mat<f64>, Mat<f64>) {
     let nl = chi.len();
     // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
     // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
-    let mut ae = Mat::<f64>::zeros(n, nl);
-    let mut ao = Mat::<f64>::zeros(n, nl);
-    let mut lt = Mat::<f64>::zeros(nl, n);
+    let mut ae = ws.take_mat(n, nl);
+    let mut ao = ws.take_mat(n, nl);
+    let mut lt = ws.take_mat(nl, n);
     for i in 0..n {
         let c = lt.col_as_slice_mut(i);
         c.copy_from_slice(&lam[i * nl..(i + 1) * nl]);
@@ -162,8 +181,12 @@ pub(crate) fn fourier_blocks(
             if even { ce[i] = x } else { co[i] = x }
         }
     }
-    let mut pe = &ae * &lt;
-    let mut po = &ao * &lt;
+    let (mut pe, mut po) = (ws.take_mat(n, n), ws.take_mat(n, n));
+    matmul(pe.as_mut(), Accum::Replace, ae.as_ref(), lt.as_ref(), 1.0, Par::Seq);
+    matmul(po.as_mut(), Accum::Replace, ao.as_ref(), lt.as_ref(), 1.0, Par::Seq);
+    for a in [ae, ao, lt] {
+        ws.give_mat(a);
+    }
     // m = 0: the symmetric rescaling d_i P_ij d_j of both parts (eq. PM1).
     if m == 0 {
         let d = symmetric_scaling(&pe, w).d;

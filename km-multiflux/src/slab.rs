@@ -19,7 +19,7 @@
 //! `L^T H- L y = k^2 y`, `v~ = L y`, `z~ = L^-T y` (S3), solved by
 //! [`crate::eigen::half_size_modes`] (N x N instead of 2N x 2N; the same
 //! solve serves the direction set). The phase matrix `P` comes from
-//! `phase_matrix::fourier_blocks`.
+//! `phase_matrix::fourier_blocks_in`.
 //!
 //! Every mode is anchored where it decays from: `c_j g±_j e^{-k tau}` at the
 //! top and `d_j g∓_j e^{-k (tau0 - tau)}` at the bottom (Stamnes & Conklin
@@ -64,10 +64,10 @@ use crate::MultifluxError;
 use crate::correction::phi;
 use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes_in};
 use crate::legendre::LegendreRecurrence;
-use crate::phase_matrix::fourier_blocks;
+use crate::phase_matrix::fourier_blocks_in;
 use crate::workspace::{Workspace, with_workspace};
 use lu::{Lu, solve_right};
-pub use operators::{absorber_operators, slab_beam_response, slab_operators};
+pub use operators::{absorber_operators, slab_beam_reflection, slab_beam_response, slab_operators};
 
 /// An extra direction carried besides the quadrature nodes, in one medium.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -190,7 +190,6 @@ impl SlabSolution {
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
-        let (pe, po) = fourier_blocks(w, m, &chi, &lam, n);
         let renorm_m0 = m == 0;
 
         let fail = |what: &'static str| MultifluxError::Numerical {
@@ -200,7 +199,10 @@ impl SlabSolution {
         // Eq. S3-S5 in matrices and vectors of the workspace (handed back by
         // `SlabSolution::recycle`).
         with_workspace(|ws| {
+            let (pe, po) = fourier_blocks_in(w, m, &chi, &lam, n, ws);
             let (hp, hm) = h_matrices(mu, w, omega, &pe, &po, ws);
+            ws.give_mat(pe);
+            ws.give_mat(po);
             // Eq. S3 (crate::eigen eq. EG1). Conservative scattering: the
             // discrete system conserves energy exactly (renormalised above),
             // so the smallest eigenvalue is exactly 0.

@@ -30,7 +30,9 @@ pub use crate::options::{
     FOURIER_TOL, MultifluxOptions, default_bsdf_streams, default_streams,
 };
 use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
-use crate::slab::{Extra, SlabOrder, SlabSolution, Tms, slab_beam_response, slab_operators};
+use crate::slab::{
+    Extra, SlabOrder, SlabSolution, Tms, slab_beam_reflection, slab_beam_response, slab_operators,
+};
 pub(crate) use crate::stack::Scaled;
 use crate::stack::{StackPieces, add_stack, delta_parts};
 
@@ -229,12 +231,11 @@ fn solve_mono_residual(
             let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
             let t = (tms_on && !dirs.is_empty() && m == 0).then(|| l.correction(n_keep));
             let t = t.as_ref();
-            let (cr, ct) = slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?;
             if nodes_sub.is_some() {
-                (cr, ct)
+                slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?
             } else {
-                crate::workspace::with_workspace(|ws| ws.give(ct));
-                (cr, Vec::new())
+                // Nothing below receives the transmitted light: reflection only.
+                (slab_beam_reflection(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?, Vec::new())
             }
         } else {
             let ops = stack_operators(
@@ -369,11 +370,23 @@ impl ChannelExtras {
             ex_s.len() - 1
         };
         let dirs = scene.directions_deg();
+        // sin(theta) once per run of equal polar angles (a grid of exit
+        // directions lists its azimuths per polar angle).
+        let mut last = (f64::NAN, 0.0);
+        let sines: Vec<f64> = dirs
+            .iter()
+            .map(|d| {
+                if d[0] != last.0 {
+                    last = (d[0], d[0].to_radians().sin());
+                }
+                last.1
+            })
+            .collect();
         let brdf_ix: Vec<usize> =
-            dirs.iter().map(|d| probe(n0 * d[0].to_radians().sin(), d[1], &mut ex_s)).collect();
+            dirs.iter().zip(&sines).map(|(d, s)| probe(n0 * s, d[1], &mut ex_s)).collect();
         let btdf_ix: Vec<usize> = match n_sub {
             Some(ns) => {
-                dirs.iter().map(|d| probe(ns * d[0].to_radians().sin(), d[1], &mut ex_s)).collect()
+                dirs.iter().zip(&sines).map(|(d, s)| probe(ns * s, d[1], &mut ex_s)).collect()
             }
             None => Vec::new(),
         };

@@ -23,7 +23,7 @@
 //! ([`Workspace::stack`]: one buffer, grown to the largest request, that
 //! is `O(N^2)` values for `N` nodes).
 
-use std::cell::Cell;
+use std::cell::RefCell;
 
 use faer::Mat;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -49,9 +49,60 @@ pub(crate) struct Workspace {
     /// (none kept, or none long enough): counts for tests and benchmarks.
     taken: usize,
     fresh: usize,
+    /// The beam's path factors into the probes of the last layer and beam
+    /// seen ([`Workspace::beam_paths`]): they do not depend on the Fourier
+    /// order, so the orders after the first reuse them.
+    paths: PathMemo,
+}
+
+/// Values per probe cosine that do not depend on the Fourier order
+/// ([`Workspace::beam_paths`]), kept with
+/// their arguments: the layer's `tau`, the beam's `mu_b` and the cosines.
+#[derive(Default)]
+struct PathMemo {
+    tau: f64,
+    mu_b: f64,
+    mu: Vec<f64>,
+    values: Vec<[f64; 2]>,
+}
+
+impl PathMemo {
+    const fn new() -> Self {
+        PathMemo { tau: 0.0, mu_b: 0.0, mu: Vec::new(), values: Vec::new() }
+    }
+
+    /// The values `f(mu_x)` for the cosines `mu`, computed afresh unless
+    /// `tau`, `mu_b` and `mu` are those of the last call (bit for bit).
+    fn get(&mut self, tau: f64, mu_b: f64, mu: &[f64], f: impl Fn(f64) -> [f64; 2]) -> &[[f64; 2]] {
+        let same = self.tau.to_bits() == tau.to_bits()
+            && self.mu_b.to_bits() == mu_b.to_bits()
+            && self.mu.len() == mu.len()
+            && self.mu.iter().zip(mu).all(|(a, b)| a.to_bits() == b.to_bits());
+        if !same || self.values.len() != mu.len() {
+            self.tau = tau;
+            self.mu_b = mu_b;
+            self.mu.clear();
+            self.mu.extend_from_slice(mu);
+            self.values.clear();
+            self.values.extend(mu.iter().map(|&mu_x| f(mu_x)));
+        }
+        &self.values
+    }
 }
 
 impl Workspace {
+    /// An empty workspace.
+    pub(crate) const fn new() -> Self {
+        Workspace {
+            free: Vec::new(),
+            mats: Vec::new(),
+            stack: None,
+            taken: 0,
+            fresh: 0,
+            paths: PathMemo::new(),
+        }
+    }
+
     /// A vector of `len` zeros, reusing a kept one where possible: the
     /// shortest one long enough (best fit, so that short requests do not use
     /// up the long vectors; the search stops at the first one of at most
@@ -129,6 +180,20 @@ impl Workspace {
         MemStack::new(self.stack.as_mut().expect("set above"))
     }
 
+    /// For a beam at cosine `mu_b` in a layer of optical thickness `tau`,
+    /// per probe cosine `mu_x` of `mu`: `[phi(1/mu_b + 1/mu_x, tau),
+    /// e2(1/mu_b, 1/mu_x, tau)]` (the path integrals of the beam's particular
+    /// solution up and down a probe, eq. 14 of docs/multiflux.md), computed
+    /// once and reused while the layer, the beam and the probes stay the same
+    /// (every Fourier order of a solve): the same numbers as computing them
+    /// afresh, from the same function of the same arguments.
+    pub(crate) fn beam_paths(&mut self, tau: f64, mu_b: f64, mu: &[f64]) -> &[[f64; 2]] {
+        self.paths.get(tau, mu_b, mu, |mu_x| {
+            let (kb, beta) = (1.0 / mu_b, 1.0 / mu_x);
+            [crate::correction::phi(kb + beta, tau), crate::correction::e2(kb, beta, tau)]
+        })
+    }
+
     /// `(taken, fresh)`: vectors handed out since the workspace was made and
     /// how many of them were new allocations.
     #[cfg(test)]
@@ -138,16 +203,17 @@ impl Workspace {
 }
 
 thread_local! {
-    static WORKSPACE: Cell<Option<Workspace>> = const { Cell::new(None) };
+    static WORKSPACE: RefCell<Workspace> = const { RefCell::new(Workspace::new()) };
 }
 
-/// Run `f` with this thread's workspace. Re-entrant: a nested call (none is
-/// made today) gets a fresh, empty workspace, and the outer one is kept.
+/// Run `f` with this thread's workspace (borrowed in place, not moved).
+/// Re-entrant: a nested call (none is made today) gets a fresh, empty
+/// workspace, and the outer one is kept.
 pub(crate) fn with_workspace<R>(f: impl FnOnce(&mut Workspace) -> R) -> R {
-    let mut ws = WORKSPACE.with(Cell::take).unwrap_or_default();
-    let r = f(&mut ws);
-    WORKSPACE.with(|c| c.set(Some(ws)));
-    r
+    WORKSPACE.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut ws) => f(&mut ws),
+        Err(_) => f(&mut Workspace::new()),
+    })
 }
 
 /// `(taken, fresh)` of this thread's workspace (see [`Workspace::counts`]).

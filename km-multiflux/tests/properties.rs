@@ -328,3 +328,57 @@ fn beam_response_alone_equals_the_added_halves() {
     println!("beam column alone vs added halves: worst {worst:.1e}");
     assert!(worst < 1e-10, "worst difference {worst:e}");
 }
+
+/// The reflected column alone (`slab_beam_reflection`, which skips the
+/// probes' transmitted values and reuses the beam's order-independent path
+/// factors) is the reflected column of `slab_beam_response` bit for bit, with
+/// and without the peak correction, for orders 0-5 solved in turn (so that
+/// the kept path factors of one order serve the next) and with another beam
+/// in between (so that they are recomputed when the beam changes); the
+/// reference is computed on a thread of its own (a fresh workspace).
+#[test]
+fn beam_reflection_alone_is_the_reflected_column_bit_for_bit() {
+    use km_core::phase::Phase;
+    use km_multiflux::correction::PeakCorrection;
+    use km_multiflux::slab::{slab_beam_reflection, slab_beam_response};
+    let mut rng = Pcg64::seed_from_u64(78);
+    let n = 6;
+    let nodes = AngularGrid::new(&[1.0], n).medium(1.0);
+    let mut compared = 0;
+    for case in 0..12 {
+        let (tau, omega, chi) = random_layer(&mut rng, n);
+        let tau = if case % 4 == 0 { f64::INFINITY } else { tau };
+        let g = rng.random_range(0.1..0.9);
+        let tms = PeakCorrection::new(Phase::henyey_greenstein(g).unwrap(), omega, 2 * n, true);
+        let mut extras =
+            vec![Extra { mu: Some(rng.random_range(0.2..1.0)), beam: true, phi_deg: 0.0 }];
+        for k in 0..6 {
+            let mu = [0.3, 0.55, 0.8][k % 3];
+            extras.push(Extra { mu: Some(mu), beam: false, phi_deg: 45.0 * k as f64 });
+        }
+        let mut other = extras.clone();
+        other[0].mu = Some(0.37);
+        for m in 0..6 {
+            let p = SlabOrder { tau, omega, chi: &chi, m };
+            let t = (m == 0 && case % 2 == 0).then_some(&tms);
+            // Order 3 also with another beam in between: the kept factors
+            // must follow the beam.
+            let beams: &[&[Extra]] = if m == 3 { &[&other, &extras] } else { &[&extras] };
+            for ex in beams {
+                let alone = slab_beam_reflection(&nodes.mu, &nodes.w, ex, 0, &p, t).unwrap();
+                // The reference on a new thread: its own, empty workspace.
+                let (both, _) = std::thread::scope(|sc| {
+                    sc.spawn(|| slab_beam_response(&nodes.mu, &nodes.w, ex, 0, &p, t).unwrap())
+                        .join()
+                        .unwrap()
+                });
+                assert_eq!(alone.len(), both.len());
+                for (a, b) in alone.iter().zip(&both) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "case {case}, m = {m}: {a} vs {b}");
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(compared, 12 * 7 * (n + 7));
+}

@@ -109,9 +109,8 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     let plan = plan_for(scene, method, all_effects);
     let solver = options.method.with_all_effects(all_effects);
     // Channels with identical coefficients are solved once (`duplicate-channels`).
-    let (reduced, map) = reduce_channels(scene);
-    let dedup = plan.skips(Simplification::DuplicateChannels);
-    let work = if dedup { &reduced } else { scene };
+    let reduced = plan.skips(Simplification::DuplicateChannels).then(|| reduce_channels(scene));
+    let work = reduced.as_ref().map_or(scene, |(r, _)| r);
     let cut = if method == Method::Dipole { as_half_space(work, all_effects) } else { None };
     let work = cut.as_ref().map_or(work, |(half, _)| half);
     solver.supports(work)?;
@@ -126,8 +125,8 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
             bound.max(f64::MIN_POSITIVE)
         ));
     }
-    if dedup {
-        sol = expand_channels(sol, &map, scene.labels());
+    if let Some((_, map)) = &reduced {
+        sol = expand_channels(sol, map, scene.labels());
     }
     if sol.channels.iter().any(|c| !c.brdf.is_empty() || !c.btdf.is_empty()) {
         sol.directions =

@@ -3,7 +3,6 @@
 
 use super::probe::Probes;
 use super::{Extra, SlabSolution, Tms, atten, dot};
-use crate::correction::{e2, phi};
 use crate::workspace::Workspace;
 
 impl SlabSolution {
@@ -11,10 +10,17 @@ impl SlabSolution {
     /// at the top at `mu_b` (eq. S6): `(Z+, Z-)` in radiances at the nodes
     /// (vectors of the workspace).
     pub(super) fn particular(&self, mu_b: f64, ws: &mut Workspace) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
         let lam_b = self.lam_at(mu_b, ws);
-        let (mut ev, mut od) = self.kernels(&lam_b, ws);
+        let z = self.particular_at(mu_b, &lam_b, ws);
         ws.give(lam_b);
+        z
+    }
+
+    /// [`SlabSolution::particular`] with `lam_b`, the `Lambda_l^m(mu_b)` of
+    /// [`SlabSolution::lam_at`], given.
+    fn particular_at(&self, mu_b: f64, lam_b: &[f64], ws: &mut Workspace) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n;
+        let (mut ev, mut od) = self.kernels(lam_b, ws);
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
         if self.renorm_m0 {
             // Make the scattered beam integrate to omega exactly over the nodes.
@@ -65,19 +71,23 @@ impl SlabSolution {
     /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 and eq. 14 of docs/multiflux.md):
     /// particular solution, homogeneous part fixed by the boundary values
     /// `-Z+` at the top and `-Z- e^{-tau/mu_b}` at the bottom, and the source
-    /// integral along each probe (vectors of the workspace).
+    /// integral along each probe (vectors of the workspace). Without `down`
+    /// the probes' transmitted values (the column of `T`) are left at zero
+    /// and not computed (a layer with nothing below it to receive them).
     pub(super) fn beam_columns(
         &self,
         mu_b: f64,
         extras: &[Extra],
         probes: &Probes,
         tms: Option<&Tms>,
+        down: bool,
         ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
         let dim = n + extras.len();
         let (mut cr, mut ct) = (ws.take(dim), ws.take(dim));
-        let (zp, zm) = self.particular(mu_b, ws);
+        let lam_b = self.lam_at(mu_b, ws);
+        let (zp, zm) = self.particular_at(mu_b, &lam_b, ws);
         let eb_att = atten(self.tau, mu_b);
         // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
         let (mut a, mut b) = (ws.take(n), ws.take(n));
@@ -96,7 +106,6 @@ impl SlabSolution {
         // Beam -> probes: homogeneous rows plus the particular source integral,
         // once per distinct probe cosine (`per`); only the peak correction
         // depends on the azimuth.
-        let lam_b = self.lam_at(mu_b, ws);
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
         let mut per = ws.take(4 * probes.len());
         // The peak correction's path factors, once per probe cosine (order 0).
@@ -104,6 +113,11 @@ impl SlabSolution {
             (Some(t), 0) => probes.mu.iter().map(|&mu_x| t.paths(mu_b, mu_x, self.tau)).collect(),
             _ => Vec::new(),
         };
+        // phi(1/mu_b + 1/mu_x) and e2(1/mu_b, 1/mu_x) per probe: the same in every order.
+        let mut paths = ws.take(2 * probes.len());
+        for (d, s) in paths.chunks_exact_mut(2).zip(ws.beam_paths(self.tau, mu_b, &probes.mu)) {
+            d.copy_from_slice(s);
+        }
         for (p, out) in per.chunks_exact_mut(4).enumerate() {
             let pr = probes.row(p);
             let vals: [f64; 4] = {
@@ -123,21 +137,21 @@ impl SlabSolution {
                     let f = self.omega * self.w[j] * 0.5;
                     // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
                     up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
-                    dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
+                }
+                if down {
+                    for j in 0..n {
+                        let f = self.omega * self.w[j] * 0.5;
+                        dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
+                    }
                 }
                 let beta = 1.0 / pr.mu;
-                let kb = 1.0 / mu_b;
+                let (path_up, path_dn) = (paths[2 * p], paths[2 * p + 1]);
                 // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b).
-                [
-                    up * beta * phi(kb + beta, self.tau),
-                    dn * beta * e2(kb, beta, self.tau),
-                    dot(us, &sp),
-                    dot(uy, &sm),
-                ]
+                [up * beta * path_up, dn * beta * path_dn, dot(us, &sp), dot(uy, &sm)]
             };
             out.copy_from_slice(&vals);
         }
-        for v in [lam_b, sp, sm, zp, zm] {
+        for v in [lam_b, sp, sm, zp, zm, paths] {
             ws.give(v);
         }
         for (ex_i, exx) in extras.iter().enumerate() {
@@ -148,9 +162,10 @@ impl SlabSolution {
                 // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
                 // (TMS) and the forward peak's second order (IMS), real space.
                 debug_assert_eq!(probes.mu[p], mu_x);
-                let (du, dd) = t.radiance_along(&peak[p], exx.phi_deg);
-                out_up += du;
-                out_dn += dd;
+                out_up += t.radiance_up_along(&peak[p], exx.phi_deg);
+                if down {
+                    out_dn += t.radiance_down_along(&peak[p], exx.phi_deg);
+                }
             }
             // T_xq a + R_xq b is the same with the sign of the second term
             // flipped (nothing leaves the bottom of a half-space).
@@ -159,7 +174,9 @@ impl SlabSolution {
                 out_dn += hp - hm;
             }
             cr[n + ex_i] = out_up;
-            ct[n + ex_i] = out_dn;
+            if down {
+                ct[n + ex_i] = out_dn;
+            }
         }
         ws.give(per);
         (cr, ct)
@@ -174,16 +191,18 @@ impl SlabSolution {
         eb: usize,
         tms: Option<&Tms>,
     ) -> (Vec<f64>, Vec<f64>) {
-        crate::workspace::with_workspace(|ws| self.beam_response_in(extras, eb, tms, ws))
+        crate::workspace::with_workspace(|ws| self.beam_response_in(extras, eb, tms, true, ws))
     }
 
     /// [`SlabSolution::beam_response`] with the scratch vectors of `ws`
-    /// (the two returned vectors are the workspace's too).
+    /// (the two returned vectors are the workspace's too); without `down`
+    /// the probes' part of the `T` column is zero, not computed.
     pub(crate) fn beam_response_in(
         &self,
         extras: &[Extra],
         eb: usize,
         tms: Option<&Tms>,
+        down: bool,
         ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
@@ -193,7 +212,7 @@ impl SlabSolution {
             return (cr, ct);
         };
         let probes = self.probes(extras, ws);
-        let (r, t) = self.beam_response_rows(mu_b, extras, &probes, tms, ws);
+        let (r, t) = self.beam_response_rows(mu_b, extras, &probes, tms, down, ws);
         for i in 0..dim {
             if i < n || probes.of[i - n].is_some() {
                 cr[i] = r[i];
@@ -215,6 +234,7 @@ impl SlabSolution {
         extras: &[Extra],
         probes: &Probes,
         tms: Option<&Tms>,
+        down: bool,
         ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>) {
         // Eq. S6 is singular at k_j mu_b = 1 (the full response is not): at
@@ -224,18 +244,18 @@ impl SlabSolution {
         // log10(1/|k mu_b - 1|) digits.
         let near = self.k.iter().any(|&k| (k * mu_b - 1.0).abs() < 1e-9);
         if !near {
-            self.beam_columns(mu_b, extras, probes, tms, ws)
+            self.beam_columns(mu_b, extras, probes, tms, down, ws)
         } else if mu_b * (1.0 + 1e-6) < 1.0 {
             let (a, b) = (
-                self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms, ws),
-                self.beam_columns(mu_b * (1.0 + 1e-6), extras, probes, tms, ws),
+                self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms, down, ws),
+                self.beam_columns(mu_b * (1.0 + 1e-6), extras, probes, tms, down, ws),
             );
             let avg = |x: &[f64], y: &[f64]| -> Vec<f64> {
                 x.iter().zip(y).map(|(p, q)| 0.5 * (p + q)).collect()
             };
             (avg(&a.0, &b.0), avg(&a.1, &b.1))
         } else {
-            self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms, ws)
+            self.beam_columns(mu_b * (1.0 - 1e-6), extras, probes, tms, down, ws)
         }
     }
 }

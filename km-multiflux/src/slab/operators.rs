@@ -58,7 +58,7 @@ impl SlabSolution {
         }
         for (eb, ex) in extras.iter().enumerate() {
             let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
-            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms, ws);
+            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms, true, ws);
             for i in 0..dim {
                 if i < n || probes.of[i - n].is_some() {
                     rr[(i, n + eb)] = cr[i];
@@ -216,6 +216,39 @@ pub fn slab_beam_response(
     p: &SlabOrder<'_>,
     tms: Option<&Tms>,
 ) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
+    beam_response_parts(mu, w, extras, eb, p, tms, true)
+}
+
+/// The `r_top` column of [`slab_beam_response`] alone (the same numbers bit
+/// for bit), for a layer with nothing below it to receive what it transmits:
+/// the probes' transmitted radiances are not computed.
+///
+/// # Errors
+/// Those of [`SlabSolution::new`].
+pub fn slab_beam_reflection(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    eb: usize,
+    p: &SlabOrder<'_>,
+    tms: Option<&Tms>,
+) -> Result<Vec<f64>, MultifluxError> {
+    let (cr, ct) = beam_response_parts(mu, w, extras, eb, p, tms, false)?;
+    with_workspace(|ws| ws.give(ct));
+    Ok(cr)
+}
+
+/// [`slab_beam_response`]; without `down` the probes' transmitted values are
+/// zero, not computed.
+fn beam_response_parts(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    eb: usize,
+    p: &SlabOrder<'_>,
+    tms: Option<&Tms>,
+    down: bool,
+) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
     let scatters =
         p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
     if !scatters {
@@ -230,7 +263,7 @@ pub fn slab_beam_response(
     let s = SlabSolution::build(mu, w, p, false)?;
     // The two vectors come from the workspace; the solver hands them back.
     Ok(with_workspace(|ws| {
-        let out = s.beam_response_in(extras, eb, tms, ws);
+        let out = s.beam_response_in(extras, eb, tms, down, ws);
         s.recycle(ws);
         out
     }))
