@@ -96,6 +96,9 @@ pub(crate) fn half_size_modes_in(
     ws: &mut Workspace,
 ) -> Result<HalfSizeModes, EigenFailure> {
     let n = hp.nrows();
+    if n <= SMALL {
+        return small_modes(hp, hm, conservative, ws);
+    }
     let par = Par::Seq;
     let req = StackReq::any_of(&[
         cholesky_in_place_scratch::<f64>(n, par, Default::default()),
@@ -155,6 +158,140 @@ pub(crate) fn half_size_modes_in(
     Ok(HalfSizeModes { k, v, z })
 }
 
+/// Up to this size eq. EG1 is solved by [`small_modes`] (plain loops and
+/// Jacobi rotations) instead of faer's blocked routines, whose fixed cost
+/// dominates a problem this small (the few-stream BRDF of
+/// docs/benchmarks.md: a warm solve 19 % faster at N = 3, 12 % at 5, 6 % at
+/// 6, 1 % at 7 and 4 % slower at 8, hence 6).
+pub(crate) const SMALL: usize = 6;
+
+/// Eq. EG1 for `N <= SMALL`: the Cholesky factor of `H+` by the textbook
+/// recurrence, `S = L^T H- L` by loops, `S = Y diag(k^2) Y^T` by cyclic
+/// Jacobi rotations (Golub & Van Loan 2013 §8.5; each rotation zeroes one
+/// off-diagonal pair, stopping when every `|s_pq| <= eps sqrt(|s_pp s_qq|)`,
+/// the relative criterion of Demmel & Veselić 1992 under which the
+/// eigenvalues carry a small relative error, or `|s_pq| <= eps^2 max |s_ii|`),
+/// then `v~ = L Y` and
+/// `z~ = L^-T Y` by back substitution; modes ascending in `k`.
+fn small_modes(
+    hp: &Mat<f64>,
+    hm: &Mat<f64>,
+    conservative: bool,
+    ws: &mut Workspace,
+) -> Result<HalfSizeModes, EigenFailure> {
+    const MAX_SWEEPS: usize = 60;
+    let n = hp.nrows();
+    // H+ = L L^T (lower triangle of H+).
+    let mut l = [[0.0f64; SMALL]; SMALL];
+    for j in 0..n {
+        let d = hp[(j, j)] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(EigenFailure::Cholesky(format!("non-positive pivot {d:e} at {j}")));
+        }
+        l[j][j] = d.sqrt();
+        for i in j + 1..n {
+            l[i][j] = (hp[(i, j)] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>()) / l[j][j];
+        }
+    }
+    // S = L^T (H- L), symmetric: the lower triangle, mirrored.
+    let mut hl = [[0.0f64; SMALL]; SMALL];
+    for i in 0..n {
+        for j in 0..n {
+            hl[i][j] = (j..n).map(|k| hm[(i, k)] * l[k][j]).sum();
+        }
+    }
+    let mut a = [[0.0f64; SMALL]; SMALL];
+    for i in 0..n {
+        for j in 0..=i {
+            let x: f64 = (i..n).map(|k| l[k][i] * hl[k][j]).sum();
+            a[i][j] = x;
+            a[j][i] = x;
+        }
+    }
+    // Cyclic Jacobi: A <- J^T A J, Y <- Y J.
+    let mut y = [[0.0f64; SMALL]; SMALL];
+    for (i, row) in y.iter_mut().enumerate().take(n) {
+        row[i] = 1.0;
+    }
+    // Converged when each off-diagonal pair is below rounding relative to
+    // its diagonal pair, or below eps^2 of the largest diagonal entry (a
+    // zero eigenvalue, conservative scattering: its k then errs by at most
+    // eps sqrt(|S|), far below the general path's rounding).
+    let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0, f64::max);
+    let converged = |a: &[[f64; SMALL]; SMALL]| {
+        (0..n).all(|p| {
+            (p + 1..n).all(|q| {
+                let x = a[p][q].abs();
+                x <= f64::EPSILON * (a[p][p] * a[q][q]).abs().sqrt()
+                    || x <= f64::EPSILON * f64::EPSILON * scale
+            })
+        })
+    };
+    let mut sweeps = 0;
+    while !converged(&a) {
+        sweeps += 1;
+        if sweeps > MAX_SWEEPS || a.iter().flatten().any(|x| !x.is_finite()) {
+            return Err(EigenFailure::Eigen(format!(
+                "Jacobi: no convergence in {MAX_SWEEPS} sweeps"
+            )));
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p][q];
+                if apq == 0.0 {
+                    continue;
+                }
+                // t = tan of the rotation angle, the smaller root (|angle| <= pi/4).
+                let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+                let t = if theta.abs() > 1e150 {
+                    0.5 / theta
+                } else {
+                    theta.signum() / (theta.abs() + theta.mul_add(theta, 1.0).sqrt())
+                };
+                let c = 1.0 / t.mul_add(t, 1.0).sqrt();
+                let sn = t * c;
+                for r in 0..n {
+                    let (arp, arq) = (a[r][p], a[r][q]);
+                    a[r][p] = c * arp - sn * arq;
+                    a[r][q] = sn * arp + c * arq;
+                }
+                for r in 0..n {
+                    let (apr, aqr) = (a[p][r], a[q][r]);
+                    a[p][r] = c * apr - sn * aqr;
+                    a[q][r] = sn * apr + c * aqr;
+                }
+                a[p][q] = 0.0;
+                a[q][p] = 0.0;
+                for row in y.iter_mut().take(n) {
+                    let (yp, yq) = (row[p], row[q]);
+                    row[p] = c * yp - sn * yq;
+                    row[q] = sn * yp + c * yq;
+                }
+            }
+        }
+    }
+    // Ascending eigenvalues (k^2), clamped at 0 as in the general path.
+    let mut order: [usize; SMALL] = std::array::from_fn(|i| i);
+    order[..n].sort_by(|&i, &j| a[i][i].total_cmp(&a[j][j]));
+    let mut k = ws.take(n);
+    let (mut v, mut z) = (ws.take_mat(n, n), ws.take_mat(n, n));
+    for (col, &e) in order[..n].iter().enumerate() {
+        k[col] = a[e][e].max(0.0).sqrt();
+        // v~ = L y ; z~ = L^-T y (back substitution with L^T, upper triangular).
+        for i in 0..n {
+            v[(i, col)] = (0..=i).map(|c| l[i][c] * y[c][e]).sum();
+        }
+        for i in (0..n).rev() {
+            let s: f64 = (i + 1..n).map(|r| l[r][i] * z[(r, col)]).sum();
+            z[(i, col)] = (y[i][e] - s) / l[i][i];
+        }
+    }
+    if conservative && n > 0 {
+        k[0] = 0.0;
+    }
+    Ok(HalfSizeModes { k, v, z })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,22 +320,22 @@ mod tests {
         (hp, hm)
     }
 
-    /// The workspace path gives the same bits as faer's high-level calls
-    /// (`Mat::llt`, the `*` products, `Mat::self_adjoint_eigen`), which it
-    /// replaces; a warm workspace hands out every matrix, vector and the
+    /// Above [`SMALL`], the workspace path gives the same bits as faer's
+    /// high-level calls (`Mat::llt`, the `*` products,
+    /// `Mat::self_adjoint_eigen`), which it replaces; a warm workspace hands out every matrix, vector and the
     /// scratch without a new allocation; and `k^2`, `v~`, `z~` satisfy eq.
     /// EG1: `H- v~ = k^2 z~` and `H+ z~ = v~` (tolerance: 1e-12 relative to
     /// the largest entry, a few hundred roundings of `N = 8..24` products).
     #[test]
     fn workspace_path_is_faers_high_level_path_bit_for_bit() {
         let mut ws = Workspace::default();
-        for (pass, n) in [1, 3, 8, 24, 8].into_iter().enumerate() {
+        for (pass, n) in [SMALL + 1, SMALL + 2, 16, 24, SMALL + 2].into_iter().enumerate() {
             let (hp, hm) = operators(n);
             let (_, fresh0) = ws.counts();
             let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
             let (_, fresh1) = ws.counts();
             if pass == 4 {
-                // The second solve at N = 8: everything kept from the first.
+                // The second solve at SMALL + 2: everything kept from the first.
                 assert_eq!(fresh1, fresh0, "a warm eigen-solve takes nothing new");
             }
             // The replaced high-level path.
@@ -232,17 +369,95 @@ mod tests {
         }
     }
 
-    /// A non-positive-definite `H+` is refused by name, and the workspace
-    /// gets its matrices back.
+    /// Up to [`SMALL`] (Jacobi): the same modes as faer's path to rounding.
+    /// `k` to 1e-14 of the largest; each column of `v~`, `z~` equal up to its
+    /// sign to 1e-12 of the column's largest entry (distinct eigenvalues, so
+    /// the columns are unique up to sign; the tolerance is a few hundred
+    /// roundings of N <= 4 products); eq. EG1 and `z~^T v~ = I` (the
+    /// eigenvectors `y` orthonormal) to 1e-13. A warm solve takes nothing new.
+    #[test]
+    fn small_problems_match_faers_modes() {
+        let mut ws = Workspace::default();
+        for n in 1..=SMALL {
+            let (hp, hm) = operators(n);
+            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let lf = hp.llt(Side::Lower).unwrap().L().to_owned();
+            let sym = lf.transpose() * (&hm * &lf);
+            let evd = sym.self_adjoint_eigen(Side::Lower).unwrap();
+            let y = evd.U().to_owned();
+            let v = &lf * &y;
+            let mut z = y.clone();
+            solve_upper_triangular_in_place(lf.transpose(), z.as_mut(), Par::Seq);
+            let kmax = m.k.iter().fold(0.0f64, |a, &b| a.max(b));
+            for j in 0..n {
+                let kj = evd.S().column_vector()[j].max(0.0).sqrt();
+                assert!((m.k[j] - kj).abs() <= 1e-14 * kmax, "k_{j}, N = {n}");
+                let sign = if m.v[(0, j)] * v[(0, j)] < 0.0 { -1.0 } else { 1.0 };
+                let (vs, zs) = (
+                    (0..n).map(|i| v[(i, j)].abs()).fold(0.0, f64::max),
+                    (0..n).map(|i| z[(i, j)].abs()).fold(0.0, f64::max),
+                );
+                for i in 0..n {
+                    assert!((sign * m.v[(i, j)] - v[(i, j)]).abs() <= 1e-12 * vs, "v, N = {n}");
+                    assert!((sign * m.z[(i, j)] - z[(i, j)]).abs() <= 1e-12 * zs, "z, N = {n}");
+                }
+            }
+            let (hmv, hpz, ztv) = (&hm * &m.v, &hp * &m.z, m.z.transpose() * &m.v);
+            for j in 0..n {
+                for i in 0..n {
+                    let k2z = m.k[j] * m.k[j] * m.z[(i, j)];
+                    assert!((hmv[(i, j)] - k2z).abs() < 1e-13 * (1.0 + hmv[(i, j)].abs()));
+                    assert!((hpz[(i, j)] - m.v[(i, j)]).abs() < 1e-13 * (1.0 + m.v[(i, j)].abs()));
+                    let id = if i == j { 1.0 } else { 0.0 };
+                    assert!((ztv[(i, j)] - id).abs() < 1e-13, "z~^T v~, N = {n}");
+                }
+            }
+            let (_, fresh0) = ws.counts();
+            ws.give(m.k);
+            ws.give_mat(m.v);
+            ws.give_mat(m.z);
+            let again = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            assert_eq!(ws.counts().1, fresh0, "a warm small solve takes nothing new");
+            ws.give(again.k);
+            ws.give_mat(again.v);
+            ws.give_mat(again.z);
+        }
+    }
+
+    /// Jacobi converges on singular `H-` with repeated zero eigenvalues
+    /// (a rank-one matrix of ones: eigenvalues 0, ..., 0, N), the shape of
+    /// conservative scattering's null mode: `k = 0, ..., 0, sqrt(N)` to
+    /// 1e-7 (a zero `k^2` is met to about 1e-16, whose square root is
+    /// ~1e-8, as in the general path).
+    #[test]
+    fn small_singular_problems_converge() {
+        let mut ws = Workspace::default();
+        for n in 1..=SMALL {
+            let hp = Mat::<f64>::identity(n, n);
+            let hm = Mat::from_fn(n, n, |_, _| 1.0);
+            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            for j in 0..n - 1 {
+                assert!(m.k[j] < 1e-7, "k_{j} = {}, N = {n}", m.k[j]);
+            }
+            assert!((m.k[n - 1] - (n as f64).sqrt()).abs() < 1e-14, "N = {n}");
+        }
+    }
+
+    /// A non-positive-definite `H+` is refused by name (both paths), and
+    /// the workspace gets its matrices back.
     #[test]
     fn indefinite_h_plus_is_refused() {
-        let mut ws = Workspace::default();
-        let hp = Mat::from_fn(2, 2, |i, j| if i == j { [1.0, -1.0][i] } else { 0.0 });
-        let hm = Mat::<f64>::identity(2, 2);
-        let e = half_size_modes_in(&hp, &hm, false, &mut ws).err();
-        assert!(matches!(e, Some(EigenFailure::Cholesky(_))));
-        let (_, fresh) = ws.counts();
-        let _ = ws.take_mat(2, 2);
-        assert_eq!(ws.counts().1, fresh, "the factor's matrix is handed back");
+        for n in [2, SMALL + 2] {
+            let mut ws = Workspace::default();
+            let hp = Mat::from_fn(n, n, |i, j| if i == j { [1.0, -1.0][i % 2] } else { 0.0 });
+            let hm = Mat::<f64>::identity(n, n);
+            let e = half_size_modes_in(&hp, &hm, false, &mut ws).err();
+            assert!(matches!(e, Some(EigenFailure::Cholesky(_))), "N = {n}");
+            if n > SMALL {
+                let (_, fresh) = ws.counts();
+                let _ = ws.take_mat(n, n);
+                assert_eq!(ws.counts().1, fresh, "the factor's matrix is handed back");
+            }
+        }
     }
 }
