@@ -158,20 +158,18 @@ pub(crate) fn half_size_modes_in(
     Ok(HalfSizeModes { k, v, z })
 }
 
-/// Up to this size eq. EG1 is solved by [`small_modes`] (plain loops and
-/// Jacobi rotations) instead of faer's blocked routines, whose fixed cost
-/// dominates a problem this small (the few-stream BRDF of
-/// docs/benchmarks.md: a warm solve 19 % faster at N = 3, 12 % at 5, 6 % at
-/// 6, 1 % at 7 and 4 % slower at 8, hence 6).
-pub(crate) const SMALL: usize = 6;
+/// Up to this size eq. EG1 is solved by [`small_modes`] (plain loops)
+/// instead of faer's blocked routines, whose fixed cost dominates a problem
+/// this small (the few-stream BRDF of docs/benchmarks.md §7).
+pub(crate) const SMALL: usize = 10;
+
+/// Up to this size the symmetric eigenproblem of [`small_modes`] is solved
+/// by Jacobi rotations, above it by tridiagonal QL (faster from about 7 on).
+const JACOBI_MAX: usize = 6;
 
 /// Eq. EG1 for `N <= SMALL`: the Cholesky factor of `H+` by the textbook
-/// recurrence, `S = L^T H- L` by loops, `S = Y diag(k^2) Y^T` by cyclic
-/// Jacobi rotations (Golub & Van Loan 2013 §8.5; each rotation zeroes one
-/// off-diagonal pair, stopping when every `|s_pq| <= eps sqrt(|s_pp s_qq|)`,
-/// the relative criterion of Demmel & Veselić 1992 under which the
-/// eigenvalues carry a small relative error, or `|s_pq| <= eps^2 max |s_ii|`),
-/// then `v~ = L Y` and
+/// recurrence, `S = L^T H- L` by loops, `S = Y diag(k^2) Y^T` by [`jacobi`]
+/// (`N <= JACOBI_MAX`) or [`tridiagonal_ql`], then `v~ = L Y` and
 /// `z~ = L^-T Y` by back substitution; modes ascending in `k`.
 fn small_modes(
     hp: &Mat<f64>,
@@ -179,10 +177,23 @@ fn small_modes(
     conservative: bool,
     ws: &mut Workspace,
 ) -> Result<HalfSizeModes, EigenFailure> {
-    const MAX_SWEEPS: usize = 60;
+    if hp.nrows() <= JACOBI_MAX {
+        small_modes_in::<JACOBI_MAX>(hp, hm, conservative, ws)
+    } else {
+        small_modes_in::<SMALL>(hp, hm, conservative, ws)
+    }
+}
+
+/// [`small_modes`] on `M x M` arrays (`N <= M`).
+fn small_modes_in<const M: usize>(
+    hp: &Mat<f64>,
+    hm: &Mat<f64>,
+    conservative: bool,
+    ws: &mut Workspace,
+) -> Result<HalfSizeModes, EigenFailure> {
     let n = hp.nrows();
     // H+ = L L^T (lower triangle of H+).
-    let mut l = [[0.0f64; SMALL]; SMALL];
+    let mut l = [[0.0f64; M]; M];
     for j in 0..n {
         let d = hp[(j, j)] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
         if !(d > 0.0 && d.is_finite()) {
@@ -194,13 +205,13 @@ fn small_modes(
         }
     }
     // S = L^T (H- L), symmetric: the lower triangle, mirrored.
-    let mut hl = [[0.0f64; SMALL]; SMALL];
+    let mut hl = [[0.0f64; M]; M];
     for i in 0..n {
         for j in 0..n {
             hl[i][j] = (j..n).map(|k| hm[(i, k)] * l[k][j]).sum();
         }
     }
-    let mut a = [[0.0f64; SMALL]; SMALL];
+    let mut a = [[0.0f64; M]; M];
     for i in 0..n {
         for j in 0..=i {
             let x: f64 = (i..n).map(|k| l[k][i] * hl[k][j]).sum();
@@ -208,17 +219,61 @@ fn small_modes(
             a[j][i] = x;
         }
     }
-    // Cyclic Jacobi: A <- J^T A J, Y <- Y J.
-    let mut y = [[0.0f64; SMALL]; SMALL];
+    let (lam, y) = if n <= JACOBI_MAX {
+        jacobi(a, n)?
+    } else {
+        // QL wants the large entries in the bottom-right corner (Press et
+        // al. 2007 §11.4): S's largest are at the smallest cosines, node 0
+        // first, so it runs on the reversed order, and Y's rows are reversed
+        // back.
+        let rev: [[f64; M]; M] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| if i < n && j < n { a[n - 1 - i][n - 1 - j] } else { 0.0 })
+        });
+        let (lam, yr) = tridiagonal_ql(rev, n)?;
+        (lam, std::array::from_fn(|i| if i < n { yr[n - 1 - i] } else { [0.0; M] }))
+    };
+    // Ascending eigenvalues (k^2), clamped at 0 as in the general path.
+    let mut order: [usize; M] = std::array::from_fn(|i| i);
+    order[..n].sort_by(|&i, &j| lam[i].total_cmp(&lam[j]));
+    let mut k = ws.take(n);
+    let (mut v, mut z) = (ws.take_mat(n, n), ws.take_mat(n, n));
+    for (col, &e) in order[..n].iter().enumerate() {
+        k[col] = lam[e].max(0.0).sqrt();
+        // v~ = L y ; z~ = L^-T y (back substitution with L^T, upper triangular).
+        for i in 0..n {
+            v[(i, col)] = (0..=i).map(|c| l[i][c] * y[c][e]).sum();
+        }
+        for i in (0..n).rev() {
+            let s: f64 = (i + 1..n).map(|r| l[r][i] * z[(r, col)]).sum();
+            z[(i, col)] = (y[i][e] - s) / l[i][i];
+        }
+    }
+    if conservative && n > 0 {
+        k[0] = 0.0;
+    }
+    Ok(HalfSizeModes { k, v, z })
+}
+
+/// Eigenvalues `lam` and eigenvectors `Y` (columns) of a symmetric `S = Y
+/// diag(lam) Y^T` in the leading `n x n` block of `M x M` arrays.
+type Eigen<const M: usize> = ([f64; M], [[f64; M]; M]);
+
+/// Eigenvalues and eigenvectors (columns of `Y`, `S = Y diag(lam) Y^T`) of the
+/// symmetric `n x n` leading block of `a` by cyclic Jacobi rotations (Golub &
+/// Van Loan 2013 §8.5): each rotation zeroes one off-diagonal pair; stop when
+/// every `|s_pq| <= eps sqrt(|s_pp s_qq|)` (the relative criterion of Demmel &
+/// Veselić 1992, under which the eigenvalues carry a small relative error) or
+/// `|s_pq| <= eps^2 max |s_ii|` (a zero eigenvalue, conservative scattering:
+/// its `k` then errs by at most `eps sqrt(|S|)`, far below the general
+/// path's rounding).
+fn jacobi<const M: usize>(mut a: [[f64; M]; M], n: usize) -> Result<Eigen<M>, EigenFailure> {
+    const MAX_SWEEPS: usize = 60;
+    let mut y = [[0.0f64; M]; M];
     for (i, row) in y.iter_mut().enumerate().take(n) {
         row[i] = 1.0;
     }
-    // Converged when each off-diagonal pair is below rounding relative to
-    // its diagonal pair, or below eps^2 of the largest diagonal entry (a
-    // zero eigenvalue, conservative scattering: its k then errs by at most
-    // eps sqrt(|S|), far below the general path's rounding).
     let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0, f64::max);
-    let converged = |a: &[[f64; SMALL]; SMALL]| {
+    let converged = |a: &[[f64; M]; M]| {
         (0..n).all(|p| {
             (p + 1..n).all(|q| {
                 let x = a[p][q].abs();
@@ -270,26 +325,148 @@ fn small_modes(
             }
         }
     }
-    // Ascending eigenvalues (k^2), clamped at 0 as in the general path.
-    let mut order: [usize; SMALL] = std::array::from_fn(|i| i);
-    order[..n].sort_by(|&i, &j| a[i][i].total_cmp(&a[j][j]));
-    let mut k = ws.take(n);
-    let (mut v, mut z) = (ws.take_mat(n, n), ws.take_mat(n, n));
-    for (col, &e) in order[..n].iter().enumerate() {
-        k[col] = a[e][e].max(0.0).sqrt();
-        // v~ = L y ; z~ = L^-T y (back substitution with L^T, upper triangular).
-        for i in 0..n {
-            v[(i, col)] = (0..=i).map(|c| l[i][c] * y[c][e]).sum();
+    Ok((std::array::from_fn(|i| if i < n { a[i][i] } else { 0.0 }), y))
+}
+
+/// [`jacobi`]'s result by Householder reduction to tridiagonal form with the
+/// transformation accumulated, then the implicit QL iteration with
+/// Wilkinson-type shifts on the tridiagonal matrix (the EISPACK routines
+/// `tred2` and `tql2`, Martin, Reinsch & Wilkinson 1968, Bowdler et al. 1968;
+/// Press et al. 2007 §11.4–11.5); an off-diagonal element counts as zero
+/// when adding it to its two diagonal neighbours changes nothing.
+fn tridiagonal_ql<const M: usize>(
+    mut a: [[f64; M]; M],
+    n: usize,
+) -> Result<Eigen<M>, EigenFailure> {
+    const MAX_ITER: usize = 60;
+    let (mut d, mut e) = ([0.0f64; M], [0.0f64; M]);
+    // Householder: a becomes the orthogonal Q, d and e the tridiagonal matrix.
+    for i in (1..n).rev() {
+        let l = i - 1;
+        let mut h = 0.0;
+        if l > 0 {
+            let scale: f64 = (0..=l).map(|k| a[i][k].abs()).sum();
+            if scale == 0.0 {
+                e[i] = a[i][l];
+            } else {
+                for k in 0..=l {
+                    a[i][k] /= scale;
+                    h += a[i][k] * a[i][k];
+                }
+                let f = a[i][l];
+                let g = if f >= 0.0 { -h.sqrt() } else { h.sqrt() };
+                e[i] = scale * g;
+                h -= f * g;
+                a[i][l] = f - g;
+                let mut f = 0.0;
+                for j in 0..=l {
+                    a[j][i] = a[i][j] / h;
+                    let mut g = 0.0;
+                    for k in 0..=j {
+                        g += a[j][k] * a[i][k];
+                    }
+                    for k in j + 1..=l {
+                        g += a[k][j] * a[i][k];
+                    }
+                    e[j] = g / h;
+                    f += e[j] * a[i][j];
+                }
+                let hh = f / (h + h);
+                for j in 0..=l {
+                    let f = a[i][j];
+                    let g = e[j] - hh * f;
+                    e[j] = g;
+                    for k in 0..=j {
+                        a[j][k] -= f * e[k] + g * a[i][k];
+                    }
+                }
+            }
+        } else {
+            e[i] = a[i][l];
         }
-        for i in (0..n).rev() {
-            let s: f64 = (i + 1..n).map(|r| l[r][i] * z[(r, col)]).sum();
-            z[(i, col)] = (y[i][e] - s) / l[i][i];
+        d[i] = h;
+    }
+    d[0] = 0.0;
+    e[0] = 0.0;
+    for i in 0..n {
+        if d[i] != 0.0 {
+            for j in 0..i {
+                let g: f64 = (0..i).map(|k| a[i][k] * a[k][j]).sum();
+                for k in 0..i {
+                    a[k][j] -= g * a[k][i];
+                }
+            }
+        }
+        d[i] = a[i][i];
+        a[i][i] = 1.0;
+        for j in 0..i {
+            a[j][i] = 0.0;
+            a[i][j] = 0.0;
         }
     }
-    if conservative && n > 0 {
-        k[0] = 0.0;
+    // Implicit QL on (d, e); the rotations accumulate into a's columns.
+    for i in 1..n {
+        e[i - 1] = e[i];
     }
-    Ok(HalfSizeModes { k, v, z })
+    if n > 0 {
+        e[n - 1] = 0.0;
+    }
+    for l in 0..n {
+        let mut iter = 0;
+        loop {
+            let mut m = l;
+            while m + 1 < n {
+                let dd = d[m].abs() + d[m + 1].abs();
+                if e[m].abs() + dd == dd {
+                    break;
+                }
+                m += 1;
+            }
+            if m == l {
+                break;
+            }
+            iter += 1;
+            if iter > MAX_ITER || !d[l].is_finite() {
+                return Err(EigenFailure::Eigen(format!("QL: no convergence in {MAX_ITER} steps")));
+            }
+            let mut g = (d[l + 1] - d[l]) / (2.0 * e[l]);
+            let mut r = g.hypot(1.0);
+            g = d[m] - d[l] + e[l] / (g + r.copysign(g));
+            let (mut s, mut c, mut p) = (1.0, 1.0, 0.0);
+            let mut deflated = false;
+            for i in (l..m).rev() {
+                let f = s * e[i];
+                let b = c * e[i];
+                r = f.hypot(g);
+                e[i + 1] = r;
+                if r == 0.0 {
+                    d[i + 1] -= p;
+                    e[m] = 0.0;
+                    deflated = true;
+                    break;
+                }
+                s = f / r;
+                c = g / r;
+                g = d[i + 1] - p;
+                r = (d[i] - g) * s + 2.0 * c * b;
+                p = s * r;
+                d[i + 1] = g + p;
+                g = c * r - b;
+                for row in a.iter_mut().take(n) {
+                    let f = row[i + 1];
+                    row[i + 1] = s * row[i] + c * f;
+                    row[i] = c * row[i] - s * f;
+                }
+            }
+            if deflated {
+                continue;
+            }
+            d[l] -= p;
+            e[l] = g;
+            e[m] = 0.0;
+        }
+    }
+    Ok((d, a))
 }
 
 #[cfg(test)]
