@@ -160,8 +160,10 @@ pub(crate) fn half_size_modes_in(
 
 /// Up to this size eq. EG1 is solved by [`small_modes`] (plain loops)
 /// instead of faer's blocked routines, whose fixed cost dominates a problem
-/// this small (the few-stream BRDF of docs/benchmarks.md §7).
-pub(crate) const SMALL: usize = 10;
+/// this small (docs/multiflux.md §9 (iv): the 30-direction BRDF 15–19 %
+/// faster per warm solve from N = 3 to 12; from 14 nodes on faer's path is
+/// the faster one, twice as fast at 16).
+pub(crate) const SMALL: usize = 12;
 
 /// Up to this size the symmetric eigenproblem of [`small_modes`] is solved
 /// by Jacobi rotations, above it by tridiagonal QL (faster from about 7 on).
@@ -237,15 +239,18 @@ fn small_modes_in<const M: usize>(
     order[..n].sort_by(|&i, &j| lam[i].total_cmp(&lam[j]));
     let mut k = ws.take(n);
     let (mut v, mut z) = (ws.take_mat(n, n), ws.take_mat(n, n));
+    let inv_diag: [f64; M] = std::array::from_fn(|i| if i < n { 1.0 / l[i][i] } else { 0.0 });
     for (col, &e) in order[..n].iter().enumerate() {
         k[col] = lam[e].max(0.0).sqrt();
         // v~ = L y ; z~ = L^-T y (back substitution with L^T, upper triangular).
+        let vc = v.col_as_slice_mut(col);
         for i in 0..n {
-            v[(i, col)] = (0..=i).map(|c| l[i][c] * y[c][e]).sum();
+            vc[i] = (0..=i).map(|c| l[i][c] * y[c][e]).sum();
         }
+        let zc = z.col_as_slice_mut(col);
         for i in (0..n).rev() {
-            let s: f64 = (i + 1..n).map(|r| l[r][i] * z[(r, col)]).sum();
-            z[(i, col)] = (y[i][e] - s) / l[i][i];
+            let s: f64 = (i + 1..n).map(|r| l[r][i] * zc[r]).sum();
+            zc[i] = (y[i][e] - s) * inv_diag[i];
         }
     }
     if conservative && n > 0 {
@@ -404,7 +409,15 @@ fn tridiagonal_ql<const M: usize>(
             a[i][j] = 0.0;
         }
     }
-    // Implicit QL on (d, e); the rotations accumulate into a's columns.
+    // Implicit QL on (d, e); the rotations accumulate into the columns of
+    // Q, kept transposed (`q[j]` = column j) so that a rotation combines two
+    // contiguous rows.
+    let mut q = [[0.0f64; M]; M];
+    for (i, row) in a.iter().enumerate().take(n) {
+        for (j, x) in row.iter().enumerate().take(n) {
+            q[j][i] = *x;
+        }
+    }
     for i in 1..n {
         e[i - 1] = e[i];
     }
@@ -430,14 +443,14 @@ fn tridiagonal_ql<const M: usize>(
                 return Err(EigenFailure::Eigen(format!("QL: no convergence in {MAX_ITER} steps")));
             }
             let mut g = (d[l + 1] - d[l]) / (2.0 * e[l]);
-            let mut r = g.hypot(1.0);
+            let mut r = pythag(g, 1.0);
             g = d[m] - d[l] + e[l] / (g + r.copysign(g));
             let (mut s, mut c, mut p) = (1.0, 1.0, 0.0);
             let mut deflated = false;
             for i in (l..m).rev() {
                 let f = s * e[i];
                 let b = c * e[i];
-                r = f.hypot(g);
+                r = pythag(f, g);
                 e[i + 1] = r;
                 if r == 0.0 {
                     d[i + 1] -= p;
@@ -445,17 +458,19 @@ fn tridiagonal_ql<const M: usize>(
                     deflated = true;
                     break;
                 }
-                s = f / r;
-                c = g / r;
+                let inv = 1.0 / r;
+                s = f * inv;
+                c = g * inv;
                 g = d[i + 1] - p;
                 r = (d[i] - g) * s + 2.0 * c * b;
                 p = s * r;
                 d[i + 1] = g + p;
                 g = c * r - b;
-                for row in a.iter_mut().take(n) {
-                    let f = row[i + 1];
-                    row[i + 1] = s * row[i] + c * f;
-                    row[i] = c * row[i] - s * f;
+                let (lo, hi) = q.split_at_mut(i + 1);
+                for (x, y) in lo[i][..n].iter_mut().zip(&mut hi[0][..n]) {
+                    let f = *y;
+                    *y = s * *x + c * f;
+                    *x = c * *x - s * f;
                 }
             }
             if deflated {
@@ -466,7 +481,30 @@ fn tridiagonal_ql<const M: usize>(
             e[m] = 0.0;
         }
     }
+    // Back to columns.
+    for (i, row) in a.iter_mut().enumerate().take(n) {
+        for (j, x) in row.iter_mut().enumerate().take(n) {
+            *x = q[j][i];
+        }
+    }
     Ok((d, a))
+}
+
+/// `sqrt(a^2 + b^2)` without overflow or harmful underflow (scaled by the
+/// larger magnitude; libm's `hypot`, correctly rounded, cost a tenth of a
+/// QL solve).
+fn pythag(a: f64, b: f64) -> f64 {
+    let (a, b) = (a.abs(), b.abs());
+    let (big, small) = if a >= b { (a, b) } else { (b, a) };
+    if big == 0.0 || !big.is_finite() {
+        return big;
+    }
+    if big < 1e150 && small > 1e-150 {
+        // No overflow or underflow in the squares: one square root.
+        return a.mul_add(a, b * b).sqrt();
+    }
+    let t = small / big;
+    big * t.mul_add(t, 1.0).sqrt()
 }
 
 #[cfg(test)]
