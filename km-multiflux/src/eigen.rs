@@ -239,18 +239,47 @@ fn small_modes_in<const M: usize>(
     order[..n].sort_by(|&i, &j| lam[i].total_cmp(&lam[j]));
     let mut k = ws.take(n);
     let (mut v, mut z) = (ws.take_mat(n, n), ws.take_mat(n, n));
-    let inv_diag: [f64; M] = std::array::from_fn(|i| if i < n { 1.0 / l[i][i] } else { 0.0 });
+    // Y with its columns in ascending order of k; then v~ = L Y and, by back
+    // substitution with L^T (upper triangular), z~ = L^-T Y, row by row with
+    // every column at once (independent columns: no chain of dependent
+    // roundings through the loop).
+    let mut ys = [[0.0f64; M]; M];
+    for (c, row) in ys.iter_mut().enumerate().take(n) {
+        for (col, &e) in order[..n].iter().enumerate() {
+            row[col] = y[c][e];
+        }
+    }
+    let mut va = [[0.0f64; M]; M];
+    for i in 0..n {
+        for c in 0..=i {
+            let lic = l[i][c];
+            for (x, &yc) in va[i][..n].iter_mut().zip(&ys[c][..n]) {
+                *x += lic * yc;
+            }
+        }
+    }
+    let mut za = [[0.0f64; M]; M];
+    for i in (0..n).rev() {
+        let mut row = ys[i];
+        for r in i + 1..n {
+            let lri = l[r][i];
+            for (x, &zr) in row[..n].iter_mut().zip(&za[r][..n]) {
+                *x -= lri * zr;
+            }
+        }
+        let inv = 1.0 / l[i][i];
+        for (x, &w) in za[i][..n].iter_mut().zip(&row[..n]) {
+            *x = w * inv;
+        }
+    }
     for (col, &e) in order[..n].iter().enumerate() {
         k[col] = lam[e].max(0.0).sqrt();
-        // v~ = L y ; z~ = L^-T y (back substitution with L^T, upper triangular).
-        let vc = v.col_as_slice_mut(col);
+        let (vc, zc) = (v.col_as_slice_mut(col), z.col_as_slice_mut(col));
         for i in 0..n {
-            vc[i] = (0..=i).map(|c| l[i][c] * y[c][e]).sum();
+            vc[i] = va[i][col];
         }
-        let zc = z.col_as_slice_mut(col);
-        for i in (0..n).rev() {
-            let s: f64 = (i + 1..n).map(|r| l[r][i] * zc[r]).sum();
-            zc[i] = (y[i][e] - s) * inv_diag[i];
+        for i in 0..n {
+            zc[i] = za[i][col];
         }
     }
     if conservative && n > 0 {
