@@ -162,8 +162,18 @@ pub struct LegendreRecurrence {
 impl LegendreRecurrence {
     /// The coefficients for order `m` and degrees `l = 0..nl`.
     pub fn new(m: usize, nl: usize) -> Self {
+        Self::new_in(m, nl, Vec::new(), Vec::new())
+    }
+
+    /// [`LegendreRecurrence::new`] in the vectors `a` and `b` (emptied and
+    /// refilled: a caller that solves many orders reuses their allocations,
+    /// see [`LegendreRecurrence::into_buffers`]).
+    pub fn new_in(m: usize, nl: usize, mut a: Vec<f64>, mut b: Vec<f64>) -> Self {
         let mf = m as f64;
-        let (mut a, mut b) = (vec![0.0; nl], vec![0.0; nl]);
+        a.clear();
+        a.resize(nl, 0.0);
+        b.clear();
+        b.resize(nl, 0.0);
         for l in (m + 2).min(nl)..nl {
             let lf = l as f64;
             let d = (lf * lf - mf * mf).sqrt();
@@ -173,6 +183,11 @@ impl LegendreRecurrence {
         let c0: f64 = (1..=m).map(|i| ((2 * i - 1) as f64 / (2 * i) as f64).sqrt()).product();
         let c1 = ((2 * m + 1) as f64).sqrt();
         LegendreRecurrence { m, a, b, c0, c1 }
+    }
+
+    /// The coefficient vectors, for reuse by [`LegendreRecurrence::new_in`].
+    pub fn into_buffers(self) -> (Vec<f64>, Vec<f64>) {
+        (self.a, self.b)
     }
 
     /// `Lambda_l^m(mu)` for `l = 0..nl` into `out` (`nl` long; zero for `l < m`).

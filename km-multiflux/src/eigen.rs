@@ -179,10 +179,13 @@ fn small_modes(
     conservative: bool,
     ws: &mut Workspace,
 ) -> Result<HalfSizeModes, EigenFailure> {
-    if hp.nrows() <= JACOBI_MAX {
-        small_modes_in::<JACOBI_MAX>(hp, hm, conservative, ws)
-    } else {
-        small_modes_in::<SMALL>(hp, hm, conservative, ws)
+    // Arrays sized to the problem (their zeroing and moves are a good part
+    // of the cost at these sizes).
+    match hp.nrows() {
+        0..=3 => small_modes_in::<3>(hp, hm, conservative, ws),
+        4..=JACOBI_MAX => small_modes_in::<JACOBI_MAX>(hp, hm, conservative, ws),
+        7..=8 => small_modes_in::<8>(hp, hm, conservative, ws),
+        _ => small_modes_in::<SMALL>(hp, hm, conservative, ws),
     }
 }
 

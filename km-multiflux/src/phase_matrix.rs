@@ -163,6 +163,58 @@ pub(crate) fn fourier_blocks_in(
     n: usize,
     ws: &mut Workspace,
 ) -> (Mat<f64>, Mat<f64>) {
+    let (mut pe, mut po) = if n <= crate::eigen::SMALL {
+        blocks_by_sums(m, chi, lam, n, ws)
+    } else {
+        blocks_by_products(m, chi, lam, n, ws)
+    };
+    if m == 0 {
+        rescale_symmetric(&mut pe, &mut po, w);
+    }
+    (pe, po)
+}
+
+/// The unscaled blocks of [`fourier_blocks_in`] for few nodes: the sums
+/// directly, once per pair (the blocks are symmetric), without the fixed
+/// cost of a general product.
+fn blocks_by_sums(
+    m: usize,
+    chi: &[f64],
+    lam: &[f64],
+    n: usize,
+    ws: &mut Workspace,
+) -> (Mat<f64>, Mat<f64>) {
+    let nl = chi.len();
+    {
+        let (mut pe, mut po) = (ws.take_mat(n, n), ws.take_mat(n, n));
+        for j in 0..n {
+            let lj = &lam[j * nl..(j + 1) * nl];
+            for i in 0..=j {
+                let li = &lam[i * nl..(i + 1) * nl];
+                let (mut se, mut so) = (0.0, 0.0);
+                for l in m..nl {
+                    let x = chi[l] * li[l] * lj[l];
+                    if (l + m).is_multiple_of(2) { se += x } else { so += x }
+                }
+                pe[(i, j)] = se;
+                pe[(j, i)] = se;
+                po[(i, j)] = so;
+                po[(j, i)] = so;
+            }
+        }
+        (pe, po)
+    }
+}
+
+/// The unscaled blocks of [`fourier_blocks_in`] as two products (faer's
+/// `*`, the same bits as before the sums of [`blocks_by_sums`] existed).
+fn blocks_by_products(
+    m: usize,
+    chi: &[f64],
+    lam: &[f64],
+    n: usize,
+    ws: &mut Workspace,
+) -> (Mat<f64>, Mat<f64>) {
     let nl = chi.len();
     // Even and odd (in l + m) parts of the phase matrix: P(mu,mu') ± P(mu,-mu')
     // = sum_l c_l Lambda_l(mu_i) Lambda_l(mu_j), as dot products of rows.
@@ -187,18 +239,20 @@ pub(crate) fn fourier_blocks_in(
     for a in [ae, ao, lt] {
         ws.give_mat(a);
     }
-    // m = 0: the symmetric rescaling d_i P_ij d_j of both parts (eq. PM1).
-    if m == 0 {
-        let d = symmetric_scaling(&pe, w).d;
-        for j in 0..n {
-            let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
-            for i in 0..n {
-                ce[i] *= d[i] * d[j];
-                co[i] *= d[i] * d[j];
-            }
+    (pe, po)
+}
+
+/// m = 0: the symmetric rescaling `d_i P_ij d_j` of both parts (eq. PM1).
+fn rescale_symmetric(pe: &mut Mat<f64>, po: &mut Mat<f64>, w: &[f64]) {
+    let n = w.len();
+    let d = symmetric_scaling(pe, w).d;
+    for j in 0..n {
+        let (ce, co) = (pe.col_as_slice_mut(j), po.col_as_slice_mut(j));
+        for i in 0..n {
+            ce[i] *= d[i] * d[j];
+            co[i] *= d[i] * d[j];
         }
     }
-    (pe, po)
 }
 
 /// The direction-set phase blocks `(P++, P+-)` on `n` directions with
@@ -274,6 +328,42 @@ mod tests {
     /// The Fourier–Gauss blocks of isotropic scattering (`c_0 = 1`) on the
     /// 4-point Gauss rule of `[0, 1]`: `P_even = 1`, so every row sums to the
     /// weights' sum 1, and `P_odd = 0`.
+    #[test]
+    fn blocks_by_sums_equal_the_products() {
+        // Both unscaled routes on the same table, N = 3 and 12, orders 0-5:
+        // equal to 1e-15 of the largest entry (sums of a few dozen terms in
+        // another order).
+        let mut ws = Workspace::default();
+        for n in [3usize, 12] {
+            let nl = 2 * n;
+            let mu: Vec<f64> = km_core::quadrature::gauss_legendre(2 * n)
+                .0
+                .into_iter()
+                .filter(|&x| x > 0.0)
+                .collect();
+            let chi: Vec<f64> =
+                (0..nl).map(|l| (2 * l + 1) as f64 * 0.7f64.powi(l as i32)).collect();
+            for m in 0..6 {
+                let rec = km_core::legendre::LegendreRecurrence::new(m, nl);
+                let mut lam = vec![0.0; n * nl];
+                for (i, &x) in mu.iter().enumerate() {
+                    rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
+                }
+                let (se, so) = blocks_by_sums(m, &chi, &lam, n, &mut ws);
+                let (pe, po) = blocks_by_products(m, &chi, &lam, n, &mut ws);
+                let top = (0..n)
+                    .flat_map(|i| (0..n).map(move |j| (i, j)))
+                    .fold(0.0f64, |a, (i, j)| a.max(pe[(i, j)].abs()).max(po[(i, j)].abs()));
+                for i in 0..n {
+                    for j in 0..n {
+                        assert!((se[(i, j)] - pe[(i, j)]).abs() <= 1e-15 * top, "N = {n}, m = {m}");
+                        assert!((so[(i, j)] - po[(i, j)]).abs() <= 1e-15 * top, "N = {n}, m = {m}");
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn isotropic_fourier_blocks_conserve_energy() {
         let (x, w) = km_core::quadrature::gauss_legendre(4);

@@ -176,8 +176,9 @@ impl SlabSolution {
         let nl = p.chi.len();
         // t = sqrt(w mu), the weighted moments chi and the Legendre table in
         // vectors of the workspace (handed back by `SlabSolution::recycle`).
-        let (mut t, mut chi, mut lam) =
-            with_workspace(|ws| (ws.take(n), ws.take(nl), ws.take(n * nl)));
+        let (mut t, mut chi, mut lam, ra, rb) = with_workspace(|ws| {
+            (ws.take(n), ws.take(nl), ws.take(n * nl), ws.take(nl), ws.take(nl))
+        });
         for ((t, u), w) in t.iter_mut().zip(mu).zip(w) {
             *t = (u * w).sqrt();
         }
@@ -186,7 +187,7 @@ impl SlabSolution {
         }
 
         // Legendre table Lambda_l^m(mu_i), node-major.
-        let rec = LegendreRecurrence::new(m, nl);
+        let rec = LegendreRecurrence::new_in(m, nl, ra, rb);
         for (i, &x) in mu.iter().enumerate() {
             rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
         }
@@ -293,7 +294,8 @@ impl SlabSolution {
     /// Hand this solution's matrices and vectors that came from the
     /// workspace back to it (the end of a layer's order).
     pub(crate) fn recycle(self, ws: &mut Workspace) {
-        for v in [self.mu, self.w, self.ek, self.k, self.t, self.chi, self.lam] {
+        let (ra, rb) = self.rec.into_buffers();
+        for v in [self.mu, self.w, self.ek, self.k, self.t, self.chi, self.lam, ra, rb] {
             ws.give(v);
         }
         self.lu_p.recycle(ws);

@@ -41,6 +41,8 @@ pub(crate) const MAX_LEN: usize = 8192;
 #[derive(Default)]
 pub(crate) struct Workspace {
     free: Vec<Vec<f64>>,
+    /// Kept index vectors (the LU's pivots, the probes' map).
+    idx: Vec<Vec<usize>>,
     mats: Vec<Mat<f64>>,
     /// faer's scratch (the Cholesky factorisation and the symmetric
     /// eigen-solver of [`crate::eigen`]), grown to the largest request seen.
@@ -95,6 +97,7 @@ impl Workspace {
     pub(crate) const fn new() -> Self {
         Workspace {
             free: Vec::new(),
+            idx: Vec::new(),
             mats: Vec::new(),
             stack: None,
             taken: 0,
@@ -139,6 +142,29 @@ impl Workspace {
     pub(crate) fn give(&mut self, v: Vec<f64>) {
         if v.capacity() > 0 && v.capacity() <= MAX_LEN && self.free.len() < MAX_VECTORS {
             self.free.push(v);
+        }
+    }
+
+    /// A vector of `len` zero indices, reusing a kept one where possible.
+    pub(crate) fn take_idx(&mut self, len: usize) -> Vec<usize> {
+        self.taken += 1;
+        let mut v = match self.idx.iter().rposition(|v| v.capacity() >= len) {
+            Some(i) => self.idx.swap_remove(i),
+            None => {
+                self.fresh += 1;
+                Vec::with_capacity(len.max(MIN_LEN))
+            }
+        };
+        v.clear();
+        v.resize(len, 0);
+        v
+    }
+
+    /// Hand an index vector back for reuse (freed instead when the
+    /// workspace is full or `v` is longer than [`MAX_LEN`]).
+    pub(crate) fn give_idx(&mut self, v: Vec<usize>) {
+        if v.capacity() > 0 && v.capacity() <= MAX_LEN && self.idx.len() < MAX_VECTORS {
+            self.idx.push(v);
         }
     }
 

@@ -155,7 +155,7 @@ impl SlabSolution {
             ws.give(v);
         }
         for (ex_i, exx) in extras.iter().enumerate() {
-            let (Some(p), Some(mu_x)) = (probes.of[ex_i], exx.mu) else { continue };
+            let (Some(p), Some(mu_x)) = (probes.of(ex_i), exx.mu) else { continue };
             let [mut out_up, mut out_dn, hp, hm] =
                 [per[4 * p], per[4 * p + 1], per[4 * p + 2], per[4 * p + 3]];
             if let (Some(t), 0) = (tms, self.m) {
@@ -214,7 +214,7 @@ impl SlabSolution {
         let probes = self.probes(extras, ws);
         let (r, t) = self.beam_response_rows(mu_b, extras, &probes, tms, down, ws);
         for i in 0..dim {
-            if i < n || probes.of[i - n].is_some() {
+            if i < n || probes.of(i - n).is_some() {
                 cr[i] = r[i];
                 ct[i] = t[i];
             }

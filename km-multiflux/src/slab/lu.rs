@@ -107,7 +107,7 @@ impl Lu {
     /// benchmark's reference).
     pub fn hand_written(c: &Mat<f64>) -> Self {
         let n = c.nrows();
-        Self::hand_written_into(c, vec![0.0; n * n])
+        Self::hand_written_into(c, vec![0.0; n * n], vec![0; n])
     }
 
     /// [`Lu::new`] with the factors' buffer (below `FAER_FROM` nodes) taken
@@ -117,21 +117,22 @@ impl Lu {
         if n >= FAER_FROM {
             return Self::from_faer(c.partial_piv_lu());
         }
-        Self::hand_written_into(c, ws.take(n * n))
+        Self::hand_written_into(c, ws.take(n * n), ws.take_idx(n))
     }
 
-    /// Hand the factors' buffer back to the workspace.
+    /// Hand the factors' buffers back to the workspace.
     pub(crate) fn recycle(self, ws: &mut Workspace) {
         ws.give(self.lu);
+        ws.give_idx(self.piv);
     }
 
-    /// The hand-written elimination in `lu` (`n * n` values, overwritten).
-    fn hand_written_into(c: &Mat<f64>, mut lu: Vec<f64>) -> Self {
+    /// The hand-written elimination in `lu` (`n * n` values) with the
+    /// pivots in `piv` (`n`; both overwritten).
+    fn hand_written_into(c: &Mat<f64>, mut lu: Vec<f64>, mut piv: Vec<usize>) -> Self {
         let n = c.nrows();
         for j in 0..n {
             lu[j * n..(j + 1) * n].copy_from_slice(c.col_as_slice(j));
         }
-        let mut piv = vec![0; n];
         for k in 0..n {
             // Pivot: largest |C(r, k)| for r >= k.
             let col = &lu[k * n..(k + 1) * n];

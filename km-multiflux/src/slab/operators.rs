@@ -48,7 +48,7 @@ impl SlabSolution {
             if let Some(mu_x) = ex.mu {
                 tt[(n + e, n + e)] = atten(self.tau, mu_x);
             }
-            if let Some(p) = probes.of[e] {
+            if let Some(p) = probes.of(e) {
                 let (rx, tx) = &vectors[p];
                 for i in 0..n {
                     rr[(n + e, i)] = rx[i];
@@ -60,7 +60,7 @@ impl SlabSolution {
             let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
             let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, tms, true, ws);
             for i in 0..dim {
-                if i < n || probes.of[i - n].is_some() {
+                if i < n || probes.of(i - n).is_some() {
                     rr[(i, n + eb)] = cr[i];
                     tt[(i, n + eb)] = ct[i];
                 }

@@ -36,15 +36,24 @@ pub(super) struct Probes {
     lam: Vec<f64>,
     ev: Vec<f64>,
     od: Vec<f64>,
-    /// For each extra: its probe (`None` for the beam and for directions
-    /// absent from this medium).
-    pub(super) of: Vec<Option<usize>>,
+    /// For each extra: its probe ([`NO_PROBE`] for the beam and for
+    /// directions absent from this medium; see [`Probes::of`]).
+    of: Vec<usize>,
 }
+
+/// The mark of an extra without a probe in [`Probes`]' map.
+const NO_PROBE: usize = usize::MAX;
 
 impl Probes {
     /// The number of distinct probes.
     pub(super) fn len(&self) -> usize {
         self.mu.len()
+    }
+
+    /// The probe of extra `e` (`None` for the beam and for directions
+    /// absent from this medium).
+    pub(super) fn of(&self, e: usize) -> Option<usize> {
+        Some(self.of[e]).filter(|&p| p != NO_PROBE)
     }
 
     /// Probe `p`.
@@ -65,6 +74,7 @@ impl Probes {
         for v in [self.mu, self.us, self.uy, self.lam, self.ev, self.od] {
             ws.give(v);
         }
+        ws.give_idx(self.of);
     }
 }
 
@@ -210,19 +220,19 @@ impl SlabSolution {
     /// and directions absent from this medium have none).
     pub(super) fn probes(&self, extras: &[Extra], ws: &mut Workspace) -> Probes {
         let mut mu = ws.take(0);
-        let of = extras
-            .iter()
-            .map(|ex| match (ex.beam, ex.mu) {
-                (false, Some(mu_x)) => Some(match mu.iter().position(|&p| p == mu_x) {
+        let mut of = ws.take_idx(extras.len());
+        for (o, ex) in of.iter_mut().zip(extras) {
+            *o = match (ex.beam, ex.mu) {
+                (false, Some(mu_x)) => match mu.iter().position(|&p| p == mu_x) {
                     Some(i) => i,
                     None => {
                         mu.push(mu_x);
                         mu.len() - 1
                     }
-                }),
-                _ => None,
-            })
-            .collect();
+                },
+                _ => NO_PROBE,
+            };
+        }
         let (n, nl, np) = (self.n, self.chi.len(), mu.len());
         let mut pr = Probes {
             n,
