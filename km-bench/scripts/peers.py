@@ -327,6 +327,119 @@ def fmt(x):
     return f"{x:.6f}" if isinstance(x, float) else str(x)
 
 
+# --- Totals at their cheapest sufficient stream count (--totals-ladder) -----
+
+TOTALS_TOL = 1e-4
+
+# C DISORT's totals of one slab at one NSTR (flux only, delta-M with NSTR
+# moments as DISORT wants them; HG moments), best of `repeats` solve() calls.
+TOTALS_RUNNER = r"""
+import json, math, sys, time
+import numpy as np
+import nanodisort as nd
+tau, albedo, g, theta, nstr, repeats = json.load(sys.stdin)
+s = nd.DisortState()
+s.nstr = nstr; s.nlyr = 1; s.nmom = nstr; s.ntau = 2; s.numu = nstr; s.nphi = 1; s.nphase = 0
+s.allocate()
+s.usrtau = True; s.usrang = False; s.onlyfl = True; s.lamber = True; s.quiet = True
+s.intensity_correction = False
+s.dtauc = np.array([tau]); s.ssalb = np.array([albedo])
+s.pmom = (g ** np.arange(nstr + 1)).reshape(-1, 1)
+s.utau = np.array([0.0, tau]); s.phi = np.array([0.0])
+mu0 = math.cos(math.radians(theta))
+s.fbeam = 1.0; s.umu0 = mu0; s.phi0 = 0.0; s.albedo = 0.0; s.fisot = 0.0
+try:
+    s.solve()
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter(); s.solve(); ts.append(time.perf_counter() - t)
+except RuntimeError as e:
+    print(json.dumps({"error": str(e)})); sys.exit(0)
+e = mu0
+print(json.dumps({"R": float(s.flup[0]) / e, "T": float(s.rfldir[1] + s.rfldn[1]) / e,
+                  "seconds": min(ts)}))
+"""
+
+
+def disort_totals(py: Path, c, nstr, repeats):
+    payload = json.dumps([c["tau"], c["albedo"], c["g"], c["theta"], nstr, repeats])
+    res = subprocess.run([str(py), "-c", TOTALS_RUNNER], input=payload, capture_output=True,
+                         text=True, check=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def km_totals(km: Path, scene: Path, streams, repeats):
+    res = subprocess.run([str(km), "solve", str(scene), "--method", "multiflux", "--streams",
+                          str(streams), "--repeat", str(max(1, repeats)), "--json"],
+                         capture_output=True, text=True, check=True)
+    d = json.loads(res.stdout)
+    return {"R": d["reflectance"], "T": d["transmittance"],
+            "seconds": d.get("seconds_best", d["seconds"]), "first": d["seconds"]}
+
+
+def totals_cases(root: Path):
+    """The slabs of km-multiflux/tests/data/slabs.json that C DISORT can
+    treat (index-matched, collimated light), with their stored references."""
+    data = json.loads((root / "km-multiflux/tests/data/slabs.json").read_text())
+    cases = []
+    for c in data["cases"]:
+        sc = c["scene"]
+        if len(sc["layers"]) != 1 or sc["light"]["kind"] != "collimated":
+            continue
+        lay = sc["layers"][0]
+        if lay.get("n", 1.0) != 1.0 or sc["substrate"].get("n", 1.0) != 1.0:
+            continue
+        cases.append(dict(name=c["id"], tau=lay["tau"], albedo=lay["albedo"], g=lay["g"],
+                          theta=sc["light"]["theta_deg"]))
+    return cases
+
+
+def totals_main(root: Path, out: Path, py: Path, repeats: int, km: Path):
+    """Each tool at the cheapest setting of its ladder whose R and T are both
+    within TOTALS_TOL of C DISORT at NSTR = 128; times alternated over three
+    rounds, best of `repeats` in-process calls each."""
+    scenes = out / "peers"
+    scenes.mkdir(parents=True, exist_ok=True)
+    lines = ["# km and C DISORT, slab totals at their cheapest sufficient stream count", "",
+             f"The index-matched slabs of km-multiflux/tests/data/slabs.json; each tool at the "
+             f"cheapest stream count of its ladder whose R and T are within {TOTALS_TOL:g} of C "
+             f"DISORT at NSTR = 128; best of {repeats} in-process calls, three rounds alternated.",
+             "", "| slab | km N | DISORT NSTR | km warm | km first call | C DISORT | km warm / DISORT "
+             "| km first / DISORT |", "|---|---|---|---|---|---|---|---|"]
+    warm, first = [], []
+    for c in totals_cases(root):
+        scene = scenes / f"totals-{c['name']}.toml"
+        scene.write_text(
+            f'[light]\nkind = "collimated"\ntheta_deg = {c["theta"]!r}\n\n[ambient]\nn = 1.0\n\n'
+            f'[[layer]]\ntau = {c["tau"]!r}\nalbedo = {c["albedo"]!r}\ng = {c["g"]!r}\nn = 1.0\n\n'
+            '[substrate]\nkind = "transparent"\nn = 1.0\n')
+        ref = disort_totals(py, c, 128, 1)
+        ok = lambda r: "error" not in r and max(abs(r["R"] - ref["R"]), abs(r["T"] - ref["T"])) <= TOTALS_TOL
+        nk = next((n for n in KM_LADDER if ok(km_totals(km, scene, n, 1))), None)
+        nd_ = next((n for n in DISORT_LADDER if ok(disort_totals(py, c, n, 1))), None)
+        if nk is None or nd_ is None:
+            lines.append(f"| {c['name']} | {nk} | {nd_} | | | | not reached | |")
+            continue
+        kt, kf, dt = [], [], []
+        for _ in range(3):
+            r = km_totals(km, scene, nk, repeats)
+            kt.append(r["seconds"])
+            kf.append(r["first"])
+            dt.append(disort_totals(py, c, nd_, repeats)["seconds"])
+        w, f = min(kt) / min(dt), statistics.median(kf) / min(dt)
+        warm.append(w)
+        first.append(f)
+        lines.append(f"| {c['name']} | {nk} | {nd_} | {min(kt) * 1e6:.1f} µs | "
+                     f"{statistics.median(kf) * 1e6:.0f} µs | {min(dt) * 1e6:.1f} µs | {w:.2f} | "
+                     f"{f:.1f} |")
+    if warm:
+        geo = lambda v: math.exp(sum(map(math.log, v)) / len(v))
+        lines += ["", f"Geometric means: km warm / DISORT {geo(warm):.2f}, km first call / DISORT "
+                  f"{geo(first):.1f} (median {statistics.median(first):.1f})."]
+    (out / "peers-totals.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out")
@@ -336,11 +449,18 @@ def main():
                     help="interpreter whose installed peers are used (no virtual environment)")
     ap.add_argument("--brdf", action="store_true",
                     help="the BRDF case against C DISORT at 1 %% equal accuracy instead")
+    ap.add_argument("--totals-ladder", action="store_true",
+                    help="slab totals against C DISORT, each at its cheapest stream count "
+                    "within 1e-4, instead")
     ap.add_argument("--km", default=None,
-                    help="with --brdf: this km binary instead of building one")
+                    help="with --brdf or --totals-ladder: this km binary instead of building one")
     args = ap.parse_args()
     root = Path(__file__).resolve().parents[2]
     out = (root / args.out).resolve()
+    if args.totals_ladder:
+        out.mkdir(parents=True, exist_ok=True)
+        km = Path(args.km) if args.km else build_km(root, args.profile)[0]
+        return totals_main(root, out, ensure_venv(out, args.python), args.repeats, km)
     if args.brdf:
         out.mkdir(parents=True, exist_ok=True)
         return brdf_main(root, out, ensure_venv(out, args.python), args.profile, args.repeats,

@@ -505,36 +505,52 @@ fn thick_layers(
     layers: &mut [LayerPlan],
     all_effects: bool,
 ) -> usize {
-    let mut active = scene.layers().len();
+    let own_half_space = scene.layers().iter().position(|l| l.is_half_space());
+    if !all_effects && let Some((i, bound)) = transmission_cut(scene) {
+        let l = &scene.layers()[i];
+        layers[i].half_space = true;
+        layers[i].cutoff_bound = Some(bound);
+        d.skip(
+            Simplification::Transmission,
+            format!(
+                "layer {} (tau = {:.4e}, albedo = {:.6}) is treated as a half-space: \
+                 light returning from below is < {:.1e} of the incident",
+                i + 1,
+                l.tau(),
+                l.albedo(),
+                bound
+            ),
+        );
+        return i + 1;
+    }
+    own_half_space.map_or(scene.layers().len(), |i| i + 1)
+}
+
+/// The `transmission` rule alone (eq. PL1 of docs/planner.md): the first
+/// layer, above any half-space, so thick that less than
+/// [`TRANSMISSION_CUTOFF`] of the incident light returns from below it, and
+/// that bound; `None` when no layer is. What [`Plan::new`] records as the
+/// `transmission` simplification, without the plan's descriptions (the
+/// solvers ask it on every solve).
+///
+/// ```
+/// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = 1e4\nalbedo = 0.5\n").unwrap();
+/// let (i, bound) = km_core::plan::transmission_cut(&s.channels()[0]).unwrap();
+/// assert_eq!(i, 0);
+/// assert!(bound < km_core::plan::TRANSMISSION_CUTOFF);
+/// ```
+pub fn transmission_cut(scene: &MonoScene) -> Option<(usize, f64)> {
     for (i, l) in scene.layers().iter().enumerate() {
         if l.is_half_space() {
-            active = i + 1;
-            break;
-        }
-        if all_effects {
-            continue;
+            return None;
         }
         let omega = l.albedo();
         let k_d = (3.0 * (1.0 - omega) * (1.0 - omega * l.g())).max(0.0).sqrt();
         let k_s = 0.5 * k_d.min(1.0);
         let bound = (-2.0 * k_s * l.tau()).exp();
         if k_s > 0.0 && bound < TRANSMISSION_CUTOFF {
-            layers[i].half_space = true;
-            layers[i].cutoff_bound = Some(bound);
-            active = i + 1;
-            d.skip(
-                Simplification::Transmission,
-                format!(
-                    "layer {} (tau = {:.4e}, albedo = {:.6}) is treated as a half-space: \
-                     light returning from below is < {:.1e} of the incident",
-                    i + 1,
-                    l.tau(),
-                    omega,
-                    bound
-                ),
-            );
-            break;
+            return Some((i, bound));
         }
     }
-    active
+    None
 }

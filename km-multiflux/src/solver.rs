@@ -693,10 +693,7 @@ pub(crate) fn planned_cutoff(
     if opts.all_effects {
         return (None, None);
     }
-    let plan = km_core::plan::Plan::new(scene, km_core::plan::Request::from_scene(scene), false);
-    let Some((i, bound)) =
-        plan.layers.iter().enumerate().find_map(|(i, l)| l.cutoff_bound.map(|b| (i, b)))
-    else {
+    let Some((i, bound)) = km_core::plan::transmission_cut(scene) else {
         return (None, None);
     };
     // The plan's layer index is in range, so the cut cannot fail.
