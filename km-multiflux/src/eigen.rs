@@ -160,9 +160,11 @@ pub(crate) fn half_size_modes_in(
 
 /// Up to this size eq. EG1 is solved by [`small_modes`] (plain loops)
 /// instead of faer's blocked routines, whose fixed cost dominates a problem
-/// this small (docs/multiflux.md §9 (iv): the 30-direction BRDF 15–19 %
-/// faster per warm solve from N = 3 to 12; from 14 nodes on faer's path is
-/// the faster one, twice as fast at 16).
+/// this small (docs/multiflux.md §9 (iv): the 30-direction BRDF 15–32 %
+/// faster per warm solve from N = 3 to 12). At 13–16 nodes the own path is
+/// faster still (13–19 %), but its rounding moves a stored golden output
+/// (paint over primer, nearly conservative, at 1.1e-12) beyond the 1e-12 to
+/// which they are kept: faer's path stays there.
 pub(crate) const SMALL: usize = 12;
 
 /// Up to this size the symmetric eigenproblem of [`small_modes`] is solved
