@@ -35,6 +35,16 @@ its defaults otherwise); times are best of --repeats in-process calls (DISORT:
 alternated per case, and the ratio km / DISORT is printed per g. Writes
 out/peers-brdf.md.
 
+`--totals-ladder` runs the slab totals at their cheapest sufficient stream
+count instead: the index-matched slabs of
+km-multiflux/tests/data/slabs.json, each tool at the cheapest stream count
+of its ladder whose R and T are both within 1e-4 of C DISORT at NSTR = 128;
+km warm (`seconds_best` of `km solve --repeat K`) and first call (its
+`seconds`, the median of three fresh processes) against C DISORT's best of
+K `solve()` calls (flux only, no intensity correction). Writes
+out/peers-totals.md. With `--brdf` and `--totals-ladder`, `--km BIN` takes
+a given km binary instead of building one.
+
 Peers' known limits (checked on their releases, 2026-11): iadpython treats
 normal incidence only and fails with 32 or more points; PythonicDISORT
 refuses albedo 1; neither DISORT treats refractive boundaries, so the case
