@@ -249,19 +249,31 @@ print(json.dumps({"brdf": brdf, "seconds": min(ts)}))
 """
 
 
-def disort_brdf(py: Path, g, nstr, nmom, repeats):
-    payload = json.dumps([g, nstr, nmom, repeats, BRDF_THETA0, BRDF_THETA, BRDF_PHI])
-    res = subprocess.run([str(py), "-c", BRDF_RUNNER], input=payload, capture_output=True,
+def run_runner(py: Path, runner: str, args):
+    """Run a peer runner (`-c runner`, `args` as JSON on stdin); its last line, parsed."""
+    res = subprocess.run([str(py), "-c", runner], input=json.dumps(args), capture_output=True,
                          text=True, check=True)
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-def km_brdf(km: Path, scene: Path, streams, repeats):
+def run_km(km: Path, scene: Path, streams, repeats):
+    """`km solve --streams N --repeat K --json`: the output, with `seconds`
+    (the first call) and `best` (the best of the K)."""
     res = subprocess.run([str(km), "solve", str(scene), "--method", "multiflux", "--streams",
                           str(streams), "--repeat", str(max(1, repeats)), "--json"],
                          capture_output=True, text=True, check=True)
     d = json.loads(res.stdout)
-    return {"brdf": d["brdf"], "seconds": d.get("seconds_best", d["seconds"]), "first": d["seconds"]}
+    d["best"] = d.get("seconds_best", d["seconds"])
+    return d
+
+
+def disort_brdf(py: Path, g, nstr, nmom, repeats):
+    return run_runner(py, BRDF_RUNNER, [g, nstr, nmom, repeats, BRDF_THETA0, BRDF_THETA, BRDF_PHI])
+
+
+def km_brdf(km: Path, scene: Path, streams, repeats):
+    d = run_km(km, scene, streams, repeats)
+    return {"brdf": d["brdf"], "seconds": d["best"], "first": d["seconds"]}
 
 
 def max_rel(a, ref):
@@ -372,19 +384,13 @@ print(json.dumps({"R": float(s.flup[0]) / e, "T": float(s.rfldir[1] + s.rfldn[1]
 
 
 def disort_totals(py: Path, c, nstr, repeats):
-    payload = json.dumps([c["tau"], c["albedo"], c["g"], c["theta"], nstr, repeats])
-    res = subprocess.run([str(py), "-c", TOTALS_RUNNER], input=payload, capture_output=True,
-                         text=True, check=True)
-    return json.loads(res.stdout.strip().splitlines()[-1])
+    return run_runner(py, TOTALS_RUNNER, [c["tau"], c["albedo"], c["g"], c["theta"], nstr, repeats])
 
 
 def km_totals(km: Path, scene: Path, streams, repeats):
-    res = subprocess.run([str(km), "solve", str(scene), "--method", "multiflux", "--streams",
-                          str(streams), "--repeat", str(max(1, repeats)), "--json"],
-                         capture_output=True, text=True, check=True)
-    d = json.loads(res.stdout)
-    return {"R": d["reflectance"], "T": d["transmittance"],
-            "seconds": d.get("seconds_best", d["seconds"]), "first": d["seconds"]}
+    d = run_km(km, scene, streams, repeats)
+    return {"R": d["reflectance"], "T": d["transmittance"], "seconds": d["best"],
+            "first": d["seconds"]}
 
 
 def totals_cases(root: Path):

@@ -569,6 +569,34 @@ mod tests {
         (hp, hm)
     }
 
+    /// faer's high-level path (`Mat::llt`, the `*` products,
+    /// `Mat::self_adjoint_eigen`, the triangular solve): `(k, v~, z~)`.
+    fn faer_modes(hp: &Mat<f64>, hm: &Mat<f64>) -> (Vec<f64>, Mat<f64>, Mat<f64>) {
+        let lf = hp.llt(Side::Lower).unwrap().L().to_owned();
+        let sym = lf.transpose() * (hm * &lf);
+        let evd = sym.self_adjoint_eigen(Side::Lower).unwrap();
+        let y = evd.U().to_owned();
+        let v = &lf * &y;
+        let mut z = y.clone();
+        solve_upper_triangular_in_place(lf.transpose(), z.as_mut(), Par::Seq);
+        let k = evd.S().column_vector().iter().map(|s| s.max(0.0).sqrt()).collect();
+        (k, v, z)
+    }
+
+    /// Eq. EG1 for the modes `m`: `H- v~ = k^2 z~` and `H+ z~ = v~`, each
+    /// entry to `tol` relative to `1 + |entry|`.
+    fn assert_eg1(hp: &Mat<f64>, hm: &Mat<f64>, m: &HalfSizeModes, tol: f64) {
+        let n = hp.nrows();
+        let (hmv, hpz) = (hm * &m.v, hp * &m.z);
+        for j in 0..n {
+            for i in 0..n {
+                let k2z = m.k[j] * m.k[j] * m.z[(i, j)];
+                assert!((hmv[(i, j)] - k2z).abs() < tol * (1.0 + hmv[(i, j)].abs()), "N = {n}");
+                assert!((hpz[(i, j)] - m.v[(i, j)]).abs() < tol * (1.0 + m.v[(i, j)].abs()));
+            }
+        }
+    }
+
     /// Above [`SMALL`], the workspace path gives the same bits as faer's
     /// high-level calls (`Mat::llt`, the `*` products,
     /// `Mat::self_adjoint_eigen`), which it replaces; a warm workspace hands out every matrix, vector and the
@@ -588,59 +616,38 @@ mod tests {
                 assert_eq!(fresh1, fresh0, "a warm eigen-solve takes nothing new");
             }
             // The replaced high-level path.
-            let lf = hp.llt(Side::Lower).unwrap().L().to_owned();
-            let sym = lf.transpose() * (&hm * &lf);
-            let evd = sym.self_adjoint_eigen(Side::Lower).unwrap();
-            let y = evd.U().to_owned();
-            let v = &lf * &y;
-            let mut z = y.clone();
-            solve_upper_triangular_in_place(lf.transpose(), z.as_mut(), Par::Seq);
+            let (k, v, z) = faer_modes(&hp, &hm);
             for j in 0..n {
-                let kj = evd.S().column_vector()[j].max(0.0).sqrt();
-                assert_eq!(m.k[j].to_bits(), kj.to_bits(), "k_{j}, N = {n}");
+                assert_eq!(m.k[j].to_bits(), k[j].to_bits(), "k_{j}, N = {n}");
                 for i in 0..n {
                     assert_eq!(m.v[(i, j)].to_bits(), v[(i, j)].to_bits(), "v, N = {n}");
                     assert_eq!(m.z[(i, j)].to_bits(), z[(i, j)].to_bits(), "z, N = {n}");
                 }
             }
-            // Eq. EG1.
-            let (hmv, hpz) = (&hm * &m.v, &hp * &m.z);
-            for j in 0..n {
-                for i in 0..n {
-                    let k2z = m.k[j] * m.k[j] * m.z[(i, j)];
-                    assert!((hmv[(i, j)] - k2z).abs() < 1e-12 * (1.0 + hmv[(i, j)].abs()));
-                    assert!((hpz[(i, j)] - m.v[(i, j)]).abs() < 1e-12 * (1.0 + m.v[(i, j)].abs()));
-                }
-            }
+            assert_eg1(&hp, &hm, &m, 1e-12);
             ws.give(m.k);
             ws.give_mat(m.v);
             ws.give_mat(m.z);
         }
     }
 
-    /// Up to [`SMALL`] (Jacobi): the same modes as faer's path to rounding.
-    /// `k` to 1e-14 of the largest; each column of `v~`, `z~` equal up to its
-    /// sign to 1e-12 of the column's largest entry (distinct eigenvalues, so
-    /// the columns are unique up to sign; the tolerance is a few hundred
-    /// roundings of N <= 4 products); eq. EG1 and `z~^T v~ = I` (the
-    /// eigenvectors `y` orthonormal) to 1e-13. A warm solve takes nothing new.
+    /// Up to [`SMALL`] (Jacobi to 6 nodes, QL above): the same modes as
+    /// faer's path to rounding. `k` to 1e-14 of the largest; each column of
+    /// `v~`, `z~` equal up to its sign to 1e-12 of the column's largest entry
+    /// (distinct eigenvalues, so the columns are unique up to sign; the
+    /// tolerance is a few hundred roundings of N <= 12 products); eq. EG1
+    /// and `z~^T v~ = I` (the eigenvectors `y` orthonormal) to 1e-13. A warm
+    /// solve takes nothing new.
     #[test]
     fn small_problems_match_faers_modes() {
         let mut ws = Workspace::default();
         for n in 1..=SMALL {
             let (hp, hm) = operators(n);
             let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
-            let lf = hp.llt(Side::Lower).unwrap().L().to_owned();
-            let sym = lf.transpose() * (&hm * &lf);
-            let evd = sym.self_adjoint_eigen(Side::Lower).unwrap();
-            let y = evd.U().to_owned();
-            let v = &lf * &y;
-            let mut z = y.clone();
-            solve_upper_triangular_in_place(lf.transpose(), z.as_mut(), Par::Seq);
+            let (k, v, z) = faer_modes(&hp, &hm);
             let kmax = m.k.iter().fold(0.0f64, |a, &b| a.max(b));
             for j in 0..n {
-                let kj = evd.S().column_vector()[j].max(0.0).sqrt();
-                assert!((m.k[j] - kj).abs() <= 1e-14 * kmax, "k_{j}, N = {n}");
+                assert!((m.k[j] - k[j]).abs() <= 1e-14 * kmax, "k_{j}, N = {n}");
                 let sign = if m.v[(0, j)] * v[(0, j)] < 0.0 { -1.0 } else { 1.0 };
                 let (vs, zs) = (
                     (0..n).map(|i| v[(i, j)].abs()).fold(0.0, f64::max),
@@ -651,12 +658,10 @@ mod tests {
                     assert!((sign * m.z[(i, j)] - z[(i, j)]).abs() <= 1e-12 * zs, "z, N = {n}");
                 }
             }
-            let (hmv, hpz, ztv) = (&hm * &m.v, &hp * &m.z, m.z.transpose() * &m.v);
+            assert_eg1(&hp, &hm, &m, 1e-13);
+            let ztv = m.z.transpose() * &m.v;
             for j in 0..n {
                 for i in 0..n {
-                    let k2z = m.k[j] * m.k[j] * m.z[(i, j)];
-                    assert!((hmv[(i, j)] - k2z).abs() < 1e-13 * (1.0 + hmv[(i, j)].abs()));
-                    assert!((hpz[(i, j)] - m.v[(i, j)]).abs() < 1e-13 * (1.0 + m.v[(i, j)].abs()));
                     let id = if i == j { 1.0 } else { 0.0 };
                     assert!((ztv[(i, j)] - id).abs() < 1e-13, "z~^T v~, N = {n}");
                 }
