@@ -215,6 +215,19 @@ def brdf_scene_toml(g):
     )
 
 
+# The timed part of both C DISORT runners: a first solve(), then the best of
+# `repeats` (a refusal is printed as {"error": ...}).
+TIMED_SOLVE = r"""
+try:
+    s.solve()
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter(); s.solve(); ts.append(time.perf_counter() - t)
+except RuntimeError as e:
+    print(json.dumps({"error": str(e)})); sys.exit(0)
+"""
+
+
 # C DISORT at one (g, nstr, nmom): the 30 BRDF values (km's order: theta-major,
 # azimuth as km) and the best-of-`repeats` time of `solve()`; DISORT's
 # azimuth 0 is km's 180 (forward half-plane), umu > 0 is up-going.
@@ -234,13 +247,7 @@ s.dtauc[:] = [1.0]; s.ssalb[:] = [0.9]; s.pmom[:, 0] = henyey_greenstein(g, nmom
 s.utau[:] = [0.0]; s.umu[:] = mus; s.phi[:] = [(p - 180.0) % 360.0 for p in phis]
 mu0 = math.cos(math.radians(theta0))
 s.umu0 = mu0; s.phi0 = 0.0; s.fbeam = 1.0; s.fisot = 0.0; s.albedo = 0.0
-try:
-    s.solve()
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter(); s.solve(); ts.append(time.perf_counter() - t)
-except RuntimeError as e:
-    print(json.dumps({"error": str(e)})); sys.exit(0)
+""" + TIMED_SOLVE + r"""
 brdf = []
 for t in thetas:
     iu = min(range(len(mus)), key=lambda k: abs(mus[k] - math.cos(math.radians(t))))
@@ -370,13 +377,7 @@ s.pmom = (g ** np.arange(nstr + 1)).reshape(-1, 1)
 s.utau = np.array([0.0, tau]); s.phi = np.array([0.0])
 mu0 = math.cos(math.radians(theta))
 s.fbeam = 1.0; s.umu0 = mu0; s.phi0 = 0.0; s.albedo = 0.0; s.fisot = 0.0
-try:
-    s.solve()
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter(); s.solve(); ts.append(time.perf_counter() - t)
-except RuntimeError as e:
-    print(json.dumps({"error": str(e)})); sys.exit(0)
+""" + TIMED_SOLVE + r"""
 e = mu0
 print(json.dumps({"R": float(s.flup[0]) / e, "T": float(s.rfldir[1] + s.rfldn[1]) / e,
                   "seconds": min(ts)}))
