@@ -377,9 +377,34 @@ fn tridiagonal_ql<const M: usize>(
     mut a: [[f64; M]; M],
     n: usize,
 ) -> Result<Eigen<M>, EigenFailure> {
-    const MAX_ITER: usize = 60;
+    let (mut d, mut e) = householder_tridiagonal(&mut a, n);
+    // The QL rotations accumulate into the columns of Q, kept transposed
+    // (`q[j]` = column j) so that a rotation combines two contiguous rows.
+    let mut q = [[0.0f64; M]; M];
+    for (i, row) in a.iter().enumerate().take(n) {
+        for (j, x) in row.iter().enumerate().take(n) {
+            q[j][i] = *x;
+        }
+    }
+    implicit_ql(&mut d, &mut e, &mut q, n)?;
+    // Back to columns.
+    for (i, row) in a.iter_mut().enumerate().take(n) {
+        for (j, x) in row.iter_mut().enumerate().take(n) {
+            *x = q[j][i];
+        }
+    }
+    Ok((d, a))
+}
+
+/// `tred2`: the Householder reduction of the symmetric leading `n x n`
+/// block of `a` to the tridiagonal `(d, e)` (the diagonal, and in `e[i]` the
+/// element left of the diagonal in row `i`); `a` becomes the orthogonal `Q`
+/// with `Q^T A Q` tridiagonal.
+fn householder_tridiagonal<const M: usize>(
+    a: &mut [[f64; M]; M],
+    n: usize,
+) -> ([f64; M], [f64; M]) {
     let (mut d, mut e) = ([0.0f64; M], [0.0f64; M]);
-    // Householder: a becomes the orthogonal Q, d and e the tridiagonal matrix.
     for i in (1..n).rev() {
         let l = i - 1;
         let mut h = 0.0;
@@ -443,15 +468,19 @@ fn tridiagonal_ql<const M: usize>(
             a[i][j] = 0.0;
         }
     }
-    // Implicit QL on (d, e); the rotations accumulate into the columns of
-    // Q, kept transposed (`q[j]` = column j) so that a rotation combines two
-    // contiguous rows.
-    let mut q = [[0.0f64; M]; M];
-    for (i, row) in a.iter().enumerate().take(n) {
-        for (j, x) in row.iter().enumerate().take(n) {
-            q[j][i] = *x;
-        }
-    }
+    (d, e)
+}
+
+/// `tql2`: the eigenvalues of the tridiagonal `(d, e)` of
+/// [`householder_tridiagonal`] into `d`, each rotation applied to two rows
+/// of `q` (the columns of `Q`, transposed).
+fn implicit_ql<const M: usize>(
+    d: &mut [f64; M],
+    e: &mut [f64; M],
+    q: &mut [[f64; M]; M],
+    n: usize,
+) -> Result<(), EigenFailure> {
+    const MAX_ITER: usize = 60;
     for i in 1..n {
         e[i - 1] = e[i];
     }
@@ -515,13 +544,7 @@ fn tridiagonal_ql<const M: usize>(
             e[m] = 0.0;
         }
     }
-    // Back to columns.
-    for (i, row) in a.iter_mut().enumerate().take(n) {
-        for (j, x) in row.iter_mut().enumerate().take(n) {
-            *x = q[j][i];
-        }
-    }
-    Ok((d, a))
+    Ok(())
 }
 
 /// `sqrt(a^2 + b^2)` without overflow or harmful underflow (scaled by the

@@ -1,7 +1,7 @@
 //! The collimated beam in one layer and order: its particular solution
 //! (eq. S6) and its columns of `R` and `T` at the nodes and the probes.
 
-use super::probe::Probes;
+use super::probe::{Probe, Probes};
 use super::{Extra, SlabSolution, Tms, atten, dot};
 use crate::workspace::Workspace;
 
@@ -68,6 +68,45 @@ impl SlabSolution {
         (zp, zm)
     }
 
+    /// The beam's source function into the probe `pr` (`±mu_x`): its direct
+    /// single scattering plus the scattering of the particular solution
+    /// `z = [Z+, Z-]` at the nodes, `(up, down)` (`down` 0 unless asked), to
+    /// be multiplied by the path integrals of eq. 14.
+    fn beam_source_into(
+        &self,
+        pr: &Probe<'_>,
+        mu_b: f64,
+        lam_b: &[f64],
+        [zp, zm]: [&[f64]; 2],
+        down: bool,
+    ) -> (f64, f64) {
+        let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
+        let (lam_x, ev, od) = (pr.lam, pr.ev, pr.od);
+        // Direct single scattering of the beam into ±mu_x.
+        let (mut se, mut so) = (0.0, 0.0);
+        for l in self.m..self.chi.len() {
+            let x = self.chi[l] * lam_x[l] * lam_b[l];
+            if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
+        }
+        // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
+        let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
+        let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
+        // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
+        let (mut up, mut dn) = (direct_up, direct_dn);
+        for j in 0..self.n {
+            let f = self.omega * self.w[j] * 0.5;
+            // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
+            up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
+        }
+        if down {
+            for j in 0..self.n {
+                let f = self.omega * self.w[j] * 0.5;
+                dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
+            }
+        }
+        (up, dn)
+    }
+
     /// The beam's columns of `R` and `T` (nodes and probes; eq. S6 and eq. 14 of docs/multiflux.md):
     /// particular solution, homogeneous part fixed by the boundary values
     /// `-Z+` at the top and `-Z- e^{-tau/mu_b}` at the bottom, and the source
@@ -106,7 +145,6 @@ impl SlabSolution {
         // Beam -> probes: homogeneous rows plus the particular source integral,
         // once per distinct probe cosine (`per`); only the peak correction
         // depends on the azimuth.
-        let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
         let mut per = ws.take(4 * probes.len());
         // The peak correction's path factors, once per probe cosine (order 0).
         let peak: Vec<_> = match (tms, self.m) {
@@ -120,36 +158,16 @@ impl SlabSolution {
         }
         for (p, out) in per.chunks_exact_mut(4).enumerate() {
             let pr = probes.row(p);
-            let vals: [f64; 4] = {
-                let (us, uy, lam_x, ev, od) = (pr.us, pr.uy, pr.lam, pr.ev, pr.od);
-                // Direct single scattering of the beam into ±mu_x.
-                let (mut se, mut so) = (0.0, 0.0);
-                for l in self.m..self.chi.len() {
-                    let x = self.chi[l] * lam_x[l] * lam_b[l];
-                    if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
-                }
-                // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
-                let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
-                let direct_dn = self.omega * cm * 0.5 * (se + so) / mu_b;
-                // Scattering of Z± into ±mu_x: omega sum_j w_j [p(sx, mu_j) Z+_j + p(sx, -mu_j) Z-_j].
-                let (mut up, mut dn) = (direct_up, direct_dn);
-                for j in 0..n {
-                    let f = self.omega * self.w[j] * 0.5;
-                    // p(-x, mu_j) = (ev - od)/2 ; p(-x, -mu_j) = (ev + od)/2 ; signs flip for +x.
-                    up += f * ((ev[j] - od[j]) * zp[j] + (ev[j] + od[j]) * zm[j]);
-                }
-                if down {
-                    for j in 0..n {
-                        let f = self.omega * self.w[j] * 0.5;
-                        dn += f * ((ev[j] + od[j]) * zp[j] + (ev[j] - od[j]) * zm[j]);
-                    }
-                }
-                let beta = 1.0 / pr.mu;
-                let (path_up, path_dn) = (paths[2 * p], paths[2 * p + 1]);
-                // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b).
-                [up * beta * path_up, dn * beta * path_dn, dot(us, &sp), dot(uy, &sm)]
-            };
-            out.copy_from_slice(&vals);
+            let (up, dn) = self.beam_source_into(&pr, mu_b, &lam_b, [&zp, &zm], down);
+            let beta = 1.0 / pr.mu;
+            let (path_up, path_dn) = (paths[2 * p], paths[2 * p + 1]);
+            // R_xq a + T_xq b = us . Cp^-1 T (a + b) + uy . Cm^-1 T (a - b).
+            out.copy_from_slice(&[
+                up * beta * path_up,
+                dn * beta * path_dn,
+                dot(pr.us, &sp),
+                dot(pr.uy, &sm),
+            ]);
         }
         for v in [lam_b, sp, sm, zp, zm, paths] {
             ws.give(v);
