@@ -103,7 +103,7 @@ pub enum Side {
 #[derive(Debug, Clone, PartialEq)]
 pub struct BsdfOptions {
     /// The solver's options; `streams: None` takes the largest
-    /// [`default_streams`] over the incidence angles.
+    /// [`crate::default_streams`] over the incidence angles ([`crate::default_bsdf_streams`]).
     pub solver: MultifluxOptions,
     /// Side of incidence.
     pub side: Side,

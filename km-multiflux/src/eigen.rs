@@ -19,7 +19,7 @@
 //!
 //! with `y` orthonormal, solved here once for both: `N x N` symmetric
 //! instead of `2N x 2N` general. The callers build `H±` and map `v~`, `z~`
-//! back to radiances (`T^-1`). Up to [`SMALL`] nodes by plain loops
+//! back to radiances (`T^-1`). Up to 12 nodes by plain loops
 //! (cyclic Jacobi up to 6, Householder tridiagonalisation and implicit QL
 //! above), from there on by faer's routines (docs/multiflux.md §9 (iv)).
 
