@@ -342,9 +342,9 @@ fn jacobi<const M: usize>(mut a: [[f64; M]; M], n: usize) -> Result<Eigen<M>, Ei
                 let t = if theta.abs() > 1e150 {
                     0.5 / theta
                 } else {
-                    theta.signum() / (theta.abs() + theta.mul_add(theta, 1.0).sqrt())
+                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
                 };
-                let c = 1.0 / t.mul_add(t, 1.0).sqrt();
+                let c = 1.0 / (t * t + 1.0).sqrt();
                 let sn = t * c;
                 for r in 0..n {
                     let (arp, arq) = (a[r][p], a[r][q]);
@@ -551,7 +551,9 @@ fn implicit_ql<const M: usize>(
 
 /// `sqrt(a^2 + b^2)` without overflow or harmful underflow (scaled by the
 /// larger magnitude; libm's `hypot`, correctly rounded, cost a tenth of a
-/// QL solve).
+/// QL solve). Plain products throughout this module: `f64::mul_add` is a
+/// library call on the default x86-64 target (no FMA at compile time), and
+/// in these loops it made the 12-node solve half again as slow.
 fn pythag(a: f64, b: f64) -> f64 {
     let (a, b) = (a.abs(), b.abs());
     let (big, small) = if a >= b { (a, b) } else { (b, a) };
@@ -560,10 +562,10 @@ fn pythag(a: f64, b: f64) -> f64 {
     }
     if big < 1e150 && small > 1e-150 {
         // No overflow or underflow in the squares: one square root.
-        return a.mul_add(a, b * b).sqrt();
+        return (a * a + b * b).sqrt();
     }
     let t = small / big;
-    big * t.mul_add(t, 1.0).sqrt()
+    big * (t * t + 1.0).sqrt()
 }
 
 #[cfg(test)]
