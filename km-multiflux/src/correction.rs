@@ -182,19 +182,24 @@ impl PeakCorrection {
     /// [`Self::radiance`] at azimuth `phi_deg` from the shared factors `p`
     /// ([`Self::paths`]); the same numbers bit for bit.
     pub fn radiance_along(&self, p: &PeakPaths, phi_deg: f64) -> (f64, f64) {
-        (self.radiance_up_along(p, phi_deg), self.radiance_down_along(p, phi_deg))
+        let cphi = (phi_deg - 180.0).to_radians().cos();
+        (self.up_at(p, cphi), self.down_at(p, cphi))
     }
 
-    /// The up-going part of [`Self::radiance_along`] alone.
+    /// The up-going part of [`Self::radiance_along`] alone (a layer with
+    /// nothing below it to receive the down-going part).
     pub fn radiance_up_along(&self, p: &PeakPaths, phi_deg: f64) -> f64 {
-        let cphi = (phi_deg - 180.0).to_radians().cos();
+        self.up_at(p, (phi_deg - 180.0).to_radians().cos())
+    }
+
+    /// The up-going radiance at `cos(phi - 180 deg) = cphi`.
+    fn up_at(&self, p: &PeakPaths, cphi: f64) -> f64 {
         let c_up = -p.mu_x * p.mu_b + p.sines * cphi;
         self.single_source(c_up, p.mu_b) * p.beta * p.up
     }
 
-    /// The down-going part of [`Self::radiance_along`] alone.
-    pub fn radiance_down_along(&self, p: &PeakPaths, phi_deg: f64) -> f64 {
-        let cphi = (phi_deg - 180.0).to_radians().cos();
+    /// The down-going radiance at `cos(phi - 180 deg) = cphi`.
+    fn down_at(&self, p: &PeakPaths, cphi: f64) -> f64 {
         let c_dn = p.mu_x * p.mu_b + p.sines * cphi;
         let mut down = self.single_source(c_dn, p.mu_b) * p.beta * p.down;
         if let Some(path) = p.secondary {

@@ -33,6 +33,7 @@ pub mod correction;
 pub mod direction_set;
 pub mod eigen;
 pub mod error;
+mod exits;
 pub mod field;
 pub mod flatland;
 pub mod interface;
@@ -43,6 +44,7 @@ pub mod quadrature;
 pub mod slab;
 pub mod solver;
 mod stack;
+mod symmetric_eigen;
 mod workspace;
 
 pub use error::MultifluxError;

@@ -38,7 +38,6 @@ const MIN_LEN: usize = 64;
 pub(crate) const MAX_LEN: usize = 8192;
 
 /// A pool of `f64` vectors (see the module doc).
-#[derive(Default)]
 pub(crate) struct Workspace {
     free: Vec<Vec<f64>>,
     /// Kept index vectors (the LU's pivots, the probes' map).
@@ -60,7 +59,6 @@ pub(crate) struct Workspace {
 /// Values per probe cosine that do not depend on the Fourier order
 /// ([`Workspace::beam_paths`]), kept with
 /// their arguments: the layer's `tau`, the beam's `mu_b` and the cosines.
-#[derive(Default)]
 struct PathMemo {
     tau: f64,
     mu_b: f64,
@@ -89,6 +87,12 @@ impl PathMemo {
             self.values.extend(mu.iter().map(|&mu_x| f(mu_x)));
         }
         &self.values
+    }
+}
+
+impl Default for Workspace {
+    fn default() -> Self {
+        Workspace::new()
     }
 }
 

@@ -180,9 +180,12 @@ impl SlabSolution {
                 // Eq. 5 and 5a-5h of docs/multiflux.md: exact single scattering
                 // (TMS) and the forward peak's second order (IMS), real space.
                 debug_assert_eq!(probes.mu[p], mu_x);
-                out_up += t.radiance_up_along(&peak[p], exx.phi_deg);
                 if down {
-                    out_dn += t.radiance_down_along(&peak[p], exx.phi_deg);
+                    let (du, dd) = t.radiance_along(&peak[p], exx.phi_deg);
+                    out_up += du;
+                    out_dn += dd;
+                } else {
+                    out_up += t.radiance_up_along(&peak[p], exx.phi_deg);
                 }
             }
             // T_xq a + R_xq b is the same with the sign of the second term

@@ -1,0 +1,282 @@
+//! Small dense symmetric eigenproblems on fixed-size arrays: cyclic Jacobi
+//! rotations and Householder tridiagonalisation with the implicit QL
+//! iteration (the solvers of the small path of [`crate::eigen`],
+//! docs/multiflux.md §9 (iv)). Plain products throughout: `f64::mul_add` is
+//! a library call on the default x86-64 target (no FMA at compile time),
+//! and in these loops it made the 12-node solve half again as slow.
+
+use crate::eigen::EigenFailure;
+
+/// Eigenvalues `lam` and eigenvectors `Y` (columns) of a symmetric `S = Y
+/// diag(lam) Y^T` in the leading `n x n` block of `M x M` arrays.
+pub(crate) type Eigen<const M: usize> = ([f64; M], [[f64; M]; M]);
+
+/// Eigenvalues and eigenvectors (columns of `Y`, `S = Y diag(lam) Y^T`) of the
+/// symmetric `n x n` leading block of `a` by cyclic Jacobi rotations (Golub &
+/// Van Loan 2013 §8.5): each rotation zeroes one off-diagonal pair; stop when
+/// every `|s_pq| <= eps sqrt(|s_pp s_qq|)` (the relative criterion of Demmel &
+/// Veselić 1992, under which the eigenvalues carry a small relative error) or
+/// `|s_pq| <= eps^2 max |s_ii|` (a zero eigenvalue, conservative scattering:
+/// its `k` then errs by at most `eps sqrt(|S|)`, far below the general
+/// path's rounding).
+pub(crate) fn jacobi<const M: usize>(
+    mut a: [[f64; M]; M],
+    n: usize,
+) -> Result<Eigen<M>, EigenFailure> {
+    const MAX_SWEEPS: usize = 60;
+    let mut y = [[0.0f64; M]; M];
+    for (i, row) in y.iter_mut().enumerate().take(n) {
+        row[i] = 1.0;
+    }
+    let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0, f64::max);
+    let converged = |a: &[[f64; M]; M]| {
+        (0..n).all(|p| {
+            (p + 1..n).all(|q| {
+                let x = a[p][q].abs();
+                x <= f64::EPSILON * (a[p][p] * a[q][q]).abs().sqrt()
+                    || x <= f64::EPSILON * f64::EPSILON * scale
+            })
+        })
+    };
+    let mut sweeps = 0;
+    while !converged(&a) {
+        sweeps += 1;
+        if sweeps > MAX_SWEEPS || a.iter().flatten().any(|x| !x.is_finite()) {
+            return Err(EigenFailure::Eigen(format!(
+                "Jacobi: no convergence in {MAX_SWEEPS} sweeps"
+            )));
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p][q];
+                if apq == 0.0 {
+                    continue;
+                }
+                // t = tan of the rotation angle, the smaller root (|angle| <= pi/4).
+                let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+                let t = if theta.abs() > 1e150 {
+                    0.5 / theta
+                } else {
+                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+                };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let sn = t * c;
+                for r in 0..n {
+                    let (arp, arq) = (a[r][p], a[r][q]);
+                    a[r][p] = c * arp - sn * arq;
+                    a[r][q] = sn * arp + c * arq;
+                }
+                for r in 0..n {
+                    let (apr, aqr) = (a[p][r], a[q][r]);
+                    a[p][r] = c * apr - sn * aqr;
+                    a[q][r] = sn * apr + c * aqr;
+                }
+                a[p][q] = 0.0;
+                a[q][p] = 0.0;
+                for row in y.iter_mut().take(n) {
+                    let (yp, yq) = (row[p], row[q]);
+                    row[p] = c * yp - sn * yq;
+                    row[q] = sn * yp + c * yq;
+                }
+            }
+        }
+    }
+    Ok((std::array::from_fn(|i| if i < n { a[i][i] } else { 0.0 }), y))
+}
+
+/// [`jacobi`]'s result by Householder reduction to tridiagonal form with the
+/// transformation accumulated, then the implicit QL iteration with
+/// Wilkinson-type shifts on the tridiagonal matrix (the EISPACK routines
+/// `tred2` and `tql2`, Martin, Reinsch & Wilkinson 1968, Bowdler et al. 1968;
+/// Press et al. 2007 §11.4–11.5); an off-diagonal element counts as zero
+/// when adding it to its two diagonal neighbours changes nothing.
+pub(crate) fn tridiagonal_ql<const M: usize>(
+    mut a: [[f64; M]; M],
+    n: usize,
+) -> Result<Eigen<M>, EigenFailure> {
+    let (mut d, mut e) = householder_tridiagonal(&mut a, n);
+    // The QL rotations accumulate into the columns of Q, kept transposed
+    // (`q[j]` = column j) so that a rotation combines two contiguous rows.
+    let mut q = [[0.0f64; M]; M];
+    for (i, row) in a.iter().enumerate().take(n) {
+        for (j, x) in row.iter().enumerate().take(n) {
+            q[j][i] = *x;
+        }
+    }
+    implicit_ql(&mut d, &mut e, &mut q, n)?;
+    // Back to columns.
+    for (i, row) in a.iter_mut().enumerate().take(n) {
+        for (j, x) in row.iter_mut().enumerate().take(n) {
+            *x = q[j][i];
+        }
+    }
+    Ok((d, a))
+}
+
+/// `tred2`: the Householder reduction of the symmetric leading `n x n`
+/// block of `a` to the tridiagonal `(d, e)` (the diagonal, and in `e[i]` the
+/// element left of the diagonal in row `i`); `a` becomes the orthogonal `Q`
+/// with `Q^T A Q` tridiagonal.
+fn householder_tridiagonal<const M: usize>(
+    a: &mut [[f64; M]; M],
+    n: usize,
+) -> ([f64; M], [f64; M]) {
+    let (mut d, mut e) = ([0.0f64; M], [0.0f64; M]);
+    for i in (1..n).rev() {
+        let l = i - 1;
+        let mut h = 0.0;
+        if l > 0 {
+            let scale: f64 = (0..=l).map(|k| a[i][k].abs()).sum();
+            if scale == 0.0 {
+                e[i] = a[i][l];
+            } else {
+                for k in 0..=l {
+                    a[i][k] /= scale;
+                    h += a[i][k] * a[i][k];
+                }
+                let f = a[i][l];
+                let g = if f >= 0.0 { -h.sqrt() } else { h.sqrt() };
+                e[i] = scale * g;
+                h -= f * g;
+                a[i][l] = f - g;
+                let mut f = 0.0;
+                for j in 0..=l {
+                    a[j][i] = a[i][j] / h;
+                    let mut g = 0.0;
+                    for k in 0..=j {
+                        g += a[j][k] * a[i][k];
+                    }
+                    for k in j + 1..=l {
+                        g += a[k][j] * a[i][k];
+                    }
+                    e[j] = g / h;
+                    f += e[j] * a[i][j];
+                }
+                let hh = f / (h + h);
+                for j in 0..=l {
+                    let f = a[i][j];
+                    let g = e[j] - hh * f;
+                    e[j] = g;
+                    for k in 0..=j {
+                        a[j][k] -= f * e[k] + g * a[i][k];
+                    }
+                }
+            }
+        } else {
+            e[i] = a[i][l];
+        }
+        d[i] = h;
+    }
+    d[0] = 0.0;
+    e[0] = 0.0;
+    for i in 0..n {
+        if d[i] != 0.0 {
+            for j in 0..i {
+                let g: f64 = (0..i).map(|k| a[i][k] * a[k][j]).sum();
+                for k in 0..i {
+                    a[k][j] -= g * a[k][i];
+                }
+            }
+        }
+        d[i] = a[i][i];
+        a[i][i] = 1.0;
+        for j in 0..i {
+            a[j][i] = 0.0;
+            a[i][j] = 0.0;
+        }
+    }
+    (d, e)
+}
+
+/// `tql2`: the eigenvalues of the tridiagonal `(d, e)` of
+/// [`householder_tridiagonal`] into `d`, each rotation applied to two rows
+/// of `q` (the columns of `Q`, transposed).
+fn implicit_ql<const M: usize>(
+    d: &mut [f64; M],
+    e: &mut [f64; M],
+    q: &mut [[f64; M]; M],
+    n: usize,
+) -> Result<(), EigenFailure> {
+    const MAX_ITER: usize = 60;
+    for i in 1..n {
+        e[i - 1] = e[i];
+    }
+    if n > 0 {
+        e[n - 1] = 0.0;
+    }
+    for l in 0..n {
+        let mut iter = 0;
+        loop {
+            let mut m = l;
+            while m + 1 < n {
+                let dd = d[m].abs() + d[m + 1].abs();
+                if e[m].abs() + dd == dd {
+                    break;
+                }
+                m += 1;
+            }
+            if m == l {
+                break;
+            }
+            iter += 1;
+            if iter > MAX_ITER || !d[l].is_finite() {
+                return Err(EigenFailure::Eigen(format!("QL: no convergence in {MAX_ITER} steps")));
+            }
+            let mut g = (d[l + 1] - d[l]) / (2.0 * e[l]);
+            let mut r = pythag(g, 1.0);
+            g = d[m] - d[l] + e[l] / (g + r.copysign(g));
+            let (mut s, mut c, mut p) = (1.0, 1.0, 0.0);
+            let mut deflated = false;
+            for i in (l..m).rev() {
+                let f = s * e[i];
+                let b = c * e[i];
+                r = pythag(f, g);
+                e[i + 1] = r;
+                if r == 0.0 {
+                    d[i + 1] -= p;
+                    e[m] = 0.0;
+                    deflated = true;
+                    break;
+                }
+                let inv = 1.0 / r;
+                s = f * inv;
+                c = g * inv;
+                g = d[i + 1] - p;
+                r = (d[i] - g) * s + 2.0 * c * b;
+                p = s * r;
+                d[i + 1] = g + p;
+                g = c * r - b;
+                let (lo, hi) = q.split_at_mut(i + 1);
+                for (x, y) in lo[i][..n].iter_mut().zip(&mut hi[0][..n]) {
+                    let f = *y;
+                    *y = s * *x + c * f;
+                    *x = c * *x - s * f;
+                }
+            }
+            if deflated {
+                continue;
+            }
+            d[l] -= p;
+            e[l] = g;
+            e[m] = 0.0;
+        }
+    }
+    Ok(())
+}
+
+/// `sqrt(a^2 + b^2)` without overflow or harmful underflow (scaled by the
+/// larger magnitude; libm's `hypot`, correctly rounded, cost a tenth of a
+/// QL solve).
+fn pythag(a: f64, b: f64) -> f64 {
+    let (a, b) = (a.abs(), b.abs());
+    let (big, small) = if a >= b { (a, b) } else { (b, a) };
+    if big == 0.0 || !big.is_finite() {
+        return big;
+    }
+    if big < 1e150 && small > 1e-150 {
+        // No overflow or underflow in the squares: one square root.
+        return (a * a + b * b).sqrt();
+    }
+    let t = small / big;
+    big * (t * t + 1.0).sqrt()
+}
