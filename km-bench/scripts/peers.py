@@ -215,11 +215,13 @@ def brdf_scene_toml(g):
     )
 
 
-# The timed part of both C DISORT runners: a first solve(), then the best of
-# `repeats` (a refusal is printed as {"error": ...}).
+# The timed part of both C DISORT runners: a first solve() (timed too: each
+# runner is a fresh process, so this is C DISORT's first call, the peer of
+# km's `seconds`), then the best of `repeats` (a refusal is printed as
+# {"error": ...}).
 TIMED_SOLVE = r"""
 try:
-    s.solve()
+    t = time.perf_counter(); s.solve(); first = time.perf_counter() - t
     ts = []
     for _ in range(repeats):
         t = time.perf_counter(); s.solve(); ts.append(time.perf_counter() - t)
@@ -252,7 +254,7 @@ brdf = []
 for t in thetas:
     iu = min(range(len(mus)), key=lambda k: abs(mus[k] - math.cos(math.radians(t))))
     brdf += [float(s.uu[iu, 0, j]) / mu0 for j in range(len(phis))]
-print(json.dumps({"brdf": brdf, "seconds": min(ts)}))
+print(json.dumps({"brdf": brdf, "seconds": min(ts), "first": first}))
 """
 
 
@@ -311,8 +313,9 @@ def brdf_main(root: Path, out: Path, py: Path, profile: str, repeats: int, km: P
              f"within {BRDF_TOL:.0%} (largest relative BRDF error); best of {repeats} "
              "in-process calls.", "",
              "| g | km streams | km error | km warm | km first call | DISORT NSTR | DISORT error "
-             "| DISORT | km warm / DISORT | km 64 vs reference |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| DISORT warm | DISORT first call | km warm / DISORT warm "
+             "| km first / DISORT first | km 64 vs reference |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     ratios = []
     for g in BRDF_G:
         scene = scenes / f"brdf-g{g}.toml"
@@ -331,20 +334,23 @@ def brdf_main(root: Path, out: Path, py: Path, profile: str, repeats: int, km: P
         nk, _ = cheapest(KM_LADDER, run_km)
         nd_, _ = cheapest(DISORT_LADDER, run_disort)
         if nk is None or nd_ is None:
-            lines.append(f"| {g} | {nk} | | | | {nd_} | | | not reached | {km64:.1e} |")
+            lines.append(f"| {g} | {nk} | | | | {nd_} | | | | not reached | | {km64:.1e} |")
             continue
         # Timing, alternated: three rounds, best of each tool.
-        kt, dt = [], []
+        kt, kf, dt, df = [], [], [], []
         for _ in range(3):
             rk, ek = run_km(nk, repeats)
             kt.append(rk["seconds"])
+            kf.append(rk["first"])
             rd, ed = run_disort(nd_, repeats)
             dt.append(rd["seconds"])
+            df.append(rd["first"])
         ratio = min(kt) / min(dt)
         ratios.append(ratio)
-        lines.append(f"| {g} | {nk} | {ek:.1e} | {min(kt) * 1e6:.1f} µs | "
-                     f"{rk['first'] * 1e6:.0f} µs | {nd_} | {ed:.1e} | {min(dt) * 1e6:.1f} µs | "
-                     f"{ratio:.2f} | {km64:.1e} |")
+        kf1, df1 = statistics.median(kf), statistics.median(df)
+        lines.append(f"| {g} | {nk} | {ek:.1e} | {min(kt) * 1e6:.1f} µs | {kf1 * 1e6:.0f} µs | "
+                     f"{nd_} | {ed:.1e} | {min(dt) * 1e6:.1f} µs | {df1 * 1e6:.0f} µs | "
+                     f"{ratio:.2f} | {kf1 / df1:.2f} | {km64:.1e} |")
     if ratios:
         geo = math.exp(sum(math.log(r) for r in ratios) / len(ratios))
         lines += ["", f"Geometric mean km warm / DISORT: {geo:.2f}"]
@@ -359,6 +365,8 @@ def fmt(x):
 # --- Totals at their cheapest sufficient stream count (--totals-ladder) -----
 
 TOTALS_TOL = 1e-4
+# Alternated timing rounds per slab (each a fresh process of each tool).
+ROUNDS = 5
 
 # C DISORT's totals of one slab at one NSTR (flux only, delta-M with NSTR
 # moments as DISORT wants them; HG moments), best of `repeats` solve() calls.
@@ -380,7 +388,7 @@ s.fbeam = 1.0; s.umu0 = mu0; s.phi0 = 0.0; s.albedo = 0.0; s.fisot = 0.0
 """ + TIMED_SOLVE + r"""
 e = mu0
 print(json.dumps({"R": float(s.flup[0]) / e, "T": float(s.rfldir[1] + s.rfldn[1]) / e,
-                  "seconds": min(ts)}))
+                  "seconds": min(ts), "first": first}))
 """
 
 
@@ -413,17 +421,20 @@ def totals_cases(root: Path):
 
 def totals_main(root: Path, out: Path, py: Path, repeats: int, km: Path):
     """Each tool at the cheapest setting of its ladder whose R and T are both
-    within TOTALS_TOL of C DISORT at NSTR = 128; times alternated over three
-    rounds, best of `repeats` in-process calls each."""
+    within TOTALS_TOL of C DISORT at NSTR = 128; times alternated over ROUNDS
+    rounds (a fresh process of each tool per round): best of `repeats`
+    in-process calls, and the median of the rounds' first calls."""
     scenes = out / "peers"
     scenes.mkdir(parents=True, exist_ok=True)
     lines = ["# km and C DISORT, slab totals at their cheapest sufficient stream count", "",
              f"The index-matched slabs of km-multiflux/tests/data/slabs.json; each tool at the "
              f"cheapest stream count of its ladder whose R and T are within {TOTALS_TOL:g} of C "
-             f"DISORT at NSTR = 128; best of {repeats} in-process calls, three rounds alternated.",
-             "", "| slab | km N | DISORT NSTR | km warm | km first call | C DISORT | km warm / DISORT "
-             "| km first / DISORT |", "|---|---|---|---|---|---|---|---|"]
-    warm, first = [], []
+             f"DISORT at NSTR = 128; warm = best of {repeats} in-process calls, first call = the "
+             f"first call of a fresh process (median of {ROUNDS}); {ROUNDS} rounds alternated.",
+             "", "| slab | km N | DISORT NSTR | km warm | km first call | C DISORT warm "
+             "| C DISORT first call | km warm / DISORT warm | km first / DISORT warm "
+             "| km first / DISORT first |", "|---|---|---|---|---|---|---|---|---|---|"]
+    warm, first, first_first = [], [], []
     for c in totals_cases(root):
         scene = scenes / f"totals-{c['name']}.toml"
         scene.write_text(
@@ -435,24 +446,33 @@ def totals_main(root: Path, out: Path, py: Path, repeats: int, km: Path):
         nk = next((n for n in KM_LADDER if ok(km_totals(km, scene, n, 1))), None)
         nd_ = next((n for n in DISORT_LADDER if ok(disort_totals(py, c, n, 1))), None)
         if nk is None or nd_ is None:
-            lines.append(f"| {c['name']} | {nk} | {nd_} | | | | not reached | |")
+            lines.append(f"| {c['name']} | {nk} | {nd_} | | | | | not reached | | |")
             continue
-        kt, kf, dt = [], [], []
-        for _ in range(3):
+        # Alternated rounds, each run a fresh process of each tool: warm =
+        # best of the run's repeats, first = the run's first call (median
+        # over the rounds).
+        kt, kf, dt, df = [], [], [], []
+        for _ in range(ROUNDS):
             r = km_totals(km, scene, nk, repeats)
             kt.append(r["seconds"])
             kf.append(r["first"])
-            dt.append(disort_totals(py, c, nd_, repeats)["seconds"])
+            d = disort_totals(py, c, nd_, repeats)
+            dt.append(d["seconds"])
+            df.append(d["first"])
         w, f = min(kt) / min(dt), statistics.median(kf) / min(dt)
+        ff = statistics.median(kf) / statistics.median(df)
         warm.append(w)
         first.append(f)
+        first_first.append(ff)
         lines.append(f"| {c['name']} | {nk} | {nd_} | {min(kt) * 1e6:.1f} µs | "
-                     f"{statistics.median(kf) * 1e6:.0f} µs | {min(dt) * 1e6:.1f} µs | {w:.2f} | "
-                     f"{f:.1f} |")
+                     f"{statistics.median(kf) * 1e6:.0f} µs | {min(dt) * 1e6:.1f} µs | "
+                     f"{statistics.median(df) * 1e6:.0f} µs | {w:.2f} | {f:.1f} | {ff:.2f} |")
     if warm:
         geo = lambda v: math.exp(sum(map(math.log, v)) / len(v))
-        lines += ["", f"Geometric means: km warm / DISORT {geo(warm):.2f}, km first call / DISORT "
-                  f"{geo(first):.1f} (median {statistics.median(first):.1f})."]
+        lines += ["", f"Geometric means: km warm / DISORT warm {geo(warm):.2f}, km first call / "
+                  f"DISORT warm {geo(first):.1f} (median {statistics.median(first):.1f}), km first "
+                  f"call / DISORT first call {geo(first_first):.2f} (median "
+                  f"{statistics.median(first_first):.2f})."]
     (out / "peers-totals.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

@@ -246,7 +246,8 @@ fn small_modes_in<const M: usize>(
     let mut order: [usize; M] = std::array::from_fn(|i| i);
     order[..n].sort_by(|&i, &j| lam[i].total_cmp(&lam[j]));
     let mut k = ws.take(n);
-    let (mut v, mut z) = (ws.take_mat(n, n), ws.take_mat(n, n));
+    // Every element of v~ and z~ is written below.
+    let (mut v, mut z) = (ws.take_mat_for_overwrite(n, n), ws.take_mat_for_overwrite(n, n));
     // Y with its columns in ascending order of k; then v~ = L Y and, by back
     // substitution with L^T (upper triangular), z~ = L^-T Y, row by row with
     // every column at once (independent columns: no chain of dependent

@@ -186,15 +186,19 @@ fn blocks_by_sums(
 ) -> (Mat<f64>, Mat<f64>) {
     let nl = chi.len();
     {
-        let (mut pe, mut po) = (ws.take_mat(n, n), ws.take_mat(n, n));
+        // Every element is written below (both triangles).
+        let (mut pe, mut po) = (ws.take_mat_for_overwrite(n, n), ws.take_mat_for_overwrite(n, n));
         for j in 0..n {
             let lj = &lam[j * nl..(j + 1) * nl];
             for i in 0..=j {
                 let li = &lam[i * nl..(i + 1) * nl];
+                // The l + m even terms into se, the odd into so (each in order of l).
                 let (mut se, mut so) = (0.0, 0.0);
-                for l in m..nl {
-                    let x = chi[l] * li[l] * lj[l];
-                    if (l + m).is_multiple_of(2) { se += x } else { so += x }
+                for l in (m..nl).step_by(2) {
+                    se += chi[l] * li[l] * lj[l];
+                }
+                for l in (m + 1..nl).step_by(2) {
+                    so += chi[l] * li[l] * lj[l];
                 }
                 pe[(i, j)] = se;
                 pe[(j, i)] = se;

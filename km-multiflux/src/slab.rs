@@ -347,8 +347,9 @@ fn h_matrices(
     for ((s, u), w) in sq.iter_mut().zip(mu).zip(w) {
         *s = (w / u).sqrt();
     }
-    let mut hp = ws.take_mat(n, n);
-    let mut hm = ws.take_mat(n, n);
+    // Every element of both is written below.
+    let mut hp = ws.take_mat_for_overwrite(n, n);
+    let mut hm = ws.take_mat_for_overwrite(n, n);
     for j in 0..n {
         let (ce, co) = (pe.col_as_slice(j), po.col_as_slice(j));
         let hpc = hp.col_as_slice_mut(j);
@@ -383,10 +384,14 @@ fn boundary_matrices(
         e[j] = if half { 0.0 } else { (-kj * tau).exp() };
         ph[j] = phi(kj, tau);
     }
-    let mut cp = ws.take_mat(n, n);
-    let mut cp_out = ws.take_mat(n, n);
-    let mut cm = ws.take_mat(n, n);
-    let mut cm_out = ws.take_mat(n, n);
+    // Every element is written below (the Cm pair zeroed for a half-space).
+    let mut cp = ws.take_mat_for_overwrite(n, n);
+    let mut cp_out = ws.take_mat_for_overwrite(n, n);
+    let (mut cm, mut cm_out) = if half {
+        (ws.take_mat(n, n), ws.take_mat(n, n))
+    } else {
+        (ws.take_mat_for_overwrite(n, n), ws.take_mat_for_overwrite(n, n))
+    };
     for j in 0..n {
         let (vc, zc) = (v.col_as_slice(j), z.col_as_slice(j));
         let (a, b) = (0.5 * (1.0 + e[j]), 0.5 * k[j] * (1.0 - e[j]));
@@ -434,8 +439,9 @@ fn node_rt(
         None => xp.clone(),
     };
     // Back to radiances: R_ji = R~_ji t_i / t_j, by columns i of R.
-    let mut r = ws.take_mat(n, n);
-    let mut tr = ws.take_mat(n, n);
+    // Every element of both is written below.
+    let mut r = ws.take_mat_for_overwrite(n, n);
+    let mut tr = ws.take_mat_for_overwrite(n, n);
     let mut finite = true;
     for i in 0..n {
         let (xpc, xmc) = (&xp[i * n..(i + 1) * n], &xm[i * n..(i + 1) * n]);
@@ -470,6 +476,43 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
+/// [`dot`] of `b` with the vector that holds `a_l` at `l = first, first + 2,
+/// ...` and zeros elsewhere, without reading or multiplying the zeros: the
+/// same four partial sums (by `l mod 4`) and the same sequential tail as
+/// [`dot`], so the value is [`dot`]'s bit for bit (a zero term adds nothing
+/// to a partial sum; only the sign of an all-zero result may differ).
+#[inline]
+fn dot_every_other(a: &[f64], b: &[f64], first: usize) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let full = n - n % 4;
+    // Of each chunk of four only lanes `p` and `p + 2` hold terms: two
+    // partial sums (`lo`, `hi`), the other two stay zero.
+    let p = first & 1;
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    let mut base = first & !3;
+    if base < full {
+        // The chunk holding `first`: lane `p` only if it is not before it.
+        if base + p >= first {
+            lo += a[base + p] * b[base + p];
+        }
+        hi += a[base + p + 2] * b[base + p + 2];
+        base += 4;
+        for (x, y) in a[base..full].chunks_exact(4).zip(b[base..full].chunks_exact(4)) {
+            lo += x[p] * y[p];
+            hi += x[p + 2] * y[p + 2];
+        }
+    }
+    let mut tail = -0.0;
+    let mut l = if first >= full { first } else { full + p };
+    while l < n {
+        tail += a[l] * b[l];
+        l += 2;
+    }
+    // (acc0 + acc1) + (acc2 + acc3) of `dot`, with a zero in each pair.
+    lo + hi + tail
+}
+
 /// `y += M x` for a small dense matrix, by columns (`y` zero on entry gives `M x`).
 fn mat_vec_into(m: &Mat<f64>, x: &[f64], y: &mut [f64]) {
     for (j, &xj) in x.iter().enumerate() {
@@ -482,6 +525,31 @@ fn mat_vec_into(m: &Mat<f64>, x: &[f64], y: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`dot_every_other`] is [`dot`] of the zero-filled vector bit for bit,
+    /// at every length (remainders 0-3 of the chunks of four) and start.
+    #[test]
+    fn dot_every_other_is_dot_of_the_zero_filled_vector() {
+        let mut s = 99u64;
+        let mut rnd = move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        for n in 0usize..=21 {
+            let a: Vec<f64> = (0..n).map(|_| rnd()).collect();
+            let b: Vec<f64> = (0..n).map(|_| rnd() * 1e3).collect();
+            for first in 0..n + 2 {
+                let z: Vec<f64> = (0..n)
+                    .map(|l| if l >= first && (l - first) % 2 == 0 { a[l] } else { 0.0 })
+                    .collect();
+                assert_eq!(
+                    dot_every_other(&a, &b, first).to_bits(),
+                    dot(&z, &b).to_bits(),
+                    "n = {n}, first = {first}"
+                );
+            }
+        }
+    }
 
     /// `(H+, H-)` of a layer for Fourier order `m` on `n` Gauss nodes, built
     /// as [`SlabSolution::build`] does.

@@ -8,7 +8,11 @@
 //! to it and hands them out again, so after the first order of the first
 //! solve on a thread the per-order loop of a lone layer allocates none of
 //! them. The values computed are the same bit for bit: a vector taken from
-//! the workspace is zero-filled to the requested length, as `vec![0.0; len]`.
+//! the workspace is zero-filled to the requested length, as `vec![0.0; len]`,
+//! except where the caller writes every element before reading any
+//! ([`Workspace::take_for_overwrite`], [`Workspace::take_mat_for_overwrite`]:
+//! the zero fill was a few per cent of a small solve, docs/multiflux.md
+//! §9 (v)).
 //!
 //! One workspace is kept per thread ([`with_workspace`]), so channels solved
 //! on the rayon pool each use their own. It is bounded: at most
@@ -115,6 +119,15 @@ impl Workspace {
     /// up the long vectors; the search stops at the first one of at most
     /// `max(len, MIN_LEN)` values, from the most recently returned).
     pub(crate) fn take(&mut self, len: usize) -> Vec<f64> {
+        let mut v = self.take_kept(len);
+        v.clear();
+        v.resize(len, 0.0);
+        v
+    }
+
+    /// The kept vector of [`Workspace::take`] (best fit, its old contents),
+    /// or a new empty one.
+    fn take_kept(&mut self, len: usize) -> Vec<f64> {
         self.taken += 1;
         let fit = len.max(MIN_LEN);
         let mut best: Option<(usize, usize)> = None;
@@ -127,7 +140,7 @@ impl Workspace {
                 }
             }
         }
-        let mut v = match best.map(|(i, _)| i) {
+        match best.map(|(i, _)| i) {
             Some(i) => self.free.swap_remove(i),
             None => {
                 // None long enough: a new one (the kept ones stay for shorter
@@ -135,9 +148,19 @@ impl Workspace {
                 self.fresh += 1;
                 Vec::with_capacity(len.max(MIN_LEN))
             }
-        };
-        v.clear();
-        v.resize(len, 0.0);
+        }
+    }
+
+    /// A vector of `len` unspecified values (those of its last use, zeros
+    /// where it grows): [`Workspace::take`] without the zero fill, for
+    /// callers that write every element before reading any.
+    pub(crate) fn take_for_overwrite(&mut self, len: usize) -> Vec<f64> {
+        let mut v = self.take_kept(len);
+        if v.len() >= len {
+            v.truncate(len);
+        } else {
+            v.resize(len, 0.0);
+        }
         v
     }
 
@@ -181,6 +204,20 @@ impl Workspace {
                 m.as_mut().fill(0.0);
                 m
             }
+            None => {
+                self.fresh += 1;
+                Mat::zeros(nrows, ncols)
+            }
+        }
+    }
+
+    /// A matrix of `nrows x ncols` whose values are unspecified (those of
+    /// its last use, or zeros when new): [`Workspace::take_mat`] without the
+    /// zero fill, for callers that write every element before reading any.
+    pub(crate) fn take_mat_for_overwrite(&mut self, nrows: usize, ncols: usize) -> Mat<f64> {
+        self.taken += 1;
+        match self.mats.iter().rposition(|m| m.nrows() == nrows && m.ncols() == ncols) {
+            Some(i) => self.mats.swap_remove(i),
             None => {
                 self.fresh += 1;
                 Mat::zeros(nrows, ncols)
@@ -277,6 +314,31 @@ mod tests {
         assert_eq!(ws.free.len(), MAX_VECTORS);
         ws.give(vec![0.0; MAX_LEN + 1]);
         assert!(ws.free.iter().all(|v| v.capacity() <= MAX_LEN));
+    }
+
+    /// The variants for callers that overwrite every element hand out a
+    /// kept vector or matrix of the requested size without filling it, and
+    /// count as `take` does.
+    #[test]
+    fn for_overwrite_reuses_without_filling() {
+        let mut ws = Workspace::default();
+        let mut a = ws.take(6);
+        a.iter_mut().for_each(|x| *x = 7.0);
+        let ptr = a.as_ptr();
+        ws.give(a);
+        let b = ws.take_for_overwrite(4);
+        assert_eq!((b.len(), b.as_ptr()), (4, ptr), "the kept vector, cut to length");
+        assert_eq!(b, vec![7.0; 4], "its old values are not cleared");
+        ws.give(b);
+        let c = ws.take_for_overwrite(9);
+        assert_eq!(c.len(), 9, "grown to the length asked");
+        let mut m = ws.take_mat(3, 2);
+        m[(1, 1)] = 5.0;
+        ws.give_mat(m);
+        let m = ws.take_mat_for_overwrite(3, 2);
+        assert_eq!((m.nrows(), m.ncols(), m[(1, 1)]), (3, 2, 5.0));
+        assert_eq!(ws.take_mat(3, 2)[(1, 1)], 0.0, "a new zero matrix: the kept one is out");
+        assert_eq!(ws.counts().0, 6);
     }
 
     /// The per-order loop of a lone layer under a beam with exit directions

@@ -33,7 +33,7 @@ impl SlabSolution {
         // s+ + s- = omega c_m / mu_b * ev ; s+ - s- = omega c_m / mu_b * od.
         let f = self.omega * cm / mu_b;
         // sigma~± = T M^-1 (s+ ± s-) = sqrt(w/mu) (s+ ± s-).
-        let (mut sp, mut sm) = (ws.take(n), ws.take(n));
+        let (mut sp, mut sm) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
         for i in 0..n {
             sp[i] = (self.w[i] / self.mu[i]).sqrt() * f * ev[i];
             sm[i] = (self.w[i] / self.mu[i]).sqrt() * f * od[i];
@@ -41,7 +41,7 @@ impl SlabSolution {
         ws.give(ev);
         ws.give(od);
         // rhs = sigma+ / mu_b + H- sigma-.
-        let mut rhs = ws.take(n);
+        let mut rhs = ws.take_for_overwrite(n);
         for i in 0..n {
             // H- is symmetric: row i is column i.
             rhs[i] = sp[i] / mu_b + dot(self.hm.col_as_slice(i), &sm);
@@ -56,7 +56,7 @@ impl SlabSolution {
             }
         }
         // Sigma = mu_b (H+ Delta - sigma-).
-        let (mut zp, mut zm) = (ws.take(n), ws.take(n));
+        let (mut zp, mut zm) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
         for i in 0..n {
             let sigma = mu_b * (dot(self.hp.col_as_slice(i), &delta) - sm[i]);
             zp[i] = 0.5 * (sigma + delta[i]) / self.t[i];
@@ -83,10 +83,14 @@ impl SlabSolution {
         let cm = if self.m == 0 { 1.0 } else { 2.0 } / (2.0 * std::f64::consts::PI);
         let (lam_x, ev, od) = (pr.lam, pr.ev, pr.od);
         // Direct single scattering of the beam into ±mu_x.
+        // The l + m even terms into se, the odd into so (each in order of l).
+        let (m, nl) = (self.m, self.chi.len());
         let (mut se, mut so) = (0.0, 0.0);
-        for l in self.m..self.chi.len() {
-            let x = self.chi[l] * lam_x[l] * lam_b[l];
-            if (l + self.m).is_multiple_of(2) { se += x } else { so += x }
+        for l in (m..nl).step_by(2) {
+            se += self.chi[l] * lam_x[l] * lam_b[l];
+        }
+        for l in (m + 1..nl).step_by(2) {
+            so += self.chi[l] * lam_x[l] * lam_b[l];
         }
         // p^m(sigma mu_x, mu_b) = 1/2 (se + sigma so).
         let direct_up = self.omega * cm * 0.5 * (se - so) / mu_b;
@@ -129,7 +133,7 @@ impl SlabSolution {
         let (zp, zm) = self.particular_at(mu_b, &lam_b, ws);
         let eb_att = atten(self.tau, mu_b);
         // Homogeneous part: boundary values a = -Z+, b = -Z- e_b.
-        let (mut a, mut b) = (ws.take(n), ws.take(n));
+        let (mut a, mut b) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
         for i in 0..n {
             a[i] = -zp[i];
             b[i] = -zm[i] * eb_att;
@@ -145,14 +149,14 @@ impl SlabSolution {
         // Beam -> probes: homogeneous rows plus the particular source integral,
         // once per distinct probe cosine (`per`); only the peak correction
         // depends on the azimuth.
-        let mut per = ws.take(4 * probes.len());
+        let mut per = ws.take_for_overwrite(4 * probes.len());
         // The peak correction's path factors, once per probe cosine (order 0).
         let peak: Vec<_> = match (tms, self.m) {
             (Some(t), 0) => probes.mu.iter().map(|&mu_x| t.paths(mu_b, mu_x, self.tau)).collect(),
             _ => Vec::new(),
         };
         // phi(1/mu_b + 1/mu_x) and e2(1/mu_b, 1/mu_x) per probe: the same in every order.
-        let mut paths = ws.take(2 * probes.len());
+        let mut paths = ws.take_for_overwrite(2 * probes.len());
         for (d, s) in paths.chunks_exact_mut(2).zip(ws.beam_paths(self.tau, mu_b, &probes.mu)) {
             d.copy_from_slice(s);
         }

@@ -117,7 +117,8 @@ impl Lu {
         if n >= FAER_FROM {
             return Self::from_faer(c.partial_piv_lu());
         }
-        Self::hand_written_into(c, ws.take(n * n), ws.take_idx(n))
+        // Every element of both is written by the elimination.
+        Self::hand_written_into(c, ws.take_for_overwrite(n * n), ws.take_idx(n))
     }
 
     /// Hand the factors' buffers back to the workspace.
@@ -128,7 +129,21 @@ impl Lu {
 
     /// The hand-written elimination in `lu` (`n * n` values) with the
     /// pivots in `piv` (`n`; both overwritten).
-    fn hand_written_into(c: &Mat<f64>, mut lu: Vec<f64>, mut piv: Vec<usize>) -> Self {
+    fn hand_written_into(c: &Mat<f64>, lu: Vec<f64>, piv: Vec<usize>) -> Self {
+        let n = c.nrows();
+        // Up to 12 nodes on arrays sized to the problem (the same operations
+        // in the same order: the same bits, with the loops' bounds known).
+        match n {
+            0..=4 => return Self::small_into::<4>(c, lu, piv),
+            5..=8 => return Self::small_into::<8>(c, lu, piv),
+            9..=12 => return Self::small_into::<12>(c, lu, piv),
+            _ => {}
+        }
+        Self::general_into(c, lu, piv)
+    }
+
+    /// [`Lu::hand_written_into`] at any size, on the buffer `lu` itself.
+    fn general_into(c: &Mat<f64>, mut lu: Vec<f64>, mut piv: Vec<usize>) -> Self {
         let n = c.nrows();
         for j in 0..n {
             lu[j * n..(j + 1) * n].copy_from_slice(c.col_as_slice(j));
@@ -159,6 +174,50 @@ impl Lu {
                     }
                 }
             }
+        }
+        Lu { n, lu, piv, faer: None }
+    }
+
+    /// [`Lu::hand_written_into`] for `n <= M` nodes on an `M x M` array
+    /// (`a[col][row]`): the same pivots, multipliers and updates.
+    fn small_into<const M: usize>(c: &Mat<f64>, mut lu: Vec<f64>, mut piv: Vec<usize>) -> Self {
+        let n = c.nrows();
+        assert!(n <= M && lu.len() == n * n && piv.len() == n, "small_into: {n} nodes, M = {M}");
+        let mut a = [[0.0f64; M]; M];
+        for (j, col) in a.iter_mut().enumerate().take(n) {
+            col[..n].copy_from_slice(c.col_as_slice(j));
+        }
+        for k in 0..n {
+            // Pivot: largest |C(r, k)| for r >= k (the first of equals).
+            let mut p = k;
+            for r in k + 1..n {
+                if a[k][r].abs() > a[k][p].abs() {
+                    p = r;
+                }
+            }
+            piv[k] = p;
+            if p != k {
+                for col in a.iter_mut().take(n) {
+                    col.swap(k, p);
+                }
+            }
+            // Multipliers of column k, then the rank-one update of the rest.
+            let inv = 1.0 / a[k][k];
+            for x in &mut a[k][k + 1..n] {
+                *x *= inv;
+            }
+            let lk = a[k];
+            for col in a.iter_mut().take(n).skip(k + 1) {
+                let ukj = col[k];
+                if ukj != 0.0 {
+                    for (x, l) in col[k + 1..n].iter_mut().zip(&lk[k + 1..n]) {
+                        *x -= l * ukj;
+                    }
+                }
+            }
+        }
+        for (j, col) in a.iter().enumerate().take(n) {
+            lu[j * n..(j + 1) * n].copy_from_slice(&col[..n]);
         }
         Lu { n, lu, piv, faer: None }
     }
@@ -318,6 +377,43 @@ mod tests {
                 let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j]).sum();
                 assert!((cx - b[i]).abs() < 1e-11, "n = {n}, row {i}: C x");
                 assert!((cty - b[i]).abs() < 1e-11, "n = {n}, row {i}: C^T y");
+            }
+        }
+    }
+
+    /// The elimination on arrays sized to the problem (up to 12 nodes) is
+    /// the general one bit for bit: the same pivots and factors, on matrices
+    /// that need pivoting (small leading entries), with ties and with a zero
+    /// column below the diagonal (skipped updates).
+    #[test]
+    fn small_elimination_is_the_general_one_bit_for_bit() {
+        for n in 0usize..=12 {
+            for case in 0..3 {
+                let mut s = 4242u64 + 31 * n as u64 + case;
+                let mut rnd = move || {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+                };
+                let c = Mat::from_fn(n, n, |i, j| match case {
+                    0 => rnd(),
+                    1 if i == j => 1e-3 * rnd(),
+                    // Equal entries (pivot ties) and zeros in column 0 below row 1.
+                    2 if j == 0 => {
+                        if i < 2 {
+                            0.25
+                        } else {
+                            0.0
+                        }
+                    }
+                    _ => rnd(),
+                });
+                let (a, b) = (
+                    Lu::hand_written_into(&c, vec![0.0; n * n], vec![0; n]),
+                    Lu::general_into(&c, vec![0.0; n * n], vec![0; n]),
+                );
+                assert_eq!(a.piv, b.piv, "n = {n}, case {case}");
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&a.lu), bits(&b.lu), "n = {n}, case {case}");
             }
         }
     }

@@ -3,7 +3,7 @@
 //! from a layer and order depends on its polar angle only, so the exit
 //! directions of one polar angle (any azimuths) share one [`Probe`].
 
-use super::{Extra, SlabSolution, atten, dot};
+use super::{Extra, SlabSolution, atten, dot, dot_every_other};
 use crate::correction::{e2, phi};
 use crate::workspace::Workspace;
 
@@ -81,7 +81,8 @@ impl Probes {
 impl SlabSolution {
     /// `Lambda_l^m(mu)` for this order (a vector of the workspace).
     pub(super) fn lam_at(&self, mu: f64, ws: &mut Workspace) -> Vec<f64> {
-        let mut b = ws.take(self.chi.len());
+        // eval writes every element.
+        let mut b = ws.take_for_overwrite(self.chi.len());
         self.rec.eval(mu, &mut b);
         b
     }
@@ -90,52 +91,44 @@ impl SlabSolution {
     /// `sum_{l+m even/odd} (2l+1) chi_l Lambda_l(mu) Lambda_l(mu_j)`
     /// (vectors of the workspace).
     pub(super) fn kernels(&self, lam_x: &[f64], ws: &mut Workspace) -> (Vec<f64>, Vec<f64>) {
-        let nl = self.chi.len();
-        let (mut we, mut wo) = (ws.take(nl), ws.take(nl));
-        let (mut ev, mut od) = (ws.take(self.n), ws.take(self.n));
-        self.kernels_into(lam_x, [&mut we, &mut wo], &mut ev, &mut od);
-        ws.give(we);
-        ws.give(wo);
+        // All three are written before they are read (kernels_into).
+        let mut wx = ws.take_for_overwrite(self.chi.len());
+        let (mut ev, mut od) = (ws.take_for_overwrite(self.n), ws.take_for_overwrite(self.n));
+        self.kernels_into(lam_x, &mut wx, &mut ev, &mut od);
+        ws.give(wx);
         (ev, od)
     }
 
     /// [`SlabSolution::kernels`] into `ev`, `od` (`n` values each), with
-    /// `scratch` two vectors of `nl` values (overwritten).
-    fn kernels_into(
-        &self,
-        lam_x: &[f64],
-        scratch: [&mut [f64]; 2],
-        ev: &mut [f64],
-        od: &mut [f64],
-    ) {
+    /// `wx` a scratch vector of at least `nl` values (overwritten).
+    fn kernels_into(&self, lam_x: &[f64], wx: &mut [f64], ev: &mut [f64], od: &mut [f64]) {
         let nl = self.chi.len();
-        let [we, wo] = scratch;
-        // The weights split by parity of l + m (zero elsewhere), then dot products.
-        we.iter_mut().for_each(|x| *x = 0.0);
-        wo.iter_mut().for_each(|x| *x = 0.0);
+        // The weights chi_l Lambda_l(mu); the even kernel sums the l + m even
+        // terms (l = m, m + 2, ...), the odd one the others: each dot product
+        // reads its own parity only.
         for l in self.m..nl {
-            let x = self.chi[l] * lam_x[l];
-            if (l + self.m).is_multiple_of(2) { we[l] = x } else { wo[l] = x }
+            wx[l] = self.chi[l] * lam_x[l];
         }
+        let wx = &wx[..nl];
         for j in 0..self.n {
             let row = &self.lam[j * nl..(j + 1) * nl];
-            ev[j] = dot(we, row);
-            od[j] = dot(wo, row);
+            ev[j] = dot_every_other(wx, row, self.m);
+            od[j] = dot_every_other(wx, row, self.m + 1);
         }
     }
 
     /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
     /// at `mu_x` leaving the top per unit down-going radiance at each node
     /// entering at the top, and the same from the bottom (eq. 14 of docs/multiflux.md).
-    /// `out` holds the probe's `[us, uy, lam, ev, od]`; `scratch` four
+    /// `out` holds the probe's `[us, uy, lam, ev, od]`; `scratch` three
     /// vectors of at least `nl` values.
-    fn probe_rows_into(&self, mu_x: f64, out: [&mut [f64]; 5], scratch: &mut [Vec<f64>; 4]) {
+    fn probe_rows_into(&self, mu_x: f64, out: [&mut [f64]; 5], scratch: &mut [Vec<f64>; 3]) {
         let n = self.n;
         let [us, uy, lam_x, ev, od] = out;
         self.rec.eval(mu_x, lam_x);
         let nl = self.chi.len();
-        let [s0, s1, fe, fo] = scratch;
-        self.kernels_into(lam_x, [&mut s0[..nl], &mut s1[..nl]], ev, od);
+        let [wx, fe, fo] = scratch;
+        self.kernels_into(lam_x, &mut wx[..nl], ev, od);
         let beta = 1.0 / mu_x;
         let eb = atten(self.tau, mu_x);
         // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
@@ -194,7 +187,8 @@ impl SlabSolution {
         ws: &mut Workspace,
     ) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
-        let (mut p, mut q) = (ws.take(n), ws.take(n));
+        // Every element of the four is written before it is read.
+        let (mut p, mut q) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
         p.copy_from_slice(pr.us);
         q.copy_from_slice(pr.uy);
         self.lu_p.solve_transpose(&mut p);
@@ -202,8 +196,8 @@ impl SlabSolution {
             Some(lu) => lu.solve_transpose(&mut q),
             None => q.iter_mut().for_each(|x| *x = 0.0),
         }
-        let mut rx = ws.take(n);
-        let mut tx = ws.take(n);
+        let mut rx = ws.take_for_overwrite(n);
+        let mut tx = ws.take_for_overwrite(n);
         for i in 0..n {
             rx[i] = (p[i] + q[i]) * self.t[i];
             tx[i] = (p[i] - q[i]) * self.t[i];
@@ -234,19 +228,22 @@ impl SlabSolution {
             };
         }
         let (n, nl, np) = (self.n, self.chi.len(), mu.len());
+        // Every element of the probes' vectors and of the scratch is written
+        // before it is read (probe_rows_into).
         let mut pr = Probes {
             n,
             nl,
-            us: ws.take(np * n),
-            uy: ws.take(np * n),
-            lam: ws.take(np * nl),
-            ev: ws.take(np * n),
-            od: ws.take(np * n),
+            us: ws.take_for_overwrite(np * n),
+            uy: ws.take_for_overwrite(np * n),
+            lam: ws.take_for_overwrite(np * nl),
+            ev: ws.take_for_overwrite(np * n),
+            od: ws.take_for_overwrite(np * n),
             mu,
             of,
         };
         let w = nl.max(n);
-        let mut scratch = [ws.take(w), ws.take(w), ws.take(w), ws.take(w)];
+        let mut scratch =
+            [ws.take_for_overwrite(w), ws.take_for_overwrite(w), ws.take_for_overwrite(w)];
         for p in 0..np {
             let out = [
                 &mut pr.us[p * n..(p + 1) * n],
