@@ -221,26 +221,27 @@ fn small_modes_in<const M: usize>(
             hl[i][j] = (j..n).map(|k| hm[(i, k)] * l[k][j]).sum();
         }
     }
+    // QL wants the large entries in the bottom-right corner (Press et al.
+    // 2007 §11.4): S's largest are at the smallest cosines, node 0 first, so
+    // from 7 nodes on S is written on the reversed node order (row and
+    // column i at n - 1 - i) and Y's rows are read back reversed.
+    let ql = n > JACOBI_MAX;
     let mut a = [[0.0f64; M]; M];
     for i in 0..n {
         for j in 0..=i {
             let x: f64 = (i..n).map(|k| l[k][i] * hl[k][j]).sum();
-            a[i][j] = x;
-            a[j][i] = x;
+            let (r, c) = if ql { (n - 1 - i, n - 1 - j) } else { (i, j) };
+            a[r][c] = x;
+            a[c][r] = x;
         }
     }
-    let (lam, y) = if n <= JACOBI_MAX {
-        jacobi(a, n)?
+    // Eigenvalues, and the eigenvectors as Y (Jacobi: `y[c][e]` is component
+    // c of eigenvector e) or as reversed rows of Y^T (QL: `y[e][n - 1 - c]`).
+    let (lam, y) = if ql {
+        let mut yt = [[0.0f64; M]; M];
+        (tridiagonal_ql(&mut a, &mut yt, n)?, yt)
     } else {
-        // QL wants the large entries in the bottom-right corner (Press et
-        // al. 2007 §11.4): S's largest are at the smallest cosines, node 0
-        // first, so it runs on the reversed order, and Y's rows are reversed
-        // back.
-        let rev: [[f64; M]; M] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| if i < n && j < n { a[n - 1 - i][n - 1 - j] } else { 0.0 })
-        });
-        let (lam, yr) = tridiagonal_ql(rev, n)?;
-        (lam, std::array::from_fn(|i| if i < n { yr[n - 1 - i] } else { [0.0; M] }))
+        jacobi(a, n)?
     };
     // Ascending eigenvalues (k^2), clamped at 0 as in the general path.
     let mut order: [usize; M] = std::array::from_fn(|i| i);
@@ -255,7 +256,7 @@ fn small_modes_in<const M: usize>(
     let mut ys = [[0.0f64; M]; M];
     for (c, row) in ys.iter_mut().enumerate().take(n) {
         for (col, &e) in order[..n].iter().enumerate() {
-            row[col] = y[c][e];
+            row[col] = if ql { y[e][n - 1 - c] } else { y[c][e] };
         }
     }
     let mut va = [[0.0f64; M]; M];

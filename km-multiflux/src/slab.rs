@@ -102,7 +102,7 @@ pub struct SlabOrder<'a> {
 }
 
 /// `exp(-t / mu)`, 0 for an infinite `t`.
-fn atten(t: f64, mu: f64) -> f64 {
+pub(crate) fn atten(t: f64, mu: f64) -> f64 {
     if t.is_infinite() { 0.0 } else { (-t / mu).exp() }
 }
 

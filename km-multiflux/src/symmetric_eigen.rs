@@ -84,39 +84,30 @@ pub(crate) fn jacobi<const M: usize>(
     Ok((std::array::from_fn(|i| if i < n { a[i][i] } else { 0.0 }), y))
 }
 
-/// [`jacobi`]'s result by Householder reduction to tridiagonal form with the
-/// transformation accumulated, then the implicit QL iteration with
+/// [`jacobi`]'s eigenvalues by Householder reduction to tridiagonal form with
+/// the transformation accumulated, then the implicit QL iteration with
 /// Wilkinson-type shifts on the tridiagonal matrix (the EISPACK routines
 /// `tred2` and `tql2`, Martin, Reinsch & Wilkinson 1968, Bowdler et al. 1968;
 /// Press et al. 2007 §11.4–11.5); an off-diagonal element counts as zero
-/// when adding it to its two diagonal neighbours changes nothing.
+/// when adding it to its two diagonal neighbours changes nothing. `a` is
+/// overwritten; the eigenvectors come back as the rows of `q` (`q[j]` =
+/// eigenvector `j`, i.e. `Y^T`: the rotations accumulate them so, combining
+/// two contiguous rows), which needs no zeroing.
 pub(crate) fn tridiagonal_ql<const M: usize>(
-    mut a: [[f64; M]; M],
+    a: &mut [[f64; M]; M],
+    q: &mut [[f64; M]; M],
     n: usize,
-) -> Result<Eigen<M>, EigenFailure> {
-    let (mut d, mut e) = householder_tridiagonal(&mut a, n);
-    // The QL rotations accumulate into the columns of Q, kept transposed
-    // (`q[j]` = column j) so that a rotation combines two contiguous rows.
-    let mut q = [[0.0f64; M]; M];
+) -> Result<[f64; M], EigenFailure> {
+    let (mut d, mut e) = householder_tridiagonal(a, n);
     for (i, row) in a.iter().enumerate().take(n) {
         for (j, x) in row.iter().enumerate().take(n) {
             q[j][i] = *x;
         }
     }
-    implicit_ql(&mut d, &mut e, &mut q, n)?;
-    // Back to columns.
-    for (i, row) in a.iter_mut().enumerate().take(n) {
-        for (j, x) in row.iter_mut().enumerate().take(n) {
-            *x = q[j][i];
-        }
-    }
-    Ok((d, a))
+    implicit_ql(&mut d, &mut e, q, n)?;
+    Ok(d)
 }
 
-/// `tred2`: the Householder reduction of the symmetric leading `n x n`
-/// block of `a` to the tridiagonal `(d, e)` (the diagonal, and in `e[i]` the
-/// element left of the diagonal in row `i`); `a` becomes the orthogonal `Q`
-/// with `Q^T A Q` tridiagonal.
 fn householder_tridiagonal<const M: usize>(
     a: &mut [[f64; M]; M],
     n: usize,

@@ -58,6 +58,9 @@ pub(crate) struct Workspace {
     /// seen ([`Workspace::beam_paths`]): they do not depend on the Fourier
     /// order, so the orders after the first reuse them.
     paths: PathMemo,
+    /// The probes' attenuations `exp(-tau / mu_x)` through the last layer
+    /// seen ([`Workspace::probe_attenuations`]), order-independent too.
+    atten: PathMemo,
 }
 
 /// Values per probe cosine that do not depend on the Fourier order
@@ -111,6 +114,7 @@ impl Workspace {
             taken: 0,
             fresh: 0,
             paths: PathMemo::new(),
+            atten: PathMemo::new(),
         }
     }
 
@@ -259,6 +263,13 @@ impl Workspace {
             let (kb, beta) = (1.0 / mu_b, 1.0 / mu_x);
             [crate::correction::phi(kb + beta, tau), crate::correction::e2(kb, beta, tau)]
         })
+    }
+
+    /// `exp(-tau / mu_x)` (0 for a half-space) per probe cosine `mu_x` of
+    /// `mu`, in the first of each pair: like [`Workspace::beam_paths`], kept
+    /// with its arguments (the beam's cosine plays no part: 0 in the key).
+    pub(crate) fn probe_attenuations(&mut self, tau: f64, mu: &[f64]) -> &[[f64; 2]] {
+        self.atten.get(tau, 0.0, mu, |mu_x| [crate::slab::atten(tau, mu_x), 0.0])
     }
 
     /// `(taken, fresh)`: vectors handed out since the workspace was made and

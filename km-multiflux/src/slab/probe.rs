@@ -3,7 +3,7 @@
 //! from a layer and order depends on its polar angle only, so the exit
 //! directions of one polar angle (any azimuths) share one [`Probe`].
 
-use super::{Extra, SlabSolution, atten, dot, dot_every_other};
+use super::{Extra, SlabSolution, dot, dot_every_other};
 use crate::correction::{e2, phi};
 use crate::workspace::Workspace;
 
@@ -120,9 +120,16 @@ impl SlabSolution {
     /// Rows for a probe at cosine `mu_x`: `(R_xq, T_xq)`, the up-going radiance
     /// at `mu_x` leaving the top per unit down-going radiance at each node
     /// entering at the top, and the same from the bottom (eq. 14 of docs/multiflux.md).
+    /// `eb` is the probe's attenuation `exp(-tau / mu_x)` through the layer;
     /// `out` holds the probe's `[us, uy, lam, ev, od]`; `scratch` three
     /// vectors of at least `nl` values.
-    fn probe_rows_into(&self, mu_x: f64, out: [&mut [f64]; 5], scratch: &mut [Vec<f64>; 3]) {
+    fn probe_rows_into(
+        &self,
+        mu_x: f64,
+        eb: f64,
+        out: [&mut [f64]; 5],
+        scratch: &mut [Vec<f64>; 3],
+    ) {
         let n = self.n;
         let [us, uy, lam_x, ev, od] = out;
         self.rec.eval(mu_x, lam_x);
@@ -130,7 +137,6 @@ impl SlabSolution {
         let [wx, fe, fo] = scratch;
         self.kernels_into(lam_x, &mut wx[..nl], ev, od);
         let beta = 1.0 / mu_x;
-        let eb = atten(self.tau, mu_x);
         // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
         let (fe, fo) = (&mut fe[..n], &mut fo[..n]);
         for i in 0..n {
@@ -244,6 +250,11 @@ impl SlabSolution {
         let w = nl.max(n);
         let mut scratch =
             [ws.take_for_overwrite(w), ws.take_for_overwrite(w), ws.take_for_overwrite(w)];
+        // The attenuations do not depend on the order: kept in the workspace.
+        let mut eb = ws.take_for_overwrite(np);
+        for (d, s) in eb.iter_mut().zip(ws.probe_attenuations(self.tau, &pr.mu)) {
+            *d = s[0];
+        }
         for p in 0..np {
             let out = [
                 &mut pr.us[p * n..(p + 1) * n],
@@ -252,11 +263,12 @@ impl SlabSolution {
                 &mut pr.ev[p * n..(p + 1) * n],
                 &mut pr.od[p * n..(p + 1) * n],
             ];
-            self.probe_rows_into(pr.mu[p], out, &mut scratch);
+            self.probe_rows_into(pr.mu[p], eb[p], out, &mut scratch);
         }
         for v in scratch {
             ws.give(v);
         }
+        ws.give(eb);
         pr
     }
 }
