@@ -40,9 +40,11 @@ count instead: the index-matched slabs of
 km-multiflux/tests/data/slabs.json, each tool at the cheapest stream count
 of its ladder whose R and T are both within 1e-4 of C DISORT at NSTR = 128;
 km warm (`seconds_best` of `km solve --repeat K`) and first call (its
-`seconds`, the median of three fresh processes) against C DISORT's best of
-K `solve()` calls (flux only, no intensity correction). Writes
-out/peers-totals.md. With `--brdf` and `--totals-ladder`, `--km BIN` takes
+`seconds`) against C DISORT's best of K `solve()` calls (flux only, no
+intensity correction) and its first `solve()` in a fresh process, five
+rounds alternated (first calls: the median of the five). Writes
+out/peers-totals.md. `--brdf` reports both tools' first calls too (the median
+of its three rounds). With `--brdf` and `--totals-ladder`, `--km BIN` takes
 a given km binary instead of building one.
 
 Peers' known limits (checked on their releases, 2026-11): iadpython treats

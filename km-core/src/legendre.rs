@@ -193,10 +193,13 @@ impl LegendreRecurrence {
     /// `Lambda_l^m(mu)` for `l = 0..nl` into `out` (`nl` long; zero for `l < m`).
     pub fn eval(&self, mu: f64, out: &mut [f64]) {
         let (m, nl) = (self.m, self.a.len());
-        out.iter_mut().for_each(|x| *x = 0.0);
         if m >= nl {
+            out.iter_mut().for_each(|x| *x = 0.0);
             return;
         }
+        // Zeros below m; every value from m on is written below.
+        out[..m].iter_mut().for_each(|x| *x = 0.0);
+        out[nl..].iter_mut().for_each(|x| *x = 0.0);
         let sin = ((1.0 - mu) * (1.0 + mu)).max(0.0).sqrt();
         let pmm = self.c0 * sin.powi(m as i32);
         out[m] = pmm;
