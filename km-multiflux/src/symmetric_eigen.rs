@@ -7,10 +7,6 @@
 
 use crate::eigen::EigenFailure;
 
-/// Eigenvalues `lam` and eigenvectors `Y` (columns) of a symmetric `S = Y
-/// diag(lam) Y^T` in the leading `n x n` block of `M x M` arrays.
-pub(crate) type Eigen<const M: usize> = ([f64; M], [[f64; M]; M]);
-
 /// Eigenvalues and eigenvectors (columns of `Y`, `S = Y diag(lam) Y^T`) of the
 /// symmetric `n x n` leading block of `a` by cyclic Jacobi rotations (Golub &
 /// Van Loan 2013 §8.5): each rotation zeroes one off-diagonal pair; stop when
@@ -19,12 +15,14 @@ pub(crate) type Eigen<const M: usize> = ([f64; M], [[f64; M]; M]);
 /// `|s_pq| <= eps^2 max |s_ii|` (a zero eigenvalue, conservative scattering:
 /// its `k` then errs by at most `eps sqrt(|S|)`, far below the general
 /// path's rounding).
+/// `a` is overwritten, `Y` written into `y` (zero on entry) and the
+/// eigenvalues returned.
 pub(crate) fn jacobi<const M: usize>(
-    mut a: [[f64; M]; M],
+    a: &mut [[f64; M]; M],
+    y: &mut [[f64; M]; M],
     n: usize,
-) -> Result<Eigen<M>, EigenFailure> {
+) -> Result<[f64; M], EigenFailure> {
     const MAX_SWEEPS: usize = 60;
-    let mut y = [[0.0f64; M]; M];
     for (i, row) in y.iter_mut().enumerate().take(n) {
         row[i] = 1.0;
     }
@@ -39,7 +37,7 @@ pub(crate) fn jacobi<const M: usize>(
         })
     };
     let mut sweeps = 0;
-    while !converged(&a) {
+    while !converged(a) {
         sweeps += 1;
         if sweeps > MAX_SWEEPS || a.iter().flatten().any(|x| !x.is_finite()) {
             return Err(EigenFailure::Eigen(format!(
@@ -81,7 +79,7 @@ pub(crate) fn jacobi<const M: usize>(
             }
         }
     }
-    Ok((std::array::from_fn(|i| if i < n { a[i][i] } else { 0.0 }), y))
+    Ok(std::array::from_fn(|i| if i < n { a[i][i] } else { 0.0 }))
 }
 
 /// [`jacobi`]'s eigenvalues by Householder reduction to tridiagonal form with
