@@ -304,16 +304,22 @@ pub(crate) fn thread_counts() -> (usize, usize) {
 mod tests {
     use super::*;
 
+    /// A vector of `len` sevens taken from `ws` and handed back: its address.
+    fn kept_sevens(ws: &mut Workspace, len: usize) -> *const f64 {
+        let mut a = ws.take(len);
+        a.iter_mut().for_each(|x| *x = 7.0);
+        let ptr = a.as_ptr();
+        ws.give(a);
+        ptr
+    }
+
     /// A vector taken back is zero-filled to the requested length, reused
     /// (no new allocation) when one long enough was returned, and the pool
     /// stays within its bounds.
     #[test]
     fn reuses_and_zero_fills() {
         let mut ws = Workspace::default();
-        let mut a = ws.take(5);
-        a.iter_mut().for_each(|x| *x = 7.0);
-        let ptr = a.as_ptr();
-        ws.give(a);
+        let ptr = kept_sevens(&mut ws, 5);
         let b = ws.take(3);
         assert_eq!(b, vec![0.0; 3]);
         assert_eq!(b.as_ptr(), ptr, "the returned vector is reused");
@@ -333,10 +339,7 @@ mod tests {
     #[test]
     fn for_overwrite_reuses_without_filling() {
         let mut ws = Workspace::default();
-        let mut a = ws.take(6);
-        a.iter_mut().for_each(|x| *x = 7.0);
-        let ptr = a.as_ptr();
-        ws.give(a);
+        let ptr = kept_sevens(&mut ws, 6);
         let b = ws.take_for_overwrite(4);
         assert_eq!((b.len(), b.as_ptr()), (4, ptr), "the kept vector, cut to length");
         assert_eq!(b, vec![7.0; 4], "its old values are not cleared");
