@@ -323,6 +323,12 @@ pub fn xi(mu1: f64, mu2: f64, tau: f64) -> f64 {
 // Path integrals of exponential attenuation along an exit path, shared by the
 // slab's exit-direction probes and by the correction.
 
+/// `exp(-t / mu)`, 0 for an infinite `t`: the attenuation along a path of
+/// cosine `mu` through the optical thickness `t`.
+pub(crate) fn atten(t: f64, mu: f64) -> f64 {
+    if t.is_infinite() { 0.0 } else { (-t / mu).exp() }
+}
+
 /// `(1 - exp(-c t)) / c` for `c >= 0`, `t >= 0` (may be infinite); `t` at `c = 0`.
 pub(crate) fn phi(c: f64, t: f64) -> f64 {
     if t.is_infinite() {

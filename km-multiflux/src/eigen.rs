@@ -238,7 +238,8 @@ fn small_modes_in<const M: usize>(
     // Eigenvalues, and the eigenvectors as Y (Jacobi: `y[c][e]` is component
     // c of eigenvector e) or as reversed rows of Y^T (QL: `y[e][n - 1 - c]`).
     let mut y = [[0.0f64; M]; M];
-    let lam = if ql { tridiagonal_ql(&mut a, &mut y, n)? } else { jacobi(&mut a, &mut y, n)? };
+    let lam = if ql { tridiagonal_ql(&mut a, &mut y, n) } else { jacobi(&mut a, &mut y, n) }
+        .map_err(|e| EigenFailure::Eigen(e.0))?;
     // Ascending eigenvalues (k^2), clamped at 0 as in the general path.
     let mut order: [usize; M] = std::array::from_fn(|i| i);
     order[..n].sort_by(|&i, &j| lam[i].total_cmp(&lam[j]));

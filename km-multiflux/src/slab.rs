@@ -61,7 +61,7 @@ mod probe;
 use faer::Mat;
 
 use crate::MultifluxError;
-use crate::correction::phi;
+use crate::correction::{atten, phi};
 use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes_in};
 use crate::legendre::LegendreRecurrence;
 use crate::phase_matrix::fourier_blocks_in;
@@ -99,11 +99,6 @@ pub struct SlabOrder<'a> {
     pub chi: &'a [f64],
     /// Fourier order.
     pub m: usize,
-}
-
-/// `exp(-t / mu)`, 0 for an infinite `t`.
-pub(crate) fn atten(t: f64, mu: f64) -> f64 {
-    if t.is_infinite() { 0.0 } else { (-t / mu).exp() }
 }
 
 /// The eigen-solution of one layer and order (eq. S2–S5), kept to evaluate

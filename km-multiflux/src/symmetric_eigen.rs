@@ -5,7 +5,10 @@
 //! a library call on the default x86-64 target (no FMA at compile time),
 //! and in these loops it made the 12-node solve half again as slow.
 
-use crate::eigen::EigenFailure;
+/// The iteration did not converge (or met a non-finite value): what and
+/// where, for the caller's error ([`crate::eigen::EigenFailure::Eigen`]).
+#[derive(Debug)]
+pub(crate) struct NoConvergence(pub(crate) String);
 
 /// Eigenvalues and eigenvectors (columns of `Y`, `S = Y diag(lam) Y^T`) of the
 /// symmetric `n x n` leading block of `a` by cyclic Jacobi rotations (Golub &
@@ -21,7 +24,7 @@ pub(crate) fn jacobi<const M: usize>(
     a: &mut [[f64; M]; M],
     y: &mut [[f64; M]; M],
     n: usize,
-) -> Result<[f64; M], EigenFailure> {
+) -> Result<[f64; M], NoConvergence> {
     const MAX_SWEEPS: usize = 60;
     for (i, row) in y.iter_mut().enumerate().take(n) {
         row[i] = 1.0;
@@ -40,9 +43,7 @@ pub(crate) fn jacobi<const M: usize>(
     while !converged(a) {
         sweeps += 1;
         if sweeps > MAX_SWEEPS || a.iter().flatten().any(|x| !x.is_finite()) {
-            return Err(EigenFailure::Eigen(format!(
-                "Jacobi: no convergence in {MAX_SWEEPS} sweeps"
-            )));
+            return Err(NoConvergence(format!("Jacobi: no convergence in {MAX_SWEEPS} sweeps")));
         }
         for p in 0..n {
             for q in p + 1..n {
@@ -95,7 +96,7 @@ pub(crate) fn tridiagonal_ql<const M: usize>(
     a: &mut [[f64; M]; M],
     q: &mut [[f64; M]; M],
     n: usize,
-) -> Result<[f64; M], EigenFailure> {
+) -> Result<[f64; M], NoConvergence> {
     let (mut d, mut e) = householder_tridiagonal(a, n);
     for (i, row) in a.iter().enumerate().take(n) {
         for (j, x) in row.iter().enumerate().take(n) {
@@ -185,7 +186,7 @@ fn implicit_ql<const M: usize>(
     e: &mut [f64; M],
     q: &mut [[f64; M]; M],
     n: usize,
-) -> Result<(), EigenFailure> {
+) -> Result<(), NoConvergence> {
     const MAX_ITER: usize = 60;
     for i in 1..n {
         e[i - 1] = e[i];
@@ -209,7 +210,7 @@ fn implicit_ql<const M: usize>(
             }
             iter += 1;
             if iter > MAX_ITER || !d[l].is_finite() {
-                return Err(EigenFailure::Eigen(format!("QL: no convergence in {MAX_ITER} steps")));
+                return Err(NoConvergence(format!("QL: no convergence in {MAX_ITER} steps")));
             }
             let mut g = (d[l + 1] - d[l]) / (2.0 * e[l]);
             let mut r = pythag(g, 1.0);

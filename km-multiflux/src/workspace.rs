@@ -269,7 +269,7 @@ impl Workspace {
     /// `mu`, in the first of each pair: like [`Workspace::beam_paths`], kept
     /// with its arguments (the beam's cosine plays no part: 0 in the key).
     pub(crate) fn probe_attenuations(&mut self, tau: f64, mu: &[f64]) -> &[[f64; 2]] {
-        self.atten.get(tau, 0.0, mu, |mu_x| [crate::slab::atten(tau, mu_x), 0.0])
+        self.atten.get(tau, 0.0, mu, |mu_x| [crate::correction::atten(tau, mu_x), 0.0])
     }
 
     /// `(taken, fresh)`: vectors handed out since the workspace was made and
