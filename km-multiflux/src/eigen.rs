@@ -243,8 +243,8 @@ fn small_modes_in<const M: usize>(
     // Ascending eigenvalues (k^2), clamped at 0 as in the general path.
     let mut order: [usize; M] = std::array::from_fn(|i| i);
     order[..n].sort_by(|&i, &j| lam[i].total_cmp(&lam[j]));
-    let mut k = ws.take(n);
-    // Every element of v~ and z~ is written below.
+    // Every element of k, v~ and z~ is written below.
+    let mut k = ws.take_for_overwrite(n);
     let (mut v, mut z) = (ws.take_mat_for_overwrite(n, n), ws.take_mat_for_overwrite(n, n));
     // Y with its columns in ascending order of k; then v~ = L Y and, by back
     // substitution with L^T (upper triangular), z~ = L^-T Y, row by row with

@@ -170,9 +170,17 @@ impl SlabSolution {
         let (tau, omega, m) = (p.tau, p.omega, p.m);
         let nl = p.chi.len();
         // t = sqrt(w mu), the weighted moments chi and the Legendre table in
-        // vectors of the workspace (handed back by `SlabSolution::recycle`).
+        // vectors of the workspace (handed back by `SlabSolution::recycle`);
+        // every element is written below (the recurrence's coefficient
+        // vectors by `new_in`).
         let (mut t, mut chi, mut lam, ra, rb) = with_workspace(|ws| {
-            (ws.take(n), ws.take(nl), ws.take(n * nl), ws.take(nl), ws.take(nl))
+            (
+                ws.take_for_overwrite(n),
+                ws.take_for_overwrite(nl),
+                ws.take_for_overwrite(n * nl),
+                ws.take_for_overwrite(nl),
+                ws.take_for_overwrite(nl),
+            )
         });
         for ((t, u), w) in t.iter_mut().zip(mu).zip(w) {
             *t = (u * w).sqrt();
@@ -230,7 +238,7 @@ impl SlabSolution {
             ws.give_mat(cp);
             ws.give_mat(cm);
             let (r, tr) = rt.map_err(fail)?;
-            let (mut mu_c, mut w_c) = (ws.take(n), ws.take(n));
+            let (mut mu_c, mut w_c) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
             mu_c.copy_from_slice(mu);
             w_c.copy_from_slice(w);
             Ok(SlabSolution {
@@ -338,7 +346,7 @@ fn h_matrices(
     ws: &mut Workspace,
 ) -> (Mat<f64>, Mat<f64>) {
     let n = mu.len();
-    let mut sq = ws.take(n);
+    let mut sq = ws.take_for_overwrite(n);
     for ((s, u), w) in sq.iter_mut().zip(mu).zip(w) {
         *s = (w / u).sqrt();
     }
@@ -374,7 +382,8 @@ fn boundary_matrices(
 ) -> (Vec<f64>, [Mat<f64>; 4]) {
     let n = k.len();
     let half = tau.is_infinite();
-    let (mut e, mut ph) = (ws.take(n), ws.take(n));
+    // Both written for every mode below.
+    let (mut e, mut ph) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
     for (j, &kj) in k.iter().enumerate() {
         e[j] = if half { 0.0 } else { (-kj * tau).exp() };
         ph[j] = phi(kj, tau);

@@ -92,7 +92,9 @@ impl SlabSolution {
         // Half-space: R~ = Cp_out Cp^-1, T~ = 0 (nothing enters from below).
         let half = self.lu_m.is_none();
         let bh = |i: usize| if half { 0.0 } else { b[i] };
-        let (mut s, mut d) = (ws.take(n), ws.take(n));
+        // s, d, rs, td are written for every node before they are read (hp
+        // and hm accumulate: zero-filled).
+        let (mut s, mut d) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
         for i in 0..n {
             s[i] = self.t[i] * (a[i] + bh(i));
             d[i] = self.t[i] * (a[i] - bh(i));
@@ -111,7 +113,7 @@ impl SlabSolution {
                 hm.copy_from_slice(&hp);
             }
         }
-        let (mut rs, mut td) = (ws.take(n), ws.take(n));
+        let (mut rs, mut td) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
         for i in 0..n {
             rs[i] = 0.5 * (hp[i] + hm[i]) / self.t[i];
             td[i] = if half { 0.0 } else { 0.5 * (hp[i] - hm[i]) / self.t[i] };
