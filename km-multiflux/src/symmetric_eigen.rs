@@ -107,6 +107,10 @@ pub(crate) fn tridiagonal_ql<const M: usize>(
     Ok(d)
 }
 
+/// `tred2`: the Householder reduction of the symmetric leading `n x n`
+/// block of `a` to the tridiagonal `(d, e)` (the diagonal, and in `e[i]` the
+/// element left of the diagonal in row `i`); `a` becomes the orthogonal `Q`
+/// with `Q^T A Q` tridiagonal.
 fn householder_tridiagonal<const M: usize>(
     a: &mut [[f64; M]; M],
     n: usize,

@@ -201,18 +201,9 @@ impl Workspace {
 
     /// A zero matrix of `nrows x ncols`, reusing a kept one of that shape.
     pub(crate) fn take_mat(&mut self, nrows: usize, ncols: usize) -> Mat<f64> {
-        self.taken += 1;
-        match self.mats.iter().rposition(|m| m.nrows() == nrows && m.ncols() == ncols) {
-            Some(i) => {
-                let mut m = self.mats.swap_remove(i);
-                m.as_mut().fill(0.0);
-                m
-            }
-            None => {
-                self.fresh += 1;
-                Mat::zeros(nrows, ncols)
-            }
-        }
+        let mut m = self.take_mat_for_overwrite(nrows, ncols);
+        m.as_mut().fill(0.0);
+        m
     }
 
     /// A matrix of `nrows x ncols` whose values are unspecified (those of

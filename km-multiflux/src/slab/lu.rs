@@ -383,8 +383,8 @@ mod tests {
 
     /// The elimination on arrays sized to the problem (up to 12 nodes) is
     /// the general one bit for bit: the same pivots and factors, on matrices
-    /// that need pivoting (small leading entries), with ties and with a zero
-    /// column below the diagonal (skipped updates).
+    /// that need pivoting (small leading entries), with a pivot tie, zero
+    /// multipliers (zeros in column 0) and skipped updates (zeros in row 0).
     #[test]
     fn small_elimination_is_the_general_one_bit_for_bit() {
         for n in 0usize..=12 {
@@ -397,7 +397,8 @@ mod tests {
                 let c = Mat::from_fn(n, n, |i, j| match case {
                     0 => rnd(),
                     1 if i == j => 1e-3 * rnd(),
-                    // Equal entries (pivot ties) and zeros in column 0 below row 1.
+                    // Equal entries (a pivot tie) and zeros in column 0 below
+                    // row 1; zeros in row 0 right of column 1 (u_0j = 0).
                     2 if j == 0 => {
                         if i < 2 {
                             0.25
@@ -405,6 +406,7 @@ mod tests {
                             0.0
                         }
                     }
+                    2 if i == 0 && j >= 2 => 0.0,
                     _ => rnd(),
                 });
                 let (a, b) = (
