@@ -43,6 +43,7 @@ mod error;
 mod method;
 mod profile;
 mod run;
+pub mod settings;
 mod solver;
 mod sweep;
 pub mod text;
