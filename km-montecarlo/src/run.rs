@@ -9,6 +9,7 @@ use km_core::{Light, Scene, Solution};
 use rayon::prelude::*;
 
 use crate::error::McError;
+use crate::grid::{GridResult, grid_result};
 use crate::options::{McOptions, RadialBins};
 use crate::rng::batch_rng;
 use crate::shard::{
@@ -50,6 +51,51 @@ pub fn solve(scene: &Scene, opts: &McOptions) -> Result<Solution, McError> {
     Ok(build_solution(&parts, &m))
 }
 
+/// [`solve`] with the grid tallies of `opts.grid` ([`crate::McGrid`],
+/// docs/montecarlo.md §7): the solution and, per channel, the
+/// [`GridResult`].
+///
+/// # Errors
+/// Those of [`solve`]; [`McError::Option`] when `opts.grid` is `None`.
+///
+/// ```
+/// use km_montecarlo::{McGrid, McOptions, solve_grid};
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let grid = McGrid { dz: 0.1, nz: 10, dr: 0.1, nr: 0, na: 0 };
+/// let opts = McOptions { samples: 20_000, grid: Some(grid), ..Default::default() };
+/// let (sol, g) = solve_grid(&scene, &opts).unwrap();
+/// let a: f64 = g[0].a_z.iter().map(|a| a * 0.1).sum();
+/// assert!((a - sol.channels[0].absorptance).abs() < 1e-12);
+/// ```
+pub fn solve_grid(scene: &Scene, opts: &McOptions) -> Result<(Solution, Vec<GridResult>), McError> {
+    let part = run_shard(scene, opts, 0, 1)?;
+    merge_grid(&[part])
+}
+
+/// [`crate::merge`] with the grid tallies: the merged solution and, per
+/// channel, the [`GridResult`] (bit-identical to [`solve_grid`]'s).
+///
+/// # Errors
+/// Those of [`crate::merge`]; [`McError::Option`] when the run had no grid.
+pub fn merge_grid(parts: &[Partial]) -> Result<(Solution, Vec<GridResult>), McError> {
+    let m = accumulate(parts)?;
+    let p0 = &parts[0];
+    let Some(grid) = p0.options.grid else {
+        return Err(McError::Option {
+            name: "grid",
+            value: "none".into(),
+            reason: "the run has no grid (set McOptions::grid)",
+        });
+    };
+    let grids = m
+        .stats
+        .iter()
+        .zip(&p0.channels)
+        .map(|(s, meta)| grid_result(s, &meta.layout().grid(), grid, Layout::R))
+        .collect();
+    Ok((build_solution(parts, &m), grids))
+}
+
 /// Trace shard `index` of `count` of the run `opts` (0-based): the
 /// contiguous batches `[floor(index B / count), floor((index + 1) B / count))`
 /// of the `B` batches of the whole run, returned as raw sums ([`Partial`]).
@@ -88,6 +134,9 @@ pub fn run_shard(
                 cone_t: n.cone_t,
                 ring: n.ring,
                 annulus: n.annulus,
+                grid_z: l.grid.z,
+                grid_r: l.grid.r,
+                grid_a: l.grid.a,
             }
         })
         .collect();

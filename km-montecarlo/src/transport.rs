@@ -33,6 +33,7 @@ use rand_pcg::Pcg64;
 use crate::bins::{
     cone_half_angle_with_edge, cone_solid_angle, direction_vector, ring_projected_solid_angle,
 };
+use crate::grid::GridTally;
 use crate::options::{Estimator, McOptions, RadialBins};
 use crate::rng::uniform;
 use crate::sampling::azimuth;
@@ -99,6 +100,8 @@ pub(crate) struct Tracer {
     roulette_survival: f64,
     /// Fresnel test at every boundary, also between equal indices (planner off).
     all_effects: bool,
+    /// The MCML-style grid, when asked.
+    grid: Option<GridTally>,
 }
 
 /// Normalisers that turn tallies into BRDF/BTDF values (eq. B1, B3) and `Rd(r)`.
@@ -146,6 +149,7 @@ impl Tracer {
             dirs: scene.directions_deg().len(),
             rings: ring_edges.len().saturating_sub(1),
             radial: opts.radial.map_or(0, |r| r.count),
+            grid: opts.grid.map(|g| g.dims()).unwrap_or_default(),
         };
         Tracer {
             slabs,
@@ -164,6 +168,7 @@ impl Tracer {
             roulette_threshold: opts.roulette_threshold,
             roulette_survival: opts.roulette_survival,
             all_effects: opts.all_effects,
+            grid: opts.grid.map(|g| GridTally::new(layout.grid(), &g)),
         }
     }
 
@@ -272,7 +277,7 @@ impl Tracer {
     /// roulette below the threshold (MCML §3.8), booking its outcome as a
     /// zero-mean absorption so that R + T + A = 1 per photon; analog
     /// absorption ends the photon with probability `absorb`. Returns `false`
-    /// when the photon is gone.
+    /// when the photon is gone; `booked` receives what was booked.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn absorb(
@@ -284,18 +289,22 @@ impl Tracer {
         w: &mut f64,
         sums: &mut [f64],
         rng: &mut Pcg64,
+        booked: &mut f64,
     ) -> bool {
         if !survival {
             if uniform(rng) >= albedo {
                 sums[slot] += *w;
                 sums[Layout::A] += *w;
+                *booked = *w;
                 return false;
             }
+            *booked = 0.0;
             return true;
         }
         let dep = *w * absorb;
         sums[slot] += dep;
         sums[Layout::A] += dep;
+        *booked = dep;
         *w -= dep;
         if *w <= 0.0 {
             return false;
@@ -305,10 +314,12 @@ impl Tracer {
                 let gain = *w * (1.0 / self.roulette_survival - 1.0);
                 sums[slot] -= gain;
                 sums[Layout::A] -= gain;
+                *booked -= gain;
                 *w += gain;
             } else {
                 sums[slot] += *w;
                 sums[Layout::A] += *w;
+                *booked += *w;
                 return false;
             }
         }
@@ -354,7 +365,21 @@ impl Tracer {
                 p.s_left = 0.0;
                 counts.interactions += 1;
                 let ja = self.layout.a_layer(p.layer);
-                if !self.absorb(survival, slab.absorb, slab.albedo, ja, &mut p.w, sums, rng) {
+                let (w_in, mut booked) = (p.w, 0.0);
+                let alive = self.absorb(
+                    survival,
+                    slab.absorb,
+                    slab.albedo,
+                    ja,
+                    &mut p.w,
+                    sums,
+                    rng,
+                    &mut booked,
+                );
+                if let Some(g) = &self.grid {
+                    g.interaction(sums, p.x, p.y, p.z, w_in * slab.inv_sigma_t, booked);
+                }
+                if !alive {
                     break;
                 }
                 // Scattering (eq. M3).
@@ -370,6 +395,9 @@ impl Tracer {
                 // A clear half-space (or a horizontal path): the photon never comes back.
                 if p.uz > 0.0 {
                     self.escape_bottom(sums, p.w, [p.ux, p.uy, p.uz], p.scattered);
+                    if let Some(g) = &self.grid {
+                        g.escape(sums, p.w, p.x, p.y, p.uz, false);
+                    }
                 } else {
                     sums[Layout::LOST] += p.w;
                     counts.capped += 1;
@@ -476,7 +504,9 @@ impl Tracer {
                 Below::Lambertian(a) => {
                     // Opaque Lambertian reflector in optical contact.
                     p.scattered = true;
-                    if !self.absorb(survival, 1.0 - a, a, Layout::A_SUB, &mut p.w, sums, rng) {
+                    let mut booked = 0.0;
+                    let (w, slot) = (&mut p.w, Layout::A_SUB);
+                    if !self.absorb(survival, 1.0 - a, a, slot, w, sums, rng, &mut booked) {
                         return false;
                     }
                     // Cosine-weighted re-emission upward.
@@ -515,10 +545,16 @@ impl Tracer {
             }
             Other::Ambient => {
                 self.escape_top(sums, p.w, [p.ux, p.uy, p.uz], p.scattered, p.x, p.y);
+                if let Some(g) = &self.grid {
+                    g.escape(sums, p.w, p.x, p.y, -p.uz, true);
+                }
                 false
             }
             Other::Substrate => {
                 self.escape_bottom(sums, p.w, [p.ux, p.uy, p.uz], p.scattered);
+                if let Some(g) = &self.grid {
+                    g.escape(sums, p.w, p.x, p.y, p.uz, false);
+                }
                 false
             }
         }
