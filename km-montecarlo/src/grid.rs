@@ -412,7 +412,7 @@ impl GridTally {
         ((z * self.inv_dz) as usize).min(self.o.dims.z - 1)
     }
 
-    /// Radial bin of `(x, y)` (overflow: the last).
+    /// Radial bin of `(x, y)`, `floor(sqrt(x^2 + y^2) / dr)` (overflow: the last).
     #[inline]
     fn ir(&self, x: f64, y: f64) -> usize {
         (((x * x + y * y).sqrt() * self.inv_dr) as usize).min(self.o.dims.r - 1)

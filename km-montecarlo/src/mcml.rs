@@ -467,3 +467,52 @@ fn grid_section(t: &mut String, q: &str, axis: &str, unit: &str, name: &str, v: 
     }
     t.push('\n');
 }
+
+/// Fewest batches of an MCML run: the standard errors need a few tens.
+pub const MIN_BATCHES: u64 = 20;
+
+/// Trace one `.mci` run: `photons` photons (the file's count unless given),
+/// the other settings from `opts` (seed, threads, budget), the grid of the
+/// run, and a batch count chosen so that the kept batch sums (twice
+/// `batches x sums` `f64`s: the batch records and their statistics) stay
+/// within `opts.max_tally_bytes`: at most 1000 batches, at least
+/// [`MIN_BATCHES`].
+///
+/// # Errors
+/// [`McError::TooMuchMemory`] when even [`MIN_BATCHES`] batches do not fit,
+/// and those of [`crate::solve_grid`].
+pub fn run_mci(
+    run: &MciRun,
+    photons: Option<u64>,
+    opts: &crate::McOptions,
+) -> Result<(Mco, Solution, GridResult), McError> {
+    let scene = run.scene()?;
+    let grid = run.grid();
+    grid.validate()?;
+    let photons = photons.unwrap_or(run.photons);
+    let sums = (grid.sums() + 8 + 2 * run.layers.len()) as u64;
+    let fit = opts.max_tally_bytes / (16 * sums).max(1);
+    let batches = fit.min(1000).min(photons);
+    if batches < MIN_BATCHES.min(photons) {
+        return Err(McError::TooMuchMemory {
+            bytes: (16 * sums * MIN_BATCHES) as f64,
+            budget: opts.max_tally_bytes as f64,
+            hint: format!(
+                "the grid nz x nr x na = {} x {} x {} needs {sums} sums per batch and at least \
+                 {MIN_BATCHES} batches: use a coarser grid or raise the tally budget",
+                run.nz, run.nr, run.na
+            ),
+        });
+    }
+    let o = crate::McOptions {
+        samples: photons,
+        batch_size: Some(photons.div_ceil(batches.max(1))),
+        grid: Some(grid),
+        radial: None,
+        ring_mu_edges: None,
+        ..opts.clone()
+    };
+    let (sol, mut g) = crate::solve_grid(&scene, &o)?;
+    let g = g.remove(0);
+    Ok((Mco::new(run, &sol, &g), sol, g))
+}

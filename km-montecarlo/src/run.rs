@@ -5,7 +5,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
-use km_core::{Light, Scene, Solution};
+use km_core::{Scene, Solution};
 use rayon::prelude::*;
 
 use crate::error::McError;
@@ -13,8 +13,8 @@ use crate::grid::{GridResult, grid_result};
 use crate::options::{McOptions, RadialBins};
 use crate::rng::batch_rng;
 use crate::shard::{
-    BatchRecord, ChannelBatch, ChannelMeta, PARTIAL_FORMAT, Partial, accumulate, batch_photons,
-    build_solution, fnv1a_hex, shard_batches,
+    BatchRecord, ChannelBatch, ChannelMeta, Merged, PARTIAL_FORMAT, Partial, accumulate,
+    accumulate_in_memory, batch_photons, build_solution, fnv1a_hex, shard_batches,
 };
 use crate::tally::Layout;
 use crate::transport::Tracer;
@@ -45,9 +45,8 @@ use crate::transport::Tracer;
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-9);
 /// ```
 pub fn solve(scene: &Scene, opts: &McOptions) -> Result<Solution, McError> {
-    let part = run_shard(scene, opts, 0, 1)?;
-    let parts = [part];
-    let m = accumulate(&parts)?;
+    let parts = [trace_shard(scene, opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
     Ok(build_solution(&parts, &m))
 }
 
@@ -68,8 +67,9 @@ pub fn solve(scene: &Scene, opts: &McOptions) -> Result<Solution, McError> {
 /// assert!((a - sol.channels[0].absorptance).abs() < 1e-12);
 /// ```
 pub fn solve_grid(scene: &Scene, opts: &McOptions) -> Result<(Solution, Vec<GridResult>), McError> {
-    let part = run_shard(scene, opts, 0, 1)?;
-    merge_grid(&[part])
+    let parts = [trace_shard(scene, opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
+    grids_of(&parts, m)
 }
 
 /// [`crate::merge`] with the grid tallies: the merged solution and, per
@@ -79,6 +79,10 @@ pub fn solve_grid(scene: &Scene, opts: &McOptions) -> Result<(Solution, Vec<Grid
 /// Those of [`crate::merge`]; [`McError::Option`] when the run had no grid.
 pub fn merge_grid(parts: &[Partial]) -> Result<(Solution, Vec<GridResult>), McError> {
     let m = accumulate(parts)?;
+    grids_of(parts, m)
+}
+
+fn grids_of(parts: &[Partial], m: Merged) -> Result<(Solution, Vec<GridResult>), McError> {
     let p0 = &parts[0];
     let Some(grid) = p0.options.grid else {
         return Err(McError::Option {
@@ -104,6 +108,16 @@ pub fn merge_grid(parts: &[Partial]) -> Result<(Solution, Vec<GridResult>), McEr
 /// # Errors
 /// [`McError::Shard`] when `count == 0` or `index >= count`, and those of [`solve`].
 pub fn run_shard(
+    scene: &Scene,
+    opts: &McOptions,
+    index: u64,
+    count: u64,
+) -> Result<Partial, McError> {
+    trace_shard(scene, opts, index, count).map(Partial::seal)
+}
+
+/// [`run_shard`] without the checksum (a part that stays in this process).
+fn trace_shard(
     scene: &Scene,
     opts: &McOptions,
     index: u64,
@@ -187,8 +201,7 @@ pub fn run_shard(
         batches,
         seconds,
         checksum: String::new(),
-    }
-    .seal())
+    })
 }
 
 /// Pilot photons per sampled channel, and channels sampled, of [`preflight`].
@@ -345,7 +358,7 @@ fn trace_batches(
     Ok(records.into_iter().flatten().collect())
 }
 
-/// The radially resolved diffuse reflectance of a pencil beam at normal incidence.
+/// The radially resolved diffuse reflectance of a pencil beam entering at the origin.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RadialProfile {
     /// Annulus width, length unit of the scene.
@@ -358,7 +371,7 @@ pub struct RadialProfile {
     pub stderr: Vec<Vec<f64>>,
     /// Per channel, the diffuse reflectance escaping beyond the last annulus.
     pub overflow: Vec<f64>,
-    /// The whole solution of the run (totals, BRDF, ...), for normal incidence.
+    /// The whole solution of the run (totals, BRDF, ...).
     pub solution: Solution,
 }
 
@@ -368,8 +381,11 @@ pub struct RadialProfile {
 ///
 /// `Rd(r_i) = W_i / (N 2 pi r_i dr)`   (eq. R1)
 ///
-/// The light of every channel is replaced by a collimated beam at normal
-/// incidence (a pencil beam at the origin); everything else is the scene.
+/// The light is the scene's, entering the top surface at the origin: a
+/// pencil beam at the scene's incidence (`r` is measured from the point of
+/// entry, and the annuli average over the azimuth, so an oblique beam's
+/// profile, shifted forward, is averaged around the entry point), or a
+/// diffuse point source.
 ///
 /// # Errors
 /// Those of [`solve`].
@@ -378,13 +394,9 @@ pub fn radial_profile(
     opts: &McOptions,
     bins: RadialBins,
 ) -> Result<RadialProfile, McError> {
-    let normal = |c: &km_core::MonoScene| c.with_light(Light::Collimated { theta_deg: 0.0 });
-    let channels = scene.channels().iter().map(normal).collect::<Result<Vec<_>, _>>()?;
-    let scene = scene.with_channels(channels)?;
     let opts = McOptions { radial: Some(bins), ..opts.clone() };
-    let part = run_shard(&scene, &opts, 0, 1)?;
-    let parts = [part];
-    let m = accumulate(&parts)?;
+    let parts = [trace_shard(scene, &opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
     let solution = build_solution(&parts, &m);
     let meta = &parts[0].channels;
     let mut rd = Vec::new();
