@@ -115,6 +115,9 @@ fn starts_with(p: &Path, magic: &[u8]) -> bool {
     std::fs::File::open(p).and_then(|mut f| f.read_exact(&mut head)).is_ok() && head == magic
 }
 
+/// An array and its standard errors.
+type Pair = [Vec<f64>; 2];
+
 /// The `.npz` of a run: MCML's arrays and their standard errors (`_se`),
 /// the bin centres, `phi_z` and `flux_z` (docs/mcml.md).
 fn npz_bytes(run: &MciRun, m: &Mco, g: &km_montecarlo::GridResult) -> Vec<u8> {
@@ -131,7 +134,7 @@ fn npz_bytes(run: &MciRun, m: &Mco, g: &km_montecarlo::GridResult) -> Vec<u8> {
     put("alpha", &[na], &(0..na).map(|i| (i as f64 + 0.5) * da).collect::<Vec<_>>());
     put("rat", &[4], &[m.rsp, m.rd[0], m.a[0], m.tt[0]]);
     put("rat_se", &[4], &[0.0, m.rd[1], m.a[1], m.tt[1]]);
-    let arrays: [(&str, &[Vec<f64>; 2], Vec<usize>); 9] = [
+    let arrays: [(&str, &Pair, Vec<usize>); 9] = [
         ("a_l", &m.a_l, vec![run.layers.len()]),
         ("a_z", &m.a_z, vec![nz]),
         ("rd_r", &m.rd_r, vec![nr]),
