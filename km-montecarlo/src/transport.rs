@@ -431,7 +431,7 @@ impl Tracer {
                 };
                 let (c, s, r2) = azimuth_unscaled(rng);
                 (p.ux, p.uy, p.uz) = spin_unscaled(p.ux, p.uy, p.uz, cos_t, c, s, r2);
-                if steps % RENORMALISE_EVERY == 0 {
+                if steps.is_multiple_of(RENORMALISE_EVERY) {
                     renormalise(&mut p);
                 }
                 p.scattered = true;
@@ -760,7 +760,7 @@ mod tests {
             u = b;
             let n2 = u.0 * u.0 + u.1 * u.1 + u.2 * u.2;
             assert!((n2 - 1.0).abs() < 1e-13, "rotation {k}: |u|^2 - 1 = {:e}", n2 - 1.0);
-            if (k + 1) % RENORMALISE_EVERY == 0 {
+            if (k + 1).is_multiple_of(RENORMALISE_EVERY) {
                 let inv = 1.0 / n2.sqrt();
                 u = (u.0 * inv, u.1 * inv, u.2 * inv);
             }

@@ -73,11 +73,10 @@ fn mco_sections_and_sums() {
     for line in text.lines() {
         let data = line.split('#').next().unwrap_or("");
         let mut tokens = data.split_whitespace().peekable();
-        if let Some(&first) = tokens.peek() {
-            if let Some(name) = names.iter().find(|n| **n == first) {
-                seen.push((name, 0));
-                continue;
-            }
+        let section = tokens.peek().and_then(|&first| names.iter().find(|n| **n == first));
+        if let Some(name) = section {
+            seen.push((name, 0));
+            continue;
         }
         if let Some(last) = seen.last_mut() {
             last.1 += tokens.filter(|t| t.parse::<f64>().is_ok()).count();
