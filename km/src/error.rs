@@ -36,6 +36,17 @@ pub enum Reason {
         /// The layer's optical thickness `tau = (sigma_a + sigma_s) * thickness`.
         tau: f64,
     },
+    /// The dipole's radial profile is that of a beam at normal incidence.
+    #[error(
+        "its Rd(r) is that of a pencil beam at normal incidence and channel {channel} has {light} \
+         (Monte Carlo gives Rd(r) at any incidence: --method mc)"
+    )]
+    NormalIncidenceOnly {
+        /// 0-based channel.
+        channel: usize,
+        /// The channel's light, in words.
+        light: String,
+    },
     /// The method gives no radially resolved profile.
     #[error("it gives no radial profile Rd(r) (the dipole and Monte Carlo do)")]
     NoProfile,
