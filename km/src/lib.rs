@@ -90,7 +90,7 @@ use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels}
 /// `transmission` rule (eq. PL1) makes a half-space in every channel solved
 /// as one, with a note giving the bound on the neglected light; the
 /// capability check ([`Solver::supports`]); the solve, or the solve to
-/// `options.tolerance` ([`Solver::solve_to`], eq. E1–E3 of
+/// `options.tolerance` ([`Solver::solve_unplanned_to`], eq. E1–E3 of
 /// docs/planner.md); then the plan and the output directions are attached.
 ///
 /// # Errors
@@ -110,8 +110,8 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);
     let work = cut.as_ref().map_or(work, |(half, _)| half);
     let mut sol = match options.tolerance {
-        Some(tol) => solver.solve_to(work, tol)?,
-        None => solver.solve(work)?,
+        Some(tol) => solver.solve_unplanned_to(work, tol)?,
+        None => solver.solve_unplanned(work)?,
     };
     if let Some((_, bound)) = cut {
         sol.notes.push(format!(
