@@ -226,9 +226,9 @@ fn options(args: &SolveArgs) -> Result<km::Options> {
             all_effects: args.all_effects,
             ..Default::default()
         }),
-        Method::DirectionSet => km::MethodOptions::DirectionSet(km::DirectionSetOptions {
-            directions: args.directions,
-        }),
+        Method::DirectionSet => {
+            km::MethodOptions::DirectionSet(km::DirectionSetOptions { directions: args.directions })
+        }
         Method::Mc if args.samples == 0 => bail!("--samples must be at least 1"),
         Method::Mc => km::MethodOptions::Mc(km::McOptions {
             samples: args.samples,
