@@ -130,7 +130,7 @@ impl Tracer {
                 inv_sigma_t: 1.0 / sigma_t,
                 absorb: if sigma_t > 0.0 { l.sigma_a() / sigma_t } else { 0.0 },
                 albedo: l.albedo(),
-                phase: l.phase(),
+                phase: l.phase().clone(),
                 n: l.n(),
             });
             z = bottom;

@@ -14,6 +14,7 @@ use crate::error::CoreError;
 use crate::layer::is_refractive_index;
 
 mod layer;
+mod phase;
 
 use layer::RawSub;
 
@@ -55,6 +56,8 @@ struct RawLayer {
     g: Option<Spanned<Value>>,
     n: Option<Spanned<Value>>,
     preset: Option<Spanned<String>>,
+    phase: Option<Spanned<Value>>,
+    particles: Option<Spanned<Value>>,
 }
 
 #[derive(Deserialize)]
@@ -165,7 +168,7 @@ impl Parser {
         let mut layers = Vec::with_capacity(n_layers);
         for (i, l) in raw_layers.iter().enumerate() {
             let lay = self.layer(i, n_layers, l, &ambient_n)?;
-            for c in [&lay.a, &lay.b, &lay.thickness, &lay.g, &lay.n] {
+            for c in lay.coefs() {
                 note(c);
             }
             layers.push(lay);
@@ -197,7 +200,7 @@ impl Parser {
         for ch in 0..channels {
             let mut ls = Vec::with_capacity(n_layers);
             for lay in &layers {
-                ls.push(lay.build(ch)?);
+                ls.push(lay.build(ch, wavelengths_nm.as_ref().map(|w: &Vec<f64>| w[ch]))?);
             }
             let sub = match &substrate {
                 RawSub::Transparent(c) => Substrate::Transparent { n: c.at(ch) },

@@ -323,7 +323,7 @@ impl Readout<'_> {
             omega: s.omega,
             chiw,
             rec,
-            phase: s.phase,
+            phase: s.phase.clone(),
             mu_b: (0..ni).map(mu_in).collect(),
             mu_r: (r0..r0 + no).map(mu_in).collect(),
             mu_t: if self.below { (t0..t0 + no).map(mu_in).collect() } else { vec![None; no] },
@@ -439,7 +439,7 @@ fn corrected_layers(layers: &[Scaled], delta_m: bool) -> Vec<usize> {
                 let s = &layers[l];
                 s.omega > 0.0
                     && s.tau > 0.0
-                    && !matches!(s.phase, km_core::phase::Phase::Isotropic)
+                    && !s.phase.is_isotropic()
                     && !matches!(s.phase, km_core::phase::Phase::HenyeyGreenstein { g } if g == 0.0)
             })
             .collect()
