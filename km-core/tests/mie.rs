@@ -32,8 +32,9 @@ fn rel(a: f64, b: f64) -> f64 {
     if a == b { 0.0 } else { (a - b).abs() / b.abs() }
 }
 
-/// Every case of the miepython file to 1e-8 relative (the bound):
-/// the efficiencies and g, and each amplitude relative to its modulus.
+/// Every case of the miepython file to 1e-8 relative (two double-precision
+/// codes of the same series; 1e-8 leaves room for their different
+/// recurrences at x = 1000): the efficiencies and g, and each amplitude relative to its modulus.
 /// Measured worst: 2.8e-13 (Q, g), 5.6e-11 (Q_back), 1.2e-10 (S1, S2), at x = 1000.
 #[test]
 fn against_miepython() {
