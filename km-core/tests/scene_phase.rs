@@ -233,3 +233,28 @@ fn particle_refusals() {
     );
     assert!(k == "layer[1].particles" && m.contains("wavelengths_nm"), "{k}: {m}");
 }
+
+/// The tissue keys take a phase function with `mu_s` (kept, not dropped);
+/// `mu_s_prime` needs `g` and is refused beside `phase`; particles refuse
+/// the tissue keys and the file's `units` (their lengths are micrometres).
+#[test]
+fn tissue_keys_units_and_phase() {
+    let s =
+        scene("[[layer]]\nmu_a = 0.1\nmu_s = 10\nthickness = 1\nphase = { kind = \"rayleigh\" }\n");
+    let l = &s.channels()[0].layers()[0];
+    assert_eq!(l.phase().kind(), "rayleigh");
+    assert!((l.sigma_s() - 10.0).abs() < 1e-12);
+    let (key, msg) = refusal(
+        "[[layer]]\nmu_a = 0.1\nmu_s_prime = 1\nthickness = 1\nphase = { kind = \"rayleigh\" }\n",
+    );
+    assert!(key.ends_with(".g") && msg.contains("mu_s_prime"), "{key}: {msg}");
+    let particles = "particles = { radius_um = 0.5, n = 1.5, volume_fraction = 0.01 }";
+    let (key, _) = refusal(&format!(
+        "[spectrum]\nwavelengths_nm = [550]\n[[layer]]\nthickness = 10\nmu_a = 0.1\n{particles}\n"
+    ));
+    assert!(key.ends_with("mu_a"), "{key}");
+    let (key, msg) = refusal(&format!(
+        "units = \"mm\"\n[spectrum]\nwavelengths_nm = [550]\n[[layer]]\nthickness = 10\n{particles}\n"
+    ));
+    assert!(key.ends_with("particles") && msg.contains("units"), "{key}: {msg}");
+}
