@@ -36,7 +36,7 @@ pub fn seed_scene() -> MonoScene {
 
 /// The seed's coating layer (the scene file's only layer).
 pub fn seed_layer() -> Layer {
-    seed_scene().layers()[0]
+    seed_scene().layers()[0].clone()
 }
 
 /// The polar angle of the seed's light, degrees.
@@ -177,7 +177,7 @@ pub fn seed_truncation_study(n_target: usize) -> anyhow::Result<TruncationStudy>
     let coat = seed_layer();
     let seed = seed_scene();
     let (n, theta_deg) = (coat.n(), seed_theta_deg());
-    let scene = with_stack(&seed, vec![coat], Substrate::Transparent { n })?;
+    let scene = with_stack(&seed, vec![coat.clone()], Substrate::Transparent { n })?;
     let exact = brdf_for_incidence(&scene, n_target, Combine::Exact)?;
     let order0 = brdf_for_incidence(&scene, n_target, Combine::Neumann(0))?;
     let order1 = brdf_for_incidence(&scene, n_target, Combine::Neumann(1))?;

@@ -13,8 +13,9 @@
 use crate::error::CoreError;
 use crate::phase::{Anisotropy, Phase};
 
-/// A validated homogeneous layer (one channel).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A validated homogeneous layer (one channel). It clones in constant time
+/// (a phase function's data is shared, [`Phase`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Layer {
     /// Absorption coefficient, 1/length, `>= 0`.
     sigma_a: f64,
@@ -74,7 +75,7 @@ impl Layer {
     /// # Errors
     /// A negative or NaN thickness, or an optical thickness that overflows.
     pub fn with_thickness(&self, thickness: f64) -> Result<Self, CoreError> {
-        Layer::from_phase(self.sigma_a, self.sigma_s, thickness, self.phase, self.n)
+        Layer::from_phase(self.sigma_a, self.sigma_s, thickness, self.phase.clone(), self.n)
     }
 
     /// This layer with another refractive index.
@@ -82,7 +83,7 @@ impl Layer {
     /// # Errors
     /// `n < 1` or non-finite.
     pub fn with_n(&self, n: f64) -> Result<Self, CoreError> {
-        Layer::from_phase(self.sigma_a, self.sigma_s, self.thickness, self.phase, n)
+        Layer::from_phase(self.sigma_a, self.sigma_s, self.thickness, self.phase.clone(), n)
     }
 
     /// This layer with other coefficients `sigma_a`, `sigma_s`.
@@ -90,12 +91,12 @@ impl Layer {
     /// # Errors
     /// Those of [`Layer::new`] on the coefficients.
     pub fn with_coefficients(&self, sigma_a: f64, sigma_s: f64) -> Result<Self, CoreError> {
-        Layer::from_phase(sigma_a, sigma_s, self.thickness, self.phase, self.n)
+        Layer::from_phase(sigma_a, sigma_s, self.thickness, self.phase.clone(), self.n)
     }
 
     /// This layer with another phase function (always valid).
     pub fn with_phase(&self, phase: Phase) -> Self {
-        Layer { phase, ..*self }
+        Layer { phase, ..self.clone() }
     }
 
     /// Absorption coefficient `sigma_a`, 1/length, `>= 0`.
@@ -114,8 +115,8 @@ impl Layer {
     }
 
     /// Phase function of single scattering.
-    pub fn phase(&self) -> Phase {
-        self.phase
+    pub fn phase(&self) -> &Phase {
+        &self.phase
     }
 
     /// Refractive index, finite and `>= 1`.

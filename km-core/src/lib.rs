@@ -5,6 +5,7 @@
 //! * [`Layer`]: one homogeneous layer (`sigma_a`, `sigma_s`, thickness, phase, `n`).
 //! * [`phase`]: phase functions ([`phase::Phase`], [`phase::PhaseFunction`]) and the
 //!   checked asymmetry [`phase::Anisotropy`].
+//! * [`mie`]: Mie theory (spheres, size distributions, particle optics).
 //!
 //! `Layer`, `MonoScene` and `Scene` have private fields: they are built only
 //! through checked constructors (`Layer::new`, `MonoScene::new`, `Scene::new`
@@ -28,6 +29,7 @@ pub mod error;
 pub mod fresnel;
 pub mod layer;
 pub mod legendre;
+pub mod mie;
 pub mod phase;
 pub mod plan;
 pub mod presets;

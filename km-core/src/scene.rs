@@ -221,7 +221,8 @@ impl MonoScene {
     /// ```
     /// use km_core::{Layer, Light, MonoScene, Substrate};
     /// let layer = Layer::new(0.1, 1.0, 1.0, 0.0, 1.5).unwrap();
-    /// let s = MonoScene::new(Light::Diffuse, 1.0, vec![layer], Substrate::Black, vec![]).unwrap();
+    /// let s = MonoScene::new(Light::Diffuse, 1.0, vec![layer.clone()], Substrate::Black, vec![])
+    ///     .unwrap();
     /// assert_eq!(s.layers().len(), 1);
     /// assert!(MonoScene::new(Light::Diffuse, 0.5, vec![layer], Substrate::Black, vec![]).is_err());
     /// ```

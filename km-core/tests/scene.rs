@@ -138,11 +138,11 @@ fn good_scene_with_channels() {
 #[test]
 fn tau_form_and_preset() {
     let s = Scene::from_toml_str("[[layer]]\ntau = 2\nalbedo = 0.75\ng = 0.5\n").unwrap();
-    let l = s.channels()[0].layers()[0];
+    let l = &s.channels()[0].layers()[0];
     assert!((l.tau() - 2.0).abs() < 1e-15 && (l.albedo() - 0.75).abs() < 1e-15);
     let s = Scene::from_toml_str("[[layer]]\npreset = \"marble\"\ng = 0.5\n").unwrap();
     assert_eq!(s.channels().len(), 3);
-    let l = s.channels()[0].layers()[0];
+    let l = &s.channels()[0].layers()[0];
     // sigma_s = sigma_s' / (1 - g) with the preset's reduced scattering.
     let p = km_core::presets::lookup("marble").unwrap();
     assert!((l.sigma_s() * 0.5 - p.sigma_s_prime[0]).abs() < 1e-12);

@@ -6,7 +6,7 @@ use km_core::Scene;
 
 fn layer0(text: &str) -> km_core::Layer {
     let s = Scene::from_toml_str(text).unwrap();
-    s.channels()[0].layers()[0]
+    s.channels()[0].layers()[0].clone()
 }
 
 fn err(text: &str) -> String {

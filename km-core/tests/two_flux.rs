@@ -442,9 +442,12 @@ fn saunderson_correction() {
     }
     // Diffuse light: r_e is the hemispherical external reflectance.
     let l = km_core::Layer::new(0.1, 0.4, f64::INFINITY, 0.0, n).unwrap();
-    let c = &solve(&mono(vec![l], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::default())
-        .unwrap()
-        .channels[0];
+    let c = &solve(
+        &mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Black),
+        &KmOptions::default(),
+    )
+    .unwrap()
+    .channels[0];
     let r_ed = km_core::fresnel::diffuse_reflectance(1.0, n);
     assert!((c.reflectance_specular - r_ed).abs() < 1e-15);
     assert_eq!(c.transmittance_direct, 0.0);
@@ -466,7 +469,7 @@ fn substrates_and_half_spaces() {
     // Lambertian ground rho: R = R1 + T1^2 rho / (1 - R1 rho).
     let rho = 0.8;
     let c = &solve(
-        &mono(vec![l], Light::Diffuse, 1.0, Substrate::Lambertian { albedo: rho }),
+        &mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Lambertian { albedo: rho }),
         &KmOptions::default(),
     )
     .unwrap()
@@ -474,17 +477,23 @@ fn substrates_and_half_spaces() {
     assert!((c.reflectance - (rt.r + rt.t * rt.t * rho / (1.0 - rt.r * rho))).abs() < 1e-15);
     assert_eq!(c.transmittance, 0.0);
     // Black ground: the bare layer's R; absorbed = 1 - R (layer + ground).
-    let c = &solve(&mono(vec![l], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::default())
-        .unwrap()
-        .channels[0];
+    let c = &solve(
+        &mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Black),
+        &KmOptions::default(),
+    )
+    .unwrap()
+    .channels[0];
     assert!((c.reflectance - rt.r).abs() < 1e-15 && (c.absorptance - (1.0 - rt.r)).abs() < 1e-15);
     assert!((c.absorptance_layers.as_ref().unwrap()[0] - rt.a).abs() < 1e-15);
     // A half-space under a layer equals a very thick last layer.
     let h = km_core::Layer::new(0.3, 2.0, f64::INFINITY, 0.0, 1.0).unwrap();
     let thick = km_core::Layer::new(0.3, 2.0, 1e3, 0.0, 1.0).unwrap();
-    let a = &solve(&mono(vec![l, h], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::default())
-        .unwrap()
-        .channels[0];
+    let a = &solve(
+        &mono(vec![l.clone(), h], Light::Diffuse, 1.0, Substrate::Black),
+        &KmOptions::default(),
+    )
+    .unwrap()
+    .channels[0];
     let b = &solve(
         &mono(vec![l, thick], Light::Diffuse, 1.0, Substrate::Transparent { n: 1.0 }),
         &KmOptions::default(),

@@ -74,8 +74,8 @@ fn with_variants_check_what_they_change_and_keep_the_rest() {
 fn the_channel_constructor_holds_every_check() {
     let half = layer().with_thickness(f64::INFINITY).unwrap();
     assert_eq!(key(mono(vec![]).unwrap_err()), "layer");
-    assert_eq!(key(mono(vec![half, layer()]).unwrap_err()), "layer[1].thickness");
-    assert!(mono(vec![layer(), half]).is_ok());
+    assert_eq!(key(mono(vec![half.clone(), layer()]).unwrap_err()), "layer[1].thickness");
+    assert!(mono(vec![layer(), half.clone()]).is_ok());
     let m = mono(vec![layer()]).unwrap();
     assert_eq!(
         key(m.with_light(Light::Collimated { theta_deg: 90.0 }).unwrap_err()),
@@ -90,7 +90,7 @@ fn the_channel_constructor_holds_every_check() {
     assert!(m.with_ambient_n(0.5).is_err());
     // The edits check what they change and keep the rest.
     assert_eq!(key(m.with_layers(vec![]).unwrap_err()), "layer");
-    assert_eq!(key(m.with_layers(vec![half, layer()]).unwrap_err()), "layer[1].thickness");
+    assert_eq!(key(m.with_layers(vec![half.clone(), layer()]).unwrap_err()), "layer[1].thickness");
     let edited = m.with_directions(vec![[10.0, 45.0]]).unwrap().with_layers(vec![layer(), half]);
     let edited = edited.unwrap();
     assert_eq!((edited.layers().len(), edited.directions_deg()), (2, &[[10.0, 45.0]][..]));

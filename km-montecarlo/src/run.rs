@@ -131,6 +131,7 @@ fn trace_shard(
     if count > opts.batch_count() {
         return Err(McError::TooManyShards { count, batches: opts.batch_count() });
     }
+    crate::sampling::check_phases(scene)?;
     let tracers: Vec<Tracer> = scene.channels().iter().map(|c| Tracer::new(c, opts)).collect();
     let metas: Vec<ChannelMeta> = scene
         .channels()

@@ -29,6 +29,7 @@
 //! digits", NBS Appl. Math. Series 12, 36–38 (1951); L. Devroye,
 //! *Non-Uniform Random Variate Generation*, Springer (1986), §V.4.4.
 
+use km_core::{CoreError, Scene};
 use rand::Rng;
 
 /// Scale of one signed 32-bit half: `2^-31`.
@@ -71,6 +72,27 @@ pub(crate) fn azimuth_unscaled<R: Rng>(rng: &mut R) -> (f64, f64, f64) {
     let psi = 2.0 * std::f64::consts::PI * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64));
     let (s, c) = psi.sin_cos();
     (c, s, 1.0)
+}
+
+/// Every scattering layer's phase function must be a probability density to
+/// be sampled (`PhaseFunction::sample_cos`: closed-form inversions, or the
+/// inverse cumulative table of km-core eq. P18 for a Legendre series and Mie
+/// particles, built here on first use): a truncated Legendre series that
+/// rings negative is refused, naming the layer, before any photon is traced.
+///
+/// # Errors
+/// A [`CoreError::Scene`] on `layer[i].phase` (1-based) for the first such layer.
+pub(crate) fn check_phases(scene: &Scene) -> Result<(), CoreError> {
+    for c in scene.channels() {
+        for (i, l) in c.layers().iter().enumerate() {
+            if l.sigma_s() > 0.0 {
+                l.phase().check_density().map_err(|e| {
+                    CoreError::scene(format!("layer[{}].phase", i + 1), None, e.to_string())
+                })?;
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -171,8 +171,8 @@ impl Tracer {
                 inv_sigma_t: 1.0 / sigma_t,
                 absorb: if sigma_t > 0.0 { l.sigma_a() / sigma_t } else { 0.0 },
                 albedo: l.albedo(),
-                phase: l.phase(),
-                hg: HgSampler::new(&l.phase()),
+                phase: l.phase().clone(),
+                hg: HgSampler::new(l.phase()),
                 n: l.n(),
             });
             z = bottom;

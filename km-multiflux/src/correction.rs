@@ -118,10 +118,8 @@ impl PeakCorrection {
         let four_pi = 4.0 * std::f64::consts::PI;
         let nk = self.chi.len();
         let (s, s1, s2) = legendre_sums3(c, nk, &self.chi);
-        let p2 = match self.phase {
-            Phase::Isotropic => 1.0 / four_pi,
-            Phase::HenyeyGreenstein { g } => Phase::HenyeyGreenstein { g: g.squared() }.eval(c),
-        };
+        // The phase function of moments chi_l^2 (HG: HG of g^2, in closed form).
+        let p2 = self.phase.eval_convolved(c);
         let r1 = four_pi * self.phase.eval(c) - s1;
         let r2 = four_pi * p2 - s2;
         self.omega * self.omega * (self.f * self.f * s + 2.0 * self.f * r1 - r2)

@@ -43,7 +43,7 @@ use std::f64::consts::PI;
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use km_core::fresnel::reflectance;
-use km_core::phase::{Phase, PhaseFunction};
+use km_core::phase::Phase;
 use km_core::quadrature::gauss_legendre;
 use km_core::{Layer, Light, MonoScene, Substrate};
 
@@ -252,7 +252,9 @@ impl DirectionSet {
             let (a, b) = (dirs[i], dirs[j]);
             (a[0] * b[0] + a[1] * b[1] - a[2] * b[2]).clamp(-1.0, 1.0)
         };
-        direction_blocks(&self.weight, cos_same, cos_mirror, |c| phase.eval(c))
+        // The phase function between every pair of directions: from its
+        // interpolant where it has no closed form (km-core eq. P18).
+        direction_blocks(&self.weight, cos_same, cos_mirror, |c| phase.eval_tabulated(c))
     }
 
     /// The eigen-solution of a homogeneous medium on this set (seed eq. 18–19).
@@ -285,7 +287,7 @@ impl DirectionSet {
         if layer.sigma_s() == 0.0 || layer.thickness() == 0.0 {
             return Ok(absorber_operators(&self.mu, layer.sigma_t(), layer.thickness()));
         }
-        self.modes(layer.sigma_a(), layer.sigma_s(), &layer.phase())?.operators(layer.thickness())
+        self.modes(layer.sigma_a(), layer.sigma_s(), layer.phase())?.operators(layer.thickness())
     }
 }
 

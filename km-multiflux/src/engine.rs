@@ -104,7 +104,7 @@ fn corrected_layers(layers: &[Scaled], delta_m: bool) -> Vec<usize> {
             let s = &layers[l];
             s.omega > 0.0
                 && s.tau > 0.0
-                && !matches!(s.phase, km_core::phase::Phase::Isotropic)
+                && !s.phase.is_isotropic()
                 && !matches!(s.phase, km_core::phase::Phase::HenyeyGreenstein { g } if g == 0.0)
         })
         .collect()

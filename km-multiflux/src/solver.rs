@@ -315,7 +315,7 @@ pub(crate) fn scale_layers(
                 chi: chi_s,
                 n: l.n(),
                 omega_true: omega,
-                phase: l.phase(),
+                phase: l.phase().clone(),
                 factor,
                 secondary: opts.secondary_correction,
             }

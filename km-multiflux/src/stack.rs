@@ -195,6 +195,6 @@ impl Scaled {
     /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
     /// `n_keep` moments kept by delta-M.
     pub(crate) fn correction(&self, n_keep: usize) -> Tms {
-        Tms::new(self.phase, self.omega_true, n_keep, self.secondary)
+        Tms::new(self.phase.clone(), self.omega_true, n_keep, self.secondary)
     }
 }

@@ -173,7 +173,7 @@ fn energy_balance_reciprocity_and_doubling_on_a_random_grid() {
             }
         }
         // Doubling: two half-layers added equal the whole layer (1e-10).
-        let modes = s.modes(layer.sigma_a(), layer.sigma_s(), &layer.phase()).ok();
+        let modes = s.modes(layer.sigma_a(), layer.sigma_s(), layer.phase()).ok();
         if let Some(modes) = modes {
             let half = modes.operators(0.5).unwrap();
             let whole = add(&half, &half).unwrap();

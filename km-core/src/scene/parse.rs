@@ -14,6 +14,7 @@ use crate::error::CoreError;
 use crate::layer::is_refractive_index;
 
 mod layer;
+mod phase;
 mod tissue;
 
 use layer::RawSub;
@@ -58,6 +59,8 @@ struct RawLayer {
     g: Option<Spanned<Value>>,
     n: Option<Spanned<Value>>,
     preset: Option<Spanned<String>>,
+    phase: Option<Spanned<Value>>,
+    particles: Option<Spanned<Value>>,
     mu_a: Option<Spanned<Value>>,
     mu_s: Option<Spanned<Value>>,
     mu_s_prime: Option<Spanned<Value>>,
@@ -172,8 +175,15 @@ impl Parser {
         let scale = tissue::length_scale(self, raw.units.as_ref())?;
         let mut layers = Vec::with_capacity(n_layers);
         for (i, l) in raw_layers.iter().enumerate() {
+            if let (Some(u), Some(_)) = (&raw.units, &l.particles) {
+                return Err(CoreError::scene(
+                    format!("layer[{}].particles", i + 1),
+                    self.line(u.span()),
+                    "a layer with particles takes its lengths in micrometres: remove units",
+                ));
+            }
             let lay = self.layer(i, n_layers, l, &ambient_n, scale)?;
-            for c in [&lay.a, &lay.b, &lay.thickness, &lay.g, &lay.n] {
+            for c in lay.coefs() {
                 note(c);
             }
             layers.push(lay);
@@ -205,7 +215,7 @@ impl Parser {
         for ch in 0..channels {
             let mut ls = Vec::with_capacity(n_layers);
             for lay in &layers {
-                ls.push(lay.build(ch)?);
+                ls.push(lay.build(ch, wavelengths_nm.as_ref().map(|w: &Vec<f64>| w[ch]))?);
             }
             let sub = match &substrate {
                 RawSub::Transparent(c) => Substrate::Transparent { n: c.at(ch) },

@@ -296,7 +296,7 @@ impl Readout<'_> {
             omega: s.omega,
             chiw,
             rec,
-            phase: s.phase,
+            phase: s.phase.clone(),
             mu_b: (0..ni).map(mu_in).collect(),
             mu_r: (r0..r0 + no).map(mu_in).collect(),
             mu_t: if below { (t0..t0 + no).map(mu_in).collect() } else { vec![None; no] },

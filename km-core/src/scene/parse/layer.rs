@@ -2,6 +2,7 @@
 
 use toml::{Spanned, Value};
 
+use super::phase::{ParticleSpec, PhaseSpec, particle_layer};
 use super::tissue::scaled;
 use super::{Coef, Parser, RawLayer, RawSubstrate, check_theta};
 use crate::error::CoreError;
@@ -28,6 +29,11 @@ impl Parser {
         let g = g_given.clone().unwrap_or(Coef::constant(&k("g"), 0.0));
         let n = self.opt_coef(&k("n"), &l.n)?;
         let is_last = i + 1 == n_layers;
+        if let Some(p) = &l.particles {
+            let specs = self.particle_specs(i, p)?;
+            return self.particle_layer(i, is_last, l, specs, ambient_n);
+        }
+        let spec = self.layer_phase(i, l)?;
 
         // The layer's form: preset, (sigma_a, sigma_s, thickness), (tau,
         // albedo) or the tissue keys (parse/tissue.rs).
@@ -43,7 +49,9 @@ impl Parser {
         let n_or_ambient =
             n.clone().unwrap_or(Coef { key: k("n"), line: None, values: ambient_n.values.clone() });
         let (t, gg) = (thickness.clone(), g_given);
-        if let Some(t) = self.tissue_layer(i, is_last, l, other, t, gg, n_or_ambient, scale)? {
+        if let Some(mut t) = self.tissue_layer(i, is_last, l, other, t, gg, n_or_ambient, scale)? {
+            // (mu_s_prime needs g, which a phase table excludes: refused above.)
+            t.phase = spec;
             return Ok(t);
         }
         if let Some(p) = &l.preset {
@@ -54,6 +62,13 @@ impl Parser {
                     key,
                     line,
                     "a preset gives sigma_a and sigma_s: remove them or the preset",
+                ));
+            }
+            if let Some(ph) = &l.phase {
+                return Err(CoreError::scene(
+                    k("phase"),
+                    self.line(ph.span()),
+                    "a preset layer takes g only (its sigma_s is sigma_s' / (1 - g))",
                 ));
             }
             return self.preset_layer(i, is_last, p, thickness, g, n, ambient_n);
@@ -81,7 +96,7 @@ impl Parser {
             };
             let tau = tau.ok_or_else(|| missing("tau"))?;
             let albedo = albedo.ok_or_else(|| missing("albedo"))?;
-            return self.finish_layer(
+            let mut lay = self.finish_layer(
                 i,
                 is_last,
                 Form::Tau,
@@ -90,7 +105,9 @@ impl Parser {
                 Coef::constant(&k("thickness"), 1.0),
                 g,
                 n,
-            );
+            )?;
+            lay.phase = spec;
+            return Ok(lay);
         }
         let missing = |name: &str| {
             CoreError::scene(
@@ -102,7 +119,73 @@ impl Parser {
         let sigma_a = sigma_a.ok_or_else(|| missing("sigma_a"))?;
         let sigma_s = sigma_s.ok_or_else(|| missing("sigma_s"))?;
         let thickness = thickness.ok_or_else(|| missing("thickness"))?;
-        self.finish_layer(i, is_last, Form::Sigma, sigma_a, sigma_s, thickness, g, n)
+        let mut lay =
+            self.finish_layer(i, is_last, Form::Sigma, sigma_a, sigma_s, thickness, g, n)?;
+        lay.phase = spec;
+        Ok(lay)
+    }
+
+    /// The layer's `phase` table, refused beside `g` (docs/scene-file.md).
+    fn layer_phase(&self, i: usize, l: &RawLayer) -> Result<Option<PhaseSpec>, CoreError> {
+        let Some(p) = &l.phase else { return Ok(None) };
+        if let Some(g) = &l.g {
+            return Err(CoreError::scene(
+                format!("layer[{}].g", i + 1),
+                self.line(g.span()),
+                "give either g (Henyey-Greenstein) or phase = { kind = ... }, not both",
+            ));
+        }
+        Ok(Some(self.phase_spec(i, p)?))
+    }
+
+    /// A layer of particles in a host (docs/mie.md): `thickness`, the host's
+    /// `sigma_a` (default 0) and `n`; the particles give `sigma_s`, their own
+    /// absorption and the phase function per channel (lengths in micrometres).
+    fn particle_layer(
+        &self,
+        i: usize,
+        is_last: bool,
+        l: &RawLayer,
+        specs: Vec<ParticleSpec>,
+        ambient_n: &Coef,
+    ) -> Result<LayerCoefs, CoreError> {
+        let k = |name: &str| format!("layer[{}].{name}", i + 1);
+        let clash = [
+            ("sigma_s", l.sigma_s.as_ref().map(|v| v.span())),
+            ("tau", l.tau.as_ref().map(|v| v.span())),
+            ("albedo", l.albedo.as_ref().map(|v| v.span())),
+            ("g", l.g.as_ref().map(|v| v.span())),
+            ("phase", l.phase.as_ref().map(|v| v.span())),
+            ("preset", l.preset.as_ref().map(|v| v.span())),
+            ("mu_a", l.mu_a.as_ref().map(|v| v.span())),
+            ("mu_s", l.mu_s.as_ref().map(|v| v.span())),
+            ("mu_s_prime", l.mu_s_prime.as_ref().map(|v| v.span())),
+        ];
+        if let Some((name, Some(span))) = clash.iter().find(|c| c.1.is_some()) {
+            return Err(CoreError::scene(
+                k(name),
+                self.line(span.clone()),
+                "a layer with particles takes thickness, sigma_a (the host's absorption) and n \
+                 only: the particles give sigma_s and the phase function",
+            ));
+        }
+        let sigma_a =
+            self.opt_coef(&k("sigma_a"), &l.sigma_a)?.unwrap_or(Coef::constant(&k("sigma_a"), 0.0));
+        let thickness = self.opt_coef(&k("thickness"), &l.thickness)?.ok_or_else(|| {
+            CoreError::scene(
+                k("thickness"),
+                None,
+                "a layer with particles needs a thickness (micrometres)",
+            )
+        })?;
+        let n = self.opt_coef(&k("n"), &l.n)?;
+        let n = n.unwrap_or(Coef { key: k("n"), line: None, values: ambient_n.values.clone() });
+        let sigma_s = Coef::constant(&k("particles"), 0.0);
+        let g = Coef::constant(&k("g"), 0.0);
+        let mut lay =
+            self.finish_layer(i, is_last, Form::Sigma, sigma_a, sigma_s, thickness, g, n)?;
+        lay.particles = Some(specs);
+        Ok(lay)
     }
 
     /// A layer given by a measured preset (`docs/scene-file.md`): its
@@ -248,7 +331,7 @@ impl Parser {
             ));
         }
         let _ = i;
-        Ok(LayerCoefs { form, a, b, thickness, g, n })
+        Ok(LayerCoefs { form, a, b, thickness, g, n, phase: None, particles: None })
     }
 
     pub(super) fn substrate(
@@ -356,12 +439,48 @@ pub(super) struct LayerCoefs {
     pub(super) thickness: Coef,
     pub(super) g: Coef,
     pub(super) n: Coef,
+    /// A phase function other than `g` (docs/phase.md).
+    phase: Option<PhaseSpec>,
+    /// Particles by Mie theory (docs/mie.md): they give `sigma_s` and the phase.
+    particles: Option<Vec<ParticleSpec>>,
 }
 
 impl LayerCoefs {
-    pub(super) fn build(&self, ch: usize) -> Result<Layer, CoreError> {
+    /// Every per-channel value of the layer, for the channel count.
+    pub(super) fn coefs(&self) -> Vec<&Coef> {
+        let mut v = vec![&self.a, &self.b, &self.thickness, &self.g, &self.n];
+        if let Some(p) = &self.phase {
+            v.extend(p.coefs());
+        }
+        for s in self.particles.iter().flatten() {
+            v.extend(s.coefs());
+        }
+        v
+    }
+
+    /// The layer of channel `ch` (`wavelength_nm` of the channel, needed by particles).
+    pub(super) fn build(&self, ch: usize, wavelength_nm: Option<f64>) -> Result<Layer, CoreError> {
         let g = self.g.at(ch);
         let n = self.n.at(ch);
+        let at_key =
+            |e: CoreError| CoreError::scene(self.a.key.clone(), self.a.line, e.to_string());
+        if let Some(specs) = &self.particles {
+            // The host fills the volume the particles leave (docs/mie.md eq. M18).
+            let (sigma_s, sigma_a, fv, phase) = particle_layer(specs, ch, n, wavelength_nm)?;
+            let sa = self.a.at(ch) * (1.0 - fv) + sigma_a;
+            return Layer::from_phase(sa, sigma_s, self.thickness.at(ch), phase, n).map_err(at_key);
+        }
+        if let Some(spec) = &self.phase {
+            let phase = spec.build(ch)?;
+            let r = match self.form {
+                Form::Sigma => {
+                    Layer::from_phase(self.a.at(ch), self.b.at(ch), self.thickness.at(ch), phase, n)
+                }
+                Form::Tau => Layer::from_tau_albedo(self.a.at(ch), self.b.at(ch), 0.0, n)
+                    .map(|l| l.with_phase(phase)),
+            };
+            return r.map_err(at_key);
+        }
         let r = match self.form {
             Form::Sigma => Layer::new(self.a.at(ch), self.b.at(ch), self.thickness.at(ch), g, n),
             Form::Tau => Layer::from_tau_albedo(self.a.at(ch), self.b.at(ch), g, n),

@@ -1,0 +1,187 @@
+//! Phase functions other than Henyey–Greenstein against converged DISORT
+//! (tests/data/phase_disort.json: cdisort 2.1.3 at 256 streams with every
+//! Legendre moment and its intensity correction, written by
+//! km-bench/scripts/phase_disort.py): a Rayleigh layer, a two-term
+//! Henyey–Greenstein tissue layer and a water cloud of Mie droplets
+//! (effective radius 10 um at 550 nm, ~1070 moments from miepython).
+//!
+//! The solver is compared on DISORT's own inputs: the cloud as a `legendre`
+//! layer with the reference's moments, albedo and optical thickness. km's
+//! Mie theory (the scene's `particles`) is compared separately with the
+//! reference's moments, within the size quadrature's own uncertainty: for
+//! these nearly lossless droplets (k = 2e-9) the ripple structure makes the
+//! trapezoidal sum over radii converge slowly (miepython: g moves by 5.6e-5
+//! from 2401 to 9601 radii; km stops at its work bound with a change of
+//! 5e-5 in the cross sections).
+
+use km_core::Scene;
+use km_multiflux::{MultifluxOptions, solve};
+use serde_json::Value;
+
+/// The light's polar angle of every case.
+const THETA0_DEG: f64 = 30.0;
+
+fn data() -> Value {
+    let path = format!("{}/tests/data/phase_disort.json", env!("CARGO_MANIFEST_DIR"));
+    let d: Value =
+        serde_json::from_str(&std::fs::read_to_string(path).expect("data")).expect("json");
+    assert_eq!(f(&d["theta0_deg"]), THETA0_DEG);
+    d
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().expect("number")
+}
+
+/// The km scene of a case on DISORT's inputs: the cloud as a layer of the
+/// reference's optical thickness, albedo and Legendre moments.
+fn case_scene(c: &Value) -> Scene {
+    let text = c["scene"].as_str().unwrap();
+    if !text.contains("THICKNESS") {
+        return Scene::from_toml_str(text).unwrap();
+    }
+    let moments: Vec<String> =
+        c["moments"].as_array().unwrap()[1..].iter().map(|m| format!("{:e}", f(m))).collect();
+    let layer = format!(
+        "[[layer]]\ntau = {}\nalbedo = {}\nphase = {{ kind = \"legendre\", moments = [{}] }}\n",
+        f(&c["tau"]),
+        f(&c["albedo"]),
+        moments.join(", ")
+    );
+    let start = text.find("[spectrum]").unwrap();
+    let end = text.find("[output]").unwrap();
+    Scene::from_toml_str(&format!("{}{layer}{}", &text[..start], &text[end..])).unwrap()
+}
+
+/// The km scene of the cloud by its `particles`: the thickness
+/// (micrometres) set so that km's own extinction gives DISORT's optical
+/// thickness.
+fn particle_scene(c: &Value) -> Scene {
+    let text = c["scene"].as_str().unwrap().replace("THICKNESS", "1.0");
+    let unit = Scene::from_toml_str(&text).unwrap();
+    let mono = &unit.channels()[0];
+    let layer = &mono.layers()[0];
+    let layer = layer.with_thickness(f(&c["tau"]) / layer.sigma_t()).unwrap();
+    unit.with_channels(vec![mono.with_layers(vec![layer]).unwrap()]).unwrap()
+}
+
+/// Directions within this angle of the transmitted beam form the forward
+/// lobe (below).
+const LOBE_DEG: f64 = 15.0;
+
+/// `(worst total error, worst radiance relative error outside the forward
+/// lobe, worst inside it)` of one case on DISORT's inputs.
+fn errors(c: &Value, opts: &MultifluxOptions) -> (f64, f64, f64) {
+    errors_of(&case_scene(c), c, opts)
+}
+
+/// The errors of `scene` against case `c`, as [`errors`].
+fn errors_of(scene: &Scene, c: &Value, opts: &MultifluxOptions) -> (f64, f64, f64) {
+    let s = solve(scene, opts).unwrap();
+    let ch = &s.channels[0];
+    let total = (ch.reflectance - f(&c["reflectance"]))
+        .abs()
+        .max((ch.transmittance - f(&c["transmittance"])).abs());
+    let dirs = scene.channels()[0].directions_deg();
+    let t0 = THETA0_DEG.to_radians();
+    let (mut out, mut lobe) = (0.0f64, 0.0f64);
+    for r in c["radiances"].as_array().unwrap() {
+        let (th, ph, side, want) = (f(&r[0]), f(&r[1]), r[2].as_str().unwrap(), f(&r[3]));
+        let i = dirs.iter().position(|d| d[0] == th && d[1] == ph).expect("direction");
+        let got = if side == "r" { ch.brdf[i] } else { ch.btdf[i] };
+        let e = (got - want).abs() / want.abs();
+        // Angle from the transmitted beam (which travels at azimuth 180).
+        let (t, p) = (th.to_radians(), ph.to_radians());
+        let cos = t.cos() * t0.cos() - t.sin() * t0.sin() * p.cos();
+        if side == "t" && cos.clamp(-1.0, 1.0).acos().to_degrees() < LOBE_DEG {
+            lobe = lobe.max(e);
+        } else {
+            out = out.max(e);
+        }
+    }
+    (total, out, lobe)
+}
+
+/// At the default settings each case meets the solver's documented target
+/// (docs/multiflux.md §8: every BRDF/BTDF value within 1 %), and the
+/// totals are within 1e-4 (the DISORT references' own agreement with the
+/// adding-doubling references of tests/data).
+///
+/// The cloud's forward lobe (transmitted directions within 15 degrees of the
+/// beam, 2 of its 30) is bounded by 3 % instead: there both DISORT's
+/// Nakajima–Tanaka correction and km's intensity corrections (docs/phase.md
+/// §5) approximate the double scattering inside the truncated diffraction
+/// peak, whose error near the peak Buras, Dowling & Emde (2011) put at a few
+/// percent; the reference itself moves by 0.8 % there from 256 to 254
+/// streams. Measured: printed by the test (docs/phase.md §6).
+#[test]
+fn default_settings_meet_the_bounds() {
+    let d = data();
+    for c in d["cases"].as_array().unwrap() {
+        let name = c["name"].as_str().unwrap();
+        let (total, rad, lobe) = errors(c, &MultifluxOptions::default());
+        eprintln!("{name}: totals {total:.2e}, worst radiance {rad:.2e}, forward lobe {lobe:.2e}");
+        assert!(total < 1e-4, "{name}: totals off by {total:.2e}");
+        assert!(rad < 0.01, "{name}: a radiance off by {:.2} %", 100.0 * rad);
+        let lobe_bound = if name == "water-cloud" { 0.03 } else { 0.01 };
+        assert!(lobe < lobe_bound, "{name}: forward lobe off by {:.2} %", 100.0 * lobe);
+    }
+}
+
+/// km's own Mie theory end to end (the scene's `particles`, about 10 s:
+/// `cargo test -p km-multiflux --test phase_disort -- --ignored`): the
+/// moments are those the DISORT run took from miepython within the size
+/// quadrature's uncertainty (module comment: chi_1 = g differs by 9e-5
+/// between the two quadratures; 3e-4 allows for it), the albedo within
+/// 5e-8 (1 - omega: km 4.41e-7, the reference 4.71e-7 from its coefficient
+/// sums, miepython's efficiencies 4.39e-7 at 2401 radii and 4.30e-7 at
+/// 9601: the quadrature's spread), and the totals and radiances
+/// move accordingly: within 1e-3 (a change of 1e-4 in g moves R by about
+/// 1e-4 here) and, outside the forward lobe, 3 %.
+#[test]
+#[ignore]
+fn cloud_by_particles() {
+    let d = data();
+    let c = &d["cases"].as_array().unwrap()[2];
+    let scene = particle_scene(c);
+    let layer = &scene.channels()[0].layers()[0];
+    let km = layer.phase().stored_moments().unwrap();
+    let want: Vec<f64> = c["moments"].as_array().unwrap().iter().map(f).collect();
+    let (mut worst, mut at) = (0.0f64, 0);
+    for l in 0..want.len().min(km.len()) {
+        if (km[l] - want[l]).abs() > worst {
+            (worst, at) = ((km[l] - want[l]).abs(), l);
+        }
+    }
+    let omega = (layer.albedo() - f(&c["albedo"])).abs();
+    let (total, rad, lobe) = errors_of(&scene, c, &MultifluxOptions::default());
+    eprintln!(
+        "cloud by particles: worst moment {worst:.2e} at l = {at}, albedo {omega:.1e}, totals \
+         {total:.2e}, radiance {rad:.2e}, forward lobe {lobe:.2e}"
+    );
+    assert!(worst < 3e-4, "chi_{at}: off by {worst:.2e}");
+    assert!(omega < 5e-8, "albedo {} vs {}", layer.albedo(), c["albedo"]);
+    assert!(total < 1e-3 && rad < 0.03, "totals {total:.2e}, radiance {rad:.2e}");
+}
+
+/// The convergence of the three cases with the streams (table of
+/// docs/phase.md §6): totals / radiances outside the lobe / in the lobe.
+/// Slow: `cargo test -p km-multiflux --test phase_disort -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn convergence_table() {
+    let d = data();
+    for n in [8usize, 16, 24, 32, 48, 64, 96] {
+        let o = MultifluxOptions { streams: Some(n), ..Default::default() };
+        let row: Vec<String> = d["cases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| {
+                let (t, r, l) = errors(c, &o);
+                format!("{}: {t:.1e} / {r:.1e} / {l:.1e}", c["name"].as_str().unwrap())
+            })
+            .collect();
+        eprintln!("N = {n:3}: {}", row.join(" | "));
+    }
+}
