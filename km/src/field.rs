@@ -190,3 +190,34 @@ fn check_in_stack(scene: &Scene, depths: &[f64]) -> Result<(), KmError> {
         None => Ok(()),
     }
 }
+
+impl Field {
+    /// The JSON object of `km field --json` (docs/cli.md): `method`,
+    /// `depths`, `fluence`, `absorbed`, `net_flux`, `absorptance_layers` (a
+    /// value per depth or layer for one channel, a list per channel for
+    /// several), `labels`, `stderr` (Monte Carlo: the same keys and shapes)
+    /// and `seconds`.
+    pub fn to_json(&self) -> serde_json::Value {
+        use serde_json::json;
+        let one = self.fluence.len() == 1;
+        let shape = |v: &Vec<Vec<f64>>| if one { json!(v[0]) } else { json!(v) };
+        let mut out = json!({
+            "method": self.method.name(),
+            "labels": self.labels,
+            "depths": self.depths,
+            "fluence": shape(&self.fluence),
+            "absorbed": shape(&self.absorbed),
+            "net_flux": shape(&self.net_flux),
+            "absorptance_layers": shape(&self.absorptance_layers),
+            "seconds": self.seconds,
+        });
+        if let Some(se) = &self.stderr {
+            out["stderr"] = json!({
+                "fluence": shape(&se.fluence),
+                "absorbed": shape(&se.absorbed),
+                "net_flux": shape(&se.net_flux),
+            });
+        }
+        out
+    }
+}
