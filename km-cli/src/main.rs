@@ -13,6 +13,7 @@ macro_rules! help {
 }
 
 mod bsdf;
+mod field;
 mod fit;
 mod mc;
 #[cfg(test)]
@@ -58,6 +59,9 @@ enum Command {
     /// Run an MCML input file (.mci): every run, written as MCML output (.mco) and .npz.
     #[command(after_help = help!("mc"))]
     Mc(mc::McArgs),
+    /// Fluence rate, absorbed power density and net flux at the scene's [output] depths.
+    #[command(after_help = help!("field"))]
+    Field(field::FieldArgs),
     /// Combine Monte Carlo shard files into the result of one run.
     #[command(after_help = help!("merge"))]
     Merge {
@@ -199,6 +203,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Fit(args) => fit::run(&args),
         Command::Bsdf(args) => bsdf::run(&args),
         Command::Mc(args) => mc::run(&args),
+        Command::Field(args) => field::run(&args),
         Command::Merge { parts, json, format, out } => {
             let sol = km_montecarlo::merge_files(&parts)?;
             if let Some(out) = &out {

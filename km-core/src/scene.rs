@@ -370,6 +370,8 @@ pub struct Scene {
     labels: Vec<String>,
     /// Wavelengths in nm when the file gives them.
     wavelengths_nm: Option<Vec<f64>>,
+    /// Depths of depth-resolved output (`[output] depths`; empty: none asked).
+    depths: Vec<f64>,
 }
 
 impl Scene {
@@ -430,7 +432,12 @@ impl Scene {
 
     /// A one-channel scene labelled `"0"` (a [`MonoScene`] is valid by construction).
     pub fn single(mono: MonoScene) -> Scene {
-        Scene { channels: vec![mono], labels: vec!["0".into()], wavelengths_nm: None }
+        Scene {
+            channels: vec![mono],
+            labels: vec!["0".into()],
+            wavelengths_nm: None,
+            depths: Vec::new(),
+        }
     }
 
     /// A scene from its channels, a label per channel and, optionally, a
@@ -470,15 +477,28 @@ impl Scene {
                 ));
             }
         }
-        Ok(Scene { channels, labels, wavelengths_nm })
+        Ok(Scene { channels, labels, wavelengths_nm, depths: Vec::new() })
     }
 
-    /// This scene with other channels (same labels and wavelengths).
+    /// This scene with other channels (same labels, wavelengths and depths).
     ///
     /// # Errors
     /// Those of [`Scene::new`] (a different number of channels).
     pub fn with_channels(&self, channels: Vec<MonoScene>) -> Result<Scene, CoreError> {
-        Scene::new(channels, self.labels.clone(), self.wavelengths_nm.clone())
+        Ok(Scene::new(channels, self.labels.clone(), self.wavelengths_nm.clone())?
+            .with_depths(self.depths.clone()))
+    }
+
+    /// This scene with the depths of depth-resolved output (`[output]
+    /// depths`, in the layers' length unit; checked by their users).
+    pub fn with_depths(mut self, depths: Vec<f64>) -> Scene {
+        self.depths = depths;
+        self
+    }
+
+    /// The depths of depth-resolved output the scene asks for (empty: none).
+    pub fn depths(&self) -> &[f64] {
+        &self.depths
     }
 
     /// The channels, in order (at least one).
@@ -518,6 +538,7 @@ impl Scene {
                 .wavelengths_nm
                 .as_ref()
                 .map(|w| keep.iter().filter_map(|&i| w.get(i).copied()).collect()),
+            depths: self.depths.clone(),
         }
     }
 

@@ -35,10 +35,12 @@ use std::f64::consts::LN_2;
 
 use crate::error::CoreError;
 
+mod depth;
 mod mapping;
 mod solve;
 mod stack;
 
+pub use depth::{KmDepthProfile, depth_profile};
 pub use mapping::{KmCoefficients, KmMapping, mix_pigments};
 pub use solve::{KmOptions, solve, solve_mono};
 pub use stack::{Slab, StackFluxes, Transfer, add, stack_adding, stack_transfer};

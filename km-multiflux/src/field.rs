@@ -54,7 +54,7 @@ pub fn internal_field(
     z: f64,
     m: usize,
 ) -> Result<InternalField, MultifluxError> {
-    let streams = resolve_streams(scene, opts)?;
+    resolve_streams(scene, opts)?;
     let total: f64 = scene.layers().iter().map(|l| l.thickness()).sum();
     if !(z >= 0.0 && z <= total && z.is_finite()) {
         return Err(MultifluxError::Option {
@@ -63,6 +63,38 @@ pub fn internal_field(
             reason: "depth must lie in the stack",
         });
     }
+    let (i_cut, dz) = locate(scene, z);
+    field_in_layer(scene, opts, i_cut, dz, m)
+}
+
+/// The layer holding depth `z` (the upper one at an interface) and the depth
+/// below its top.
+fn locate(scene: &MonoScene, z: f64) -> (usize, f64) {
+    let (mut i_cut, mut z_top) = (0, 0.0);
+    for (i, l) in scene.layers().iter().enumerate() {
+        i_cut = i;
+        if z <= z_top + l.thickness() {
+            break;
+        }
+        z_top += l.thickness();
+    }
+    (i_cut, (z - z_top).max(0.0))
+}
+
+/// [`internal_field`] at depth `dz` below the top of layer `i_cut` (inside
+/// it: `0 <= dz <=` its thickness, not checked), so that either side of an
+/// interface can be asked for.
+///
+/// # Errors
+/// Those of [`internal_field`].
+pub(crate) fn field_in_layer(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    i_cut: usize,
+    dz: f64,
+    m: usize,
+) -> Result<InternalField, MultifluxError> {
+    let streams = resolve_streams(scene, opts)?;
     let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
     let layers = scale_layers(scene, opts, 2 * streams);
@@ -71,7 +103,7 @@ pub fn internal_field(
     let setup =
         ExtraSetup { n0, n_sub, layers: &layers, tms_layers: &[], corr: &[], secondary: false };
     let extras = Extras::new(&beams, &[], &setup);
-    let (i_cut, above, below) = split_at_depth(scene, &layers, z);
+    let (above, below) = split_at_depth(scene, &layers, i_cut, dz);
     let lc = &scene.layers()[i_cut];
     let n_cut = lc.n();
     let scene_above = scene.with_substrate(Substrate::Transparent { n: n_cut })?;
@@ -122,33 +154,24 @@ pub fn internal_field(
     if !finite {
         return Err(MultifluxError::Numerical {
             what: "internal_field",
-            detail: format!("z = {z}"),
+            detail: format!("layer {i_cut}, {dz} below its top"),
         });
     }
     Ok(out)
 }
 
-/// The stack cut at depth `z` (inside it): the index of the layer holding
-/// `z`, the scaled layers above the cut (that layer's upper piece last) and
-/// below it (its lower piece first), each piece with its share of the
-/// optical thickness (scaled and true).
+/// The stack cut at depth `dz` below the top of layer `i_cut`: the scaled
+/// layers above the cut (that layer's upper piece last) and below it (its
+/// lower piece first), each piece with its share of the optical thickness
+/// (scaled and true).
 fn split_at_depth(
     scene: &MonoScene,
     layers: &[Scaled],
-    z: f64,
-) -> (usize, Vec<Scaled>, Vec<Scaled>) {
-    // Find the layer holding z and split it.
-    let (mut i_cut, mut z_top) = (0, 0.0);
-    for (i, l) in scene.layers().iter().enumerate() {
-        i_cut = i;
-        if z <= z_top + l.thickness() {
-            break;
-        }
-        z_top += l.thickness();
-    }
+    i_cut: usize,
+    dz: f64,
+) -> (Vec<Scaled>, Vec<Scaled>) {
     let lc = &scene.layers()[i_cut];
     let frac_tau = |tau: f64| if lc.thickness() > 0.0 { tau / lc.thickness() } else { 0.0 };
-    let dz = (z - z_top).max(0.0);
     let mut upper = layers[i_cut].clone();
     let mut lower = layers[i_cut].clone();
     // Piece above the cut: optical thickness (z - z_top) sigma_t (scaled and true).
@@ -166,5 +189,5 @@ fn split_at_depth(
     above.push(upper);
     let mut below = vec![lower];
     below.extend_from_slice(&layers[i_cut + 1..]);
-    (i_cut, above, below)
+    (above, below)
 }

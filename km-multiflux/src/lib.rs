@@ -30,6 +30,7 @@ pub mod adding;
 pub mod bsdf;
 pub mod budget;
 pub mod correction;
+pub mod depth;
 pub mod direction_set;
 pub mod eigen;
 mod engine;

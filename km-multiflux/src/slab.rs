@@ -66,6 +66,7 @@ use crate::eigen::{EigenFailure, HalfSizeModes, half_size_modes_in};
 use crate::legendre::LegendreRecurrence;
 use crate::phase_matrix::fourier_blocks_in;
 use crate::workspace::{Workspace, with_workspace};
+pub use field::{FieldModes, FieldWeights};
 use lu::{Lu, solve_right};
 pub(crate) use operators::slab_augmented;
 pub use operators::{absorber_operators, slab_beam_reflection, slab_beam_response, slab_operators};

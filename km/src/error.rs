@@ -47,6 +47,12 @@ pub enum Reason {
         /// The channel's light, in words.
         light: String,
     },
+    /// The method gives no depth-resolved field.
+    #[error(
+        "it gives no depth-resolved field phi(z), A(z), F(z) (the multi-flux, two-flux and Monte \
+         Carlo methods do: --method multiflux, km or mc)"
+    )]
+    NoDepthField,
     /// The method gives no radially resolved profile.
     #[error("it gives no radial profile Rd(r) (the dipole and Monte Carlo do)")]
     NoProfile,

@@ -40,6 +40,7 @@ pub mod accuracy;
 pub mod bsdf_file;
 pub mod direction_set;
 mod error;
+pub mod field;
 pub mod mc_field;
 mod method;
 mod profile;

@@ -13,6 +13,7 @@ use super::{
 use crate::error::CoreError;
 use crate::layer::is_refractive_index;
 
+mod depths;
 mod layer;
 mod phase;
 mod tissue;
@@ -78,6 +79,7 @@ struct RawSubstrate {
 #[serde(deny_unknown_fields)]
 struct RawOutput {
     directions_deg: Option<Spanned<Value>>,
+    depths: Option<Spanned<Value>>,
 }
 
 #[derive(Deserialize)]
@@ -201,6 +203,10 @@ impl Parser {
             None => Vec::new(),
             Some(v) => self.directions(v)?,
         };
+        let depths = match raw.output.as_ref().and_then(|o| o.depths.as_ref()) {
+            None => Vec::new(),
+            Some(v) => self.depths(v, scale)?,
+        };
 
         // [spectrum]
         let (labels, wavelengths_nm) = match &raw.spectrum {
@@ -231,7 +237,7 @@ impl Parser {
             None if channels == 3 => vec!["R".into(), "G".into(), "B".into()],
             None => (0..channels).map(|c| c.to_string()).collect(),
         };
-        Scene::new(out, labels, wavelengths_nm)
+        Ok(Scene::new(out, labels, wavelengths_nm)?.with_depths(depths))
     }
 
     /// `[light]`: collimated (the default, at `theta_deg`, default 0) or diffuse.

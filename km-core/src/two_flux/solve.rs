@@ -18,10 +18,10 @@ pub struct KmOptions {
 }
 
 /// The stack of one channel as slabs, with bookkeeping for the answer.
-struct Built {
-    slabs: Vec<Slab>,
+pub(super) struct Built {
+    pub(super) slabs: Vec<Slab>,
     /// Index of the slab of each layer.
-    layer_slab: Vec<usize>,
+    pub(super) layer_slab: Vec<usize>,
     /// Specular (mirror) reflectance of the top surface.
     r_specular: f64,
     /// Zero-order (never scattered, never reflected) transmittance.
@@ -30,7 +30,7 @@ struct Built {
     open_bottom: bool,
 }
 
-fn build(
+pub(super) fn build(
     mono: &MonoScene,
     mapping: KmMapping,
     cache: &mut HemisphericalCache,

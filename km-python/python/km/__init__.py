@@ -20,7 +20,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from ._km import KmError, Partial, Scene, Solution, __version__, merge, run_shard, solve
+from ._km import KmError, Partial, Scene, Solution, __version__, field, merge, run_shard, solve
 from . import _km
 from ._bsdf import Bsdf, bsdf
 from ._fit import fit
@@ -37,6 +37,7 @@ __all__ = [
     "bsdf",
     "colour",
     "delta_e2000",
+    "field",
     "fit",
     "fit_file",
     "fit_km",

@@ -189,6 +189,28 @@ def solve(
     released while the solver runs.
     """
 
+def field(
+    scene: Scene,
+    method: Method = "multiflux",
+    *,
+    depths: Sequence[float] | None = None,
+    streams: int | None = None,
+    samples: int | None = None,
+    seed: int | None = None,
+    dz: float | None = None,
+) -> dict[str, Any]:
+    """The light field inside the stack, as ``km field SCENE --json`` (docs/field.md).
+
+    At the scene's ``[output] depths`` (or ``depths``): a dict of numpy
+    arrays ``depths`` (D,), ``fluence``, ``absorbed``, ``net_flux`` (C x D,
+    per unit incident irradiance; ``absorbed`` per unit depth),
+    ``absorptance_layers`` (C x L), ``stderr`` (Monte Carlo: the same three
+    keys), ``method``, ``labels``, ``seconds``. ``method`` is
+    ``"multiflux"``, ``"km"`` or ``"mc"`` (the others raise
+    :class:`KmError` with the reason); ``streams`` [multiflux], ``samples``
+    (default 10^5), ``seed``, ``dz`` (bin width) [mc].
+    """
+
 def run_shard(
     scene: Scene,
     index: int,

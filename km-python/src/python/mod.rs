@@ -21,6 +21,7 @@ use crate::error::Error;
 mod batch;
 mod bsdf;
 mod convert;
+mod field;
 mod fit;
 mod fit_km;
 mod scene;
@@ -88,6 +89,7 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::_solve_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_shard, m)?)?;
     m.add_function(wrap_pyfunction!(batch::merge, m)?)?;
+    m.add_function(wrap_pyfunction!(field::field, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

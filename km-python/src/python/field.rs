@@ -1,0 +1,62 @@
+//! `km.field`: the depth-resolved field of a scene (`km::field`,
+//! docs/field.md) as numpy arrays, channels x depths.
+
+use km::field::{FieldMethod, FieldOptions, field as km_field};
+use numpy::{IntoPyArray, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::{PyScene, guarded, py_err};
+use crate::error::Error;
+
+/// Rows of equal length (channels x depths or x layers) as one 2-D array.
+fn rows(py: Python<'_>, v: Vec<Vec<f64>>) -> PyResult<Bound<'_, PyAny>> {
+    let (r, c) = (v.len(), v.first().map_or(0, Vec::len));
+    let flat: Vec<f64> = v.into_iter().flatten().collect();
+    let a = flat.into_pyarray(py).reshape([r, c])?;
+    Ok(a.into_any())
+}
+
+/// The fluence rate, absorbed power density and net flux at depths (see `km.field`).
+#[pyfunction]
+#[pyo3(signature = (scene, method="multiflux", *, depths=None, streams=None, samples=None,
+                    seed=None, dz=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn field<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyScene>,
+    method: &str,
+    depths: Option<Vec<f64>>,
+    streams: Option<usize>,
+    samples: Option<u64>,
+    seed: Option<u64>,
+    dz: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
+    let mut opts = FieldOptions { method: FieldMethod(method), dz, ..Default::default() };
+    opts.multiflux.streams = streams;
+    opts.mc.samples = samples.unwrap_or(100_000);
+    if opts.mc.samples == 0 {
+        return Err(py_err(py, Error::option("samples", "0: need at least one photon")));
+    }
+    opts.mc.seed = seed.unwrap_or(1);
+    let scene = &scene.get().scene;
+    let f = guarded(py, || Ok(km_field(scene, depths.as_deref(), &opts)?))?;
+    let d = PyDict::new(py);
+    d.set_item("method", f.method.name())?;
+    d.set_item("labels", f.labels)?;
+    d.set_item("depths", f.depths.into_pyarray(py))?;
+    d.set_item("fluence", rows(py, f.fluence)?)?;
+    d.set_item("absorbed", rows(py, f.absorbed)?)?;
+    d.set_item("net_flux", rows(py, f.net_flux)?)?;
+    d.set_item("absorptance_layers", rows(py, f.absorptance_layers)?)?;
+    if let Some(se) = f.stderr {
+        let s = PyDict::new(py);
+        s.set_item("fluence", rows(py, se.fluence)?)?;
+        s.set_item("absorbed", rows(py, se.absorbed)?)?;
+        s.set_item("net_flux", rows(py, se.net_flux)?)?;
+        d.set_item("stderr", s)?;
+    }
+    d.set_item("seconds", f.seconds)?;
+    Ok(d)
+}

@@ -1,0 +1,223 @@
+//! Depth-resolved output of every method from one request (`docs/field.md`):
+//! the fluence rate `phi(z)`, the absorbed power density `A(z)` and the net
+//! flux `F(z)` at the scene's `[output] depths` (or depths given here), per
+//! unit incident irradiance on the surface, and the absorptance of every
+//! layer.
+//!
+//! * multi-flux: exact at any depth from the eigen-solution of the layer
+//!   holding it ([`km_multiflux::depth`], eq. D1–D6);
+//! * two-flux: closed form ([`km_core::two_flux::depth_profile`], eq. D7–D9);
+//! * Monte Carlo: MCML-style depth bins with standard errors, interpolated
+//!   at the depths ([`crate::mc_field::mc_depths`]);
+//! * the dipole and the direction set are refused with the reason.
+
+use std::time::Instant;
+
+use km_core::Scene;
+use km_core::two_flux::KmOptions;
+use km_montecarlo::McOptions;
+use km_multiflux::MultifluxOptions;
+use km_multiflux::depth::DepthField;
+
+use crate::Method;
+use crate::error::{KmError, Reason, Unsupported};
+use crate::mc_field::{MAX_DEPTH_BINS, mc_depths};
+
+/// The settings of [`field`]: the method and its options.
+#[derive(Debug, Clone, Default)]
+pub struct FieldOptions {
+    /// The method (`Multiflux` by default).
+    pub method: FieldMethod,
+    /// Multi-flux settings (streams, delta-M).
+    pub multiflux: MultifluxOptions,
+    /// Two-flux settings (the K, S mapping).
+    pub km: KmOptions,
+    /// Monte Carlo settings (photons, seed, threads).
+    pub mc: McOptions,
+    /// Monte Carlo depth-bin width (`None`: [`crate::mc_field::mc_depths`]'s default).
+    pub dz: Option<f64>,
+}
+
+/// A method for [`FieldOptions`] (a [`Method`] with a default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldMethod(pub Method);
+
+impl Default for FieldMethod {
+    fn default() -> Self {
+        FieldMethod(Method::Multiflux)
+    }
+}
+
+/// Standard errors of a Monte Carlo field (per channel, per depth).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FieldStderr {
+    /// Of the fluence rate.
+    pub fluence: Vec<Vec<f64>>,
+    /// Of the absorbed power density.
+    pub absorbed: Vec<Vec<f64>>,
+    /// Of the net flux.
+    pub net_flux: Vec<Vec<f64>>,
+}
+
+/// The depth-resolved field of a scene by one method: per channel, a value
+/// per depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    /// The method.
+    pub method: Method,
+    /// A label per channel.
+    pub labels: Vec<String>,
+    /// The depths, in the layers' length unit from the top surface.
+    pub depths: Vec<f64>,
+    /// Fluence rate `phi(z)`: 4 pi times the mean radiance, per unit incident irradiance.
+    pub fluence: Vec<Vec<f64>>,
+    /// Absorbed power per unit depth per unit incident power `A(z)` (1/length).
+    pub absorbed: Vec<Vec<f64>>,
+    /// Net downward flux `F(z)` per unit incident power.
+    pub net_flux: Vec<Vec<f64>>,
+    /// Per channel, the fraction of the incident power absorbed in each layer.
+    pub absorptance_layers: Vec<Vec<f64>>,
+    /// Standard errors (Monte Carlo only).
+    pub stderr: Option<FieldStderr>,
+    /// The solver's own wall time in seconds.
+    pub seconds: f64,
+}
+
+/// `phi(z)`, `A(z)` and `F(z)` of `scene` at `depths` (`None`: the scene's
+/// `[output] depths`) by `opts.method`.
+///
+/// # Errors
+/// No depth asked for, a depth that is negative, not finite or outside the
+/// stack ([`KmError::Option`], or the solver's own error naming it), more
+/// than 100,000 depths, a method that gives no depth field
+/// ([`Reason::NoDepthField`]), and the solvers' errors.
+///
+/// ```
+/// let s = km_core::Scene::from_toml_str(
+///     "[[layer]]\nsigma_a = 1.0\nsigma_s = 0.0\nthickness = 2.0\n\
+///      [output]\ndepths = [0.0, 1.0]\n").unwrap();
+/// let f = km::field::field(&s, None, &km::field::FieldOptions::default()).unwrap();
+/// assert!((f.net_flux[0][1] - (-1.0f64).exp()).abs() < 1e-12);
+/// ```
+pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Result<Field, KmError> {
+    let depths = depths.unwrap_or(scene.depths());
+    check_depths(depths)?;
+    let method = opts.method.0;
+    let start = Instant::now();
+    let mut f = Field {
+        method,
+        labels: scene.labels().to_vec(),
+        depths: depths.to_vec(),
+        fluence: Vec::new(),
+        absorbed: Vec::new(),
+        net_flux: Vec::new(),
+        absorptance_layers: Vec::new(),
+        stderr: None,
+        seconds: 0.0,
+    };
+    match method {
+        Method::Multiflux => {
+            for mono in scene.channels() {
+                let d = DepthField::new(mono, &opts.multiflux)?;
+                let p = d.profile(depths)?;
+                f.fluence.push(p.fluence);
+                f.absorbed.push(p.absorbed);
+                f.net_flux.push(p.net_flux);
+                f.absorptance_layers.push(d.layer_absorptance());
+            }
+        }
+        Method::Km => {
+            for mono in scene.channels() {
+                let p = km_core::two_flux::depth_profile(mono, &opts.km, depths)?;
+                f.fluence.push(p.fluence);
+                f.absorbed.push(p.absorbed);
+                f.net_flux.push(p.net_flux);
+                f.absorptance_layers.push(p.layer_absorptance);
+            }
+        }
+        Method::Mc => {
+            check_in_stack(scene, depths)?;
+            let v = mc_depths(scene, depths, opts.dz, &opts.mc)?;
+            f.absorptance_layers = v
+                .bins
+                .solution
+                .channels
+                .iter()
+                .map(|c| c.absorptance_layers.clone().unwrap_or_default())
+                .collect();
+            f.stderr = Some(FieldStderr {
+                fluence: v.fluence_se,
+                absorbed: v.absorbed_se,
+                net_flux: v.net_flux_se,
+            });
+            (f.fluence, f.absorbed, f.net_flux) = (v.fluence, v.absorbed, v.net_flux);
+        }
+        Method::Dipole | Method::DirectionSet => {
+            return Err(Unsupported { method, reason: Reason::NoDepthField }.into());
+        }
+    }
+    f.seconds = start.elapsed().as_secs_f64();
+    Ok(f)
+}
+
+fn check_depths(depths: &[f64]) -> Result<(), KmError> {
+    let bad = |value: String, reason| Err(KmError::Option { name: "depths", value, reason });
+    if depths.is_empty() {
+        return bad(
+            "[]".into(),
+            "no depth asked for: add [output] depths = [...] or { step, max } to the scene",
+        );
+    }
+    if depths.len() > MAX_DEPTH_BINS {
+        return bad(depths.len().to_string(), "at most 100000 depths");
+    }
+    if let Some(z) = depths.iter().find(|z| !(z.is_finite() && **z >= 0.0)) {
+        return bad(z.to_string(), "every depth must be finite and >= 0");
+    }
+    Ok(())
+}
+
+/// Monte Carlo bins any depth; a depth below the stack (in the substrate)
+/// is refused as the other methods refuse it.
+fn check_in_stack(scene: &Scene, depths: &[f64]) -> Result<(), KmError> {
+    let total: f64 = scene.channels()[0].layers().iter().map(|l| l.thickness()).sum();
+    match depths.iter().find(|&&z| z > total) {
+        Some(z) => Err(KmError::Option {
+            name: "depths",
+            value: z.to_string(),
+            reason: "every depth must lie in the stack (0 to the sum of the thicknesses)",
+        }),
+        None => Ok(()),
+    }
+}
+
+impl Field {
+    /// The JSON object of `km field --json` (docs/cli.md): `method`,
+    /// `depths`, `fluence`, `absorbed`, `net_flux`, `absorptance_layers` (a
+    /// value per depth or layer for one channel, a list per channel for
+    /// several), `labels`, `stderr` (Monte Carlo: the same keys and shapes)
+    /// and `seconds`.
+    pub fn to_json(&self) -> serde_json::Value {
+        use serde_json::json;
+        let one = self.fluence.len() == 1;
+        let shape = |v: &Vec<Vec<f64>>| if one { json!(v[0]) } else { json!(v) };
+        let mut out = json!({
+            "method": self.method.name(),
+            "labels": self.labels,
+            "depths": self.depths,
+            "fluence": shape(&self.fluence),
+            "absorbed": shape(&self.absorbed),
+            "net_flux": shape(&self.net_flux),
+            "absorptance_layers": shape(&self.absorptance_layers),
+            "seconds": self.seconds,
+        });
+        if let Some(se) = &self.stderr {
+            out["stderr"] = json!({
+                "fluence": shape(&se.fluence),
+                "absorbed": shape(&se.absorbed),
+                "net_flux": shape(&se.net_flux),
+            });
+        }
+        out
+    }
+}
