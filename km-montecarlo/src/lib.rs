@@ -52,3 +52,4 @@ pub use run::{RadialProfile, radial_profile, run_shard, solve};
 pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,
 };
+pub use transport::cone_bins;

@@ -17,9 +17,15 @@ from conftest import EXAMPLES
 # Monte Carlo with few photons keeps the run short; the seed fixes the result.
 METHODS = [
     ("km", [], {}),
+    ("km", ["--km-model", "two-flux"], {"km_model": "two-flux"}),
     ("multiflux", [], {}),
     ("multiflux", ["--streams", "8"], {"streams": 8}),
     ("mc", ["--samples", "20000", "--seed", "3"], {"samples": 20000, "seed": 3}),
+    (
+        "mc",
+        ["--samples", "20000", "--seed", "3", "--cone", "2"],
+        {"samples": 20000, "seed": 3, "cone": 2.0},
+    ),
     ("dipole", [], {}),
     ("direction-set", [], {}),
     ("multiflux", ["--tolerance", "1e-4"], {"tolerance": 1e-4}),

@@ -177,6 +177,8 @@ def solve(
     threads: int | None = None,
     analog: bool = False,
     all_effects: bool = False,
+    km_model: Literal["four-flux", "two-flux"] | None = None,
+    cone: float | None = None,
 ) -> Solution:
     """Solve a scene, as ``km solve SCENE --method M --json`` does.
 
@@ -185,8 +187,11 @@ def solve(
     photons per channel (default 10^6), seed (default 1), worker threads
     (default all cores; never changes the result), analog absorption;
     ``tolerance`` [multiflux, mc]: accuracy target; ``all_effects``: the
-    planner off. An option the method does not read is refused. The GIL is
-    released while the solver runs.
+    planner off; ``km_model`` [km]: ``"four-flux"`` (default) or the seed's
+    ``"two-flux"``; ``cone`` [mc, multiflux]: BRDF/BTDF values as means over
+    cones of this half-angle in degrees (Monte Carlo's bins, default 5; the
+    multi-flux values averaged alike). An option the method does not read
+    is refused. The GIL is released while the solver runs.
     """
 
 def run_shard(
