@@ -133,6 +133,9 @@ class Solution:
     def error_estimate(self) -> dict[str, FloatOrArray] | None:
         """Estimated errors by key (an accuracy target was given), or None."""
     @property
+    def model_error_estimate(self) -> dict[str, FloatOrArray] | None:
+        """How far a closed form (km, dipole) may be off, by key (eq. K25), or None."""
+    @property
     def notes(self) -> list[str]:
         """What the solver simplified, with bounds of what it neglected."""
     @property
