@@ -1,6 +1,7 @@
 //! Criterion benchmarks of two-flux Kubelka–Munk (km-core only): one layer's
 //! closed form, one scene channel (Saunderson interface, layer, Lambertian
-//! ground, as in seed 000 §4.4), and ten-layer stacks by both concatenation forms.
+//! ground, as in seed 000 §4.4) by the seed's two-flux model and by the
+//! four-flux model, and ten-layer stacks by both concatenation forms.
 //!
 //! Short run: `cargo bench -p km-bench --bench two_flux -- --warm-up-time 1 --measurement-time 2`.
 
@@ -24,9 +25,13 @@ fn bench(c: &mut Criterion) {
         vec![],
     )
     .expect("valid scene");
-    let opts = KmOptions::default();
+    let opts = KmOptions::SEED;
     c.bench_function("km solve_mono seed 4.4 scene", |b| {
         b.iter(|| solve_mono(black_box(&scene), &opts))
+    });
+    let four = KmOptions::default();
+    c.bench_function("km four-flux solve_mono seed 4.4 scene", |b| {
+        b.iter(|| solve_mono(black_box(&scene), &four))
     });
 
     // The same layer with the ambient's index: no Fresnel integrals.
@@ -35,6 +40,9 @@ fn bench(c: &mut Criterion) {
         .expect("valid scene");
     c.bench_function("km solve_mono index-matched scene", |b| {
         b.iter(|| solve_mono(black_box(&matched), &opts))
+    });
+    c.bench_function("km four-flux solve_mono index-matched scene", |b| {
+        b.iter(|| solve_mono(black_box(&matched), &four))
     });
 
     let slabs: Vec<Slab> = (0..10)

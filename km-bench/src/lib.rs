@@ -10,6 +10,7 @@
 //! * [`data`]: CSV files with the parameters and the seed in their header.
 //! * [`report`]: the Markdown report.
 //! * [`context`]: what every recipe gets (output directory, run size, seed).
+//! * [`km_models`]: two-flux, four-flux and the dipole against converged multi-flux on a grid.
 //! * [`methods`]: a method at a setting ([`methods::Setting`]) through the library's solver interface.
 //! * [`scenes`]: the scenes of the recipes (the seed's §4.4 example, study scenes).
 //! * [`seed`]: the seed's §4.4 example, loaded from `examples/seed-three-layers.toml`,
@@ -22,6 +23,7 @@ pub mod chart;
 pub mod context;
 pub mod data;
 pub mod font;
+pub mod km_models;
 pub mod methods;
 pub mod recipes;
 pub mod report;

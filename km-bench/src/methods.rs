@@ -14,7 +14,9 @@ pub use self::Setting as Method;
 /// A method of the library ([`km::Method`]) at one accuracy setting.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Setting {
-    /// Two-flux Kubelka–Munk (km-core, seed 000 §2), the seed's identity mapping.
+    /// Two-flux Kubelka–Munk (km-core, seed 000 §2): the seed's diffuse
+    /// two-flux model and its identity mapping, chosen explicitly (the
+    /// library's defaults are the four-flux model and a measured mapping).
     TwoFlux,
     /// Multi-flux, Fourier–Gauss mode (km-multiflux) with `streams` Gauss
     /// nodes per hemisphere, exact adding.
@@ -74,7 +76,7 @@ impl Setting {
     pub fn options(&self) -> km::MethodOptions {
         use km::MethodOptions as O;
         match *self {
-            Method::TwoFlux => O::Km(km::KmOptions::default()),
+            Method::TwoFlux => O::Km(km::KmOptions::SEED),
             Method::Multiflux { streams } => {
                 O::Multiflux(km::MultifluxOptions { streams: Some(streams), ..Default::default() })
             }

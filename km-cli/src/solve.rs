@@ -60,9 +60,16 @@ pub struct SolveArgs {
     /// Compute every effect (planner off), for comparison.
     #[arg(long)]
     pub all_effects: bool,
-    /// Two-flux coefficients K, S from the scene [km] (default seed: K = sigma_a, S = sigma_s).
-    #[arg(long, value_enum, default_value_t = km::KmMapping::Seed)]
+    /// Two-flux coefficients K, S from the scene [km] (default gate1974, the least error
+    /// against multi-flux on the grid of docs/two-flux.md §13; seed: the paper's K = sigma_a,
+    /// S = sigma_s).
+    #[arg(long, value_enum, default_value_t = km::KmMapping::Gate1974)]
     pub km_mapping: km::KmMapping,
+    /// Two-flux model [km]: four-flux carries a collimated beam as a beam (refracted,
+    /// Beer–Lambert on its path, Fresnel at its own angle); two-flux is the seed's diffuse
+    /// model (default four-flux; the same for diffuse light).
+    #[arg(long, value_enum, default_value_t = km::KmModel::FourFlux)]
+    pub km_model: km::KmModel,
     /// Gauss nodes per hemisphere [multiflux] (default 16).
     #[arg(long)]
     pub streams: Option<usize>,
@@ -73,6 +80,11 @@ pub struct SolveArgs {
     /// [direction-set] (the default is the seed's 303).
     #[arg(long, value_name = "N", default_value_t = km::direction_set::DEFAULT_DIRECTIONS)]
     pub directions: usize,
+    /// BRDF/BTDF values as means over cones of this half-angle, degrees, in (0, 45]: the
+    /// Monte Carlo bins (default 5), or the multi-flux values averaged over the same cones
+    /// for comparison with them [mc, multiflux].
+    #[arg(long, value_name = "DEG")]
+    pub cone: Option<f64>,
     /// Photons per channel [mc].
     #[arg(long, default_value_t = 1_000_000)]
     pub samples: u64,
@@ -207,7 +219,7 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
                 | KmError::Option { name: "accuracy target", .. },
                 Some(t),
             ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
-            (KmError::Option { name: "directions", .. }, _) => option_flag(e),
+            (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
             (KmError::Unsupported(_), _) => {
                 anyhow::Error::new(e).context(format!("--method {}", args.method.name()))
             }
@@ -219,7 +231,9 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
 /// The library options of `args`.
 fn options(args: &SolveArgs) -> Result<km::Options> {
     let method = match args.method {
-        Method::Km => km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping }),
+        Method::Km => {
+            km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping, model: args.km_model })
+        }
         Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
             streams: args.streams,
             neumann_order: args.order,
@@ -243,7 +257,12 @@ fn options(args: &SolveArgs) -> Result<km::Options> {
             km::MethodOptions::Dipole(km::DipoleOptions { fdr: args.fdr, model: args.dipole })
         }
     };
-    let opts = km::Options { method, tolerance: args.tolerance, all_effects: args.all_effects };
+    let opts = km::Options {
+        method,
+        tolerance: args.tolerance,
+        all_effects: args.all_effects,
+        cone_deg: args.cone,
+    };
     opts.with_budget(args.budget).map_err(option_flag)
 }
 

@@ -32,6 +32,9 @@ const FLAGS: &[(&str, &str, &str, bool, &[&str])] = &[
     ("--order", "1", "2", true, &["multiflux"]),
     ("--directions", "50", "100", true, &["direction-set"]),
     ("--km-mapping", "seed", "star1988", true, &["km"]),
+    ("--km-model", "four-flux", "two-flux", true, &["km"]),
+    // The cones change BRDF/BTDF values only (none in this scene), not R.
+    ("--cone", "3", "10", false, &["mc", "multiflux"]),
     ("--fdr", "exact", "egan-hilgeman", true, &["dipole"]),
     ("--dipole", "jensen2001", "better", true, &["dipole"]),
     ("--tolerance", "1e-2", "1e-3", false, &["multiflux", "mc"]),

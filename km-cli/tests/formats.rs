@@ -106,10 +106,14 @@ fn text_reads_well() {
     let t = stdout(&["solve", &paint, "--method", "km"]);
     assert!(!t.contains("BTDF"), "{t}");
     assert!(t.contains("BRDF"), "{t}");
-    assert!(t.contains("K/S mapping seed: K = sigma_a, S = sigma_s"), "{t}");
+    assert!(t.contains("K/S mapping gate1974: K = 2 sigma_a, S = 3/4 sigma_s (1 - g)"), "{t}");
+    assert!(t.contains("model four-flux"), "{t}");
+    assert!(t.contains("model error estimate"), "{t}");
     assert!(t.contains("--method multiflux"), "{t}");
-    let t2 = stdout(&["solve", &paint, "--method", "km", "--km-mapping", "gate1974"]);
-    assert!(t2.contains("K/S mapping gate1974: K = 2 sigma_a, S = 3/4 sigma_s (1 - g)"), "{t2}");
+    let t2 = stdout(&["solve", &paint, "--method", "km", "--km-mapping", "seed"]);
+    assert!(t2.contains("K/S mapping seed: K = sigma_a, S = sigma_s"), "{t2}");
+    let t3 = stdout(&["solve", &paint, "--method", "km", "--km-model", "two-flux"]);
+    assert!(t3.contains("model two-flux"), "{t3}");
     for scene in [&slab, &paint, &examples("cloud-deck.toml")] {
         for method in ["km", "multiflux"] {
             let t = stdout(&["solve", scene, "--method", method]);

@@ -149,8 +149,25 @@ pub struct ChannelResult {
     pub stderr: Option<Uncertainty>,
     /// Estimated errors (an accuracy target was given).
     pub error_estimate: Option<Uncertainty>,
+    /// How far a model (two-flux, dipole) is from the radiative transfer
+    /// answer, estimated by a cheap multi-flux solve of the same scene
+    /// (docs/two-flux.md §14; JSON `model_error_estimate`).
+    pub model_error_estimate: Option<Uncertainty>,
     /// Absorbed fraction per layer, top first, when the method provides it.
     pub absorptance_layers: Option<Vec<f64>>,
+    /// Half-angles (degrees) of the cones the BRDF/BTDF values are averages
+    /// over (Monte Carlo bins, cone-averaged multi-flux; JSON `cone_half_angle_deg`).
+    pub cones: Option<Cones>,
+}
+
+/// The half-angles of the cones around each output direction over which
+/// BRDF and BTDF values are solid-angle means (docs/montecarlo.md eq. B1–B2').
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Cones {
+    /// Per output direction, reflection side, degrees.
+    pub brdf: Vec<f64>,
+    /// Per output direction, transmission side, degrees.
+    pub btdf: Vec<f64>,
 }
 
 /// How an accuracy target was met (key `"tolerance"` of the JSON).
@@ -245,13 +262,28 @@ impl Solution {
             );
         }
         type Get = fn(&ChannelResult) -> Option<&Uncertainty>;
-        let uncertainties: [(&str, Get); 2] =
-            [("stderr", |c| c.stderr.as_ref()), ("error_estimate", |c| c.error_estimate.as_ref())];
+        let uncertainties: [(&str, Get); 3] = [
+            ("stderr", |c| c.stderr.as_ref()),
+            ("error_estimate", |c| c.error_estimate.as_ref()),
+            ("model_error_estimate", |c| c.model_error_estimate.as_ref()),
+        ];
         for (key, get) in uncertainties {
             if self.channels.iter().any(|c| get(c).is_some()) {
                 let per: Vec<Option<&Uncertainty>> = self.channels.iter().map(get).collect();
                 out.insert(key.into(), uncertainty_json(&per));
             }
+        }
+        if self.channels.iter().any(|c| c.cones.is_some()) {
+            let side = |brdf: bool| {
+                pick(&|c: &ChannelResult| match &c.cones {
+                    Some(k) => nums(if brdf { &k.brdf } else { &k.btdf }),
+                    None => Value::Null,
+                })
+            };
+            out.insert(
+                "cone_half_angle_deg".into(),
+                json!({ "brdf": side(true), "btdf": side(false) }),
+            );
         }
         if !one {
             out.insert("channels".into(), json!(self.labels));

@@ -36,11 +36,16 @@ use std::f64::consts::LN_2;
 use crate::error::CoreError;
 
 mod depth;
+mod four_flux;
 mod mapping;
 mod solve;
 mod stack;
 
 pub use depth::{KmDepthProfile, depth_profile};
+pub use four_flux::{
+    CollimatedRt, FourSlab, FourStackFluxes, KmModel, Lower, MAX_BACKSCATTER_ORDER, add_four,
+    backscatter_fraction, collimated_layer, stack_four,
+};
 pub use mapping::{KmCoefficients, KmMapping, mix_pigments};
 pub use solve::{KmOptions, solve, solve_mono};
 pub use stack::{Slab, StackFluxes, Transfer, add, stack_adding, stack_transfer};

@@ -411,7 +411,7 @@ fn scene_with_matched_index_is_the_bare_layer() {
         1.3,
         Substrate::Transparent { n: 1.3 },
     );
-    let sol = solve(&s, &KmOptions::default()).unwrap();
+    let sol = solve(&s, &KmOptions::SEED).unwrap();
     let c = &sol.channels[0];
     let rt = layer_rt(0.1, 0.4, 1.0).unwrap();
     assert_eq!(c.reflectance_specular, 0.0);
@@ -433,7 +433,7 @@ fn saunderson_correction() {
     for (thick, sub) in [(f64::INFINITY, Substrate::Black), (1.0, Substrate::Black)] {
         let l = km_core::Layer::new(0.1, 0.4, thick, 0.0, n).unwrap();
         let s = mono(vec![l], Light::Collimated { theta_deg: theta }, 1.0, sub);
-        let c = &solve(&s, &KmOptions::default()).unwrap().channels[0];
+        let c = &solve(&s, &KmOptions::SEED).unwrap().channels[0];
         let r = layer_rt(0.1, 0.4, thick).unwrap().r;
         let expect = r_e + (1.0 - r_e) * (1.0 - r_i) * r / (1.0 - r_i * r);
         assert!((c.reflectance - expect).abs() < 1e-15, "{} vs {expect}", c.reflectance);
@@ -442,12 +442,9 @@ fn saunderson_correction() {
     }
     // Diffuse light: r_e is the hemispherical external reflectance.
     let l = km_core::Layer::new(0.1, 0.4, f64::INFINITY, 0.0, n).unwrap();
-    let c = &solve(
-        &mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Black),
-        &KmOptions::default(),
-    )
-    .unwrap()
-    .channels[0];
+    let c = &solve(&mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::SEED)
+        .unwrap()
+        .channels[0];
     let r_ed = km_core::fresnel::diffuse_reflectance(1.0, n);
     assert!((c.reflectance_specular - r_ed).abs() < 1e-15);
     assert_eq!(c.transmittance_direct, 0.0);
@@ -455,7 +452,7 @@ fn saunderson_correction() {
     let l = km_core::Layer::new(0.0, 0.5, 2.0, 0.0, 1.4).unwrap();
     let c = &solve(
         &mono(vec![l], Light::Diffuse, 1.0, Substrate::Transparent { n: 1.2 }),
-        &KmOptions::default(),
+        &KmOptions::SEED,
     )
     .unwrap()
     .channels[0];
@@ -470,33 +467,27 @@ fn substrates_and_half_spaces() {
     let rho = 0.8;
     let c = &solve(
         &mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Lambertian { albedo: rho }),
-        &KmOptions::default(),
+        &KmOptions::SEED,
     )
     .unwrap()
     .channels[0];
     assert!((c.reflectance - (rt.r + rt.t * rt.t * rho / (1.0 - rt.r * rho))).abs() < 1e-15);
     assert_eq!(c.transmittance, 0.0);
     // Black ground: the bare layer's R; absorbed = 1 - R (layer + ground).
-    let c = &solve(
-        &mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Black),
-        &KmOptions::default(),
-    )
-    .unwrap()
-    .channels[0];
+    let c = &solve(&mono(vec![l.clone()], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::SEED)
+        .unwrap()
+        .channels[0];
     assert!((c.reflectance - rt.r).abs() < 1e-15 && (c.absorptance - (1.0 - rt.r)).abs() < 1e-15);
     assert!((c.absorptance_layers.as_ref().unwrap()[0] - rt.a).abs() < 1e-15);
     // A half-space under a layer equals a very thick last layer.
     let h = km_core::Layer::new(0.3, 2.0, f64::INFINITY, 0.0, 1.0).unwrap();
     let thick = km_core::Layer::new(0.3, 2.0, 1e3, 0.0, 1.0).unwrap();
-    let a = &solve(
-        &mono(vec![l.clone(), h], Light::Diffuse, 1.0, Substrate::Black),
-        &KmOptions::default(),
-    )
-    .unwrap()
-    .channels[0];
+    let a = &solve(&mono(vec![l.clone(), h], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::SEED)
+        .unwrap()
+        .channels[0];
     let b = &solve(
         &mono(vec![l, thick], Light::Diffuse, 1.0, Substrate::Transparent { n: 1.0 }),
-        &KmOptions::default(),
+        &KmOptions::SEED,
     )
     .unwrap()
     .channels[0];
@@ -514,7 +505,8 @@ fn mappings() {
     assert!((s - (0.06 - 0.025)).abs() < 1e-15);
     let bad = km_core::Layer::new(1.0, 0.4, 1.0, 0.8, 1.0).unwrap();
     let scene = mono(vec![bad], Light::Diffuse, 1.0, Substrate::Black);
-    let err = solve(&scene, &KmOptions { mapping: KmMapping::StarEtAl1988 }).unwrap_err();
+    let err = solve(&scene, &KmOptions { mapping: KmMapping::StarEtAl1988, ..KmOptions::SEED })
+        .unwrap_err();
     assert!(err.to_string().contains("layer[1]"), "{err}");
     for m in [KmMapping::Seed, KmMapping::StarEtAl1988, KmMapping::Gate1974] {
         assert_eq!(m.name().parse::<KmMapping>().unwrap(), m);
@@ -546,7 +538,7 @@ fn directions_give_lambertian_equivalent_values() {
     let text = "[light]\nkind = \"collimated\"\ntheta_deg = 45.0\n[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 0.5\nn = 1.3\n\
                 [substrate]\nkind = \"lambertian\"\nalbedo = 0.8\n[output]\ndirections_deg = [[0.0, 0.0], [30.0, 180.0]]\n";
     let scene = Scene::from_toml_str(text).unwrap();
-    let sol = solve(&scene, &KmOptions::default()).unwrap();
+    let sol = solve(&scene, &KmOptions::SEED).unwrap();
     let c = &sol.channels[0];
     assert_eq!(c.brdf.len(), 2);
     let expect = (c.reflectance - c.reflectance_specular) / std::f64::consts::PI;
@@ -614,7 +606,7 @@ fn extreme_scenes_stay_finite_and_balanced() {
     {
         for light in [Light::Collimated { theta_deg: 89.0 }, Light::Diffuse] {
             let s = mono(layers.clone(), light, 1.0, sub);
-            let c = &solve(&s, &KmOptions::default()).unwrap().channels[0];
+            let c = &solve(&s, &KmOptions::SEED).unwrap().channels[0];
             let all = [c.reflectance, c.transmittance, c.absorptance, c.transmittance_direct];
             assert!(all.iter().all(|x| x.is_finite() && *x >= 0.0), "{c:?}");
             assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-14, "{c:?}");
@@ -669,7 +661,7 @@ fn diffuse_light_gets_no_notes_about_a_collimated_beam() {
     let base = "[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 0.5\nn = 1.3\n";
     let diffuse = Scene::from_toml_str(&format!("[light]\nkind = \"diffuse\"\n{base}")).unwrap();
     let beam = Scene::from_toml_str(base).unwrap();
-    let notes = |s: &Scene| solve(s, &KmOptions::default()).unwrap().notes;
+    let notes = |s: &Scene| solve(s, &KmOptions::SEED).unwrap().notes;
     let mentions = |n: &[String]| n.iter().any(|x| x.contains("collimated") || x.contains("beam"));
     assert!(!mentions(&notes(&diffuse)), "{:?}", notes(&diffuse));
     assert!(mentions(&notes(&beam)), "{:?}", notes(&beam));

@@ -74,6 +74,18 @@ pub fn cone_solid_angle(alpha: f64) -> f64 {
     4.0 * PI * (0.5 * alpha).sin().powi(2)
 }
 
+/// Half-angle in degrees of a cone of solid angle `omega` (the inverse of
+/// [`cone_solid_angle`]: `alpha = 2 asin(sqrt(omega / (4 pi)))`).
+///
+/// ```
+/// use km_montecarlo::bins::{cone_half_angle_deg, cone_solid_angle};
+/// let a = cone_half_angle_deg(cone_solid_angle(5f64.to_radians()));
+/// assert!((a - 5.0).abs() < 1e-12);
+/// ```
+pub fn cone_half_angle_deg(omega: f64) -> f64 {
+    (2.0 * (omega / (4.0 * PI)).sqrt().asin()).to_degrees()
+}
+
 /// Projected solid angle `P = integral_B mu dw` of the cone of half-angle `alpha`
 /// (radians) around a direction of polar angle `theta_d` (radians), counting
 /// only the part above the horizon: eq. B2 when the cone lies inside the

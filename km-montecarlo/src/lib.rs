@@ -56,3 +56,4 @@ pub use run::{RadialProfile, merge_grid, radial_profile, run_shard, solve, solve
 pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,
 };
+pub use transport::cone_bins;

@@ -628,8 +628,13 @@ fn channel_result(s: &BatchStats, l: &Layout, meta: &ChannelMeta) -> ChannelResu
         brdf: per(&|k| l.brdf(k), l.dirs, &meta.cone, &mean),
         btdf: per(&|k| l.btdf(k), l.dirs, &meta.cone_t, &mean),
         stderr: Some(err),
-        error_estimate: None,
         absorptance_layers: Some(per(&|k| l.a_layer(k), l.layers, &ones, &mean)),
+        // The cones the BRDF/BTDF values are means over (eq. B1, B2').
+        cones: (l.dirs > 0).then(|| km_core::solution::Cones {
+            brdf: meta.cone.iter().map(|&w| crate::bins::cone_half_angle_deg(w)).collect(),
+            btdf: meta.cone_t.iter().map(|&w| crate::bins::cone_half_angle_deg(w)).collect(),
+        }),
+        ..Default::default()
     }
 }
 

@@ -645,6 +645,14 @@ fn exit_edge(n_in: f64, n_out: f64) -> f64 {
     if n_out > n_in { (n_in / n_out).asin() } else { PI / 2.0 }
 }
 
+/// Half-angles (radians) of the cone bins of `scene`'s output directions
+/// for bins of `bin_half_angle_deg` (eq. B2'): `(reflection side,
+/// transmission side)`, one per direction.
+pub fn cone_bins(scene: &MonoScene, bin_half_angle_deg: f64) -> (Vec<f64>, Vec<f64>) {
+    let opts = McOptions { bin_half_angle_deg, ..Default::default() };
+    (cone_half_angles(scene, &opts, true), cone_half_angles(scene, &opts, false))
+}
+
 /// Half-angles of the cone bins of the output directions (eq. B2') on the
 /// reflection side (`top`) or the transmission side.
 fn cone_half_angles(scene: &MonoScene, opts: &McOptions, top: bool) -> Vec<f64> {

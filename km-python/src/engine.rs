@@ -38,6 +38,10 @@ pub struct Options {
     pub analog: bool,
     /// Compute every effect (planner off), for comparison.
     pub all_effects: bool,
+    /// The two-flux model [km] (`None`: four-flux).
+    pub km_model: Option<km::KmModel>,
+    /// Cone half-angle of the BRDF/BTDF values, degrees [mc, multiflux].
+    pub cone: Option<f64>,
 }
 
 impl Default for Options {
@@ -52,6 +56,8 @@ impl Default for Options {
             threads: None,
             analog: false,
             all_effects: false,
+            km_model: None,
+            cone: None,
         }
     }
 }
@@ -103,11 +109,16 @@ impl Options {
         unused("seed", self.seed.is_some(), m == Method::Mc)?;
         unused("threads", self.threads.is_some(), m == Method::Mc)?;
         unused("analog", self.analog, m == Method::Mc)?;
+        unused("km_model", self.km_model.is_some(), m == Method::Km)?;
+        unused("cone", self.cone.is_some(), matches!(m, Method::Mc | Method::Multiflux))?;
         if self.tolerance.is_some() && self.streams.is_some() {
             return Err(Error::option("tolerance", "give either streams or tolerance, not both"));
         }
         let method = match m {
-            Method::Km => km::MethodOptions::Km(km::KmOptions::default()),
+            Method::Km => km::MethodOptions::Km(km::KmOptions {
+                model: self.km_model.unwrap_or_default(),
+                ..Default::default()
+            }),
             Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
                 streams: self.streams,
                 neumann_order: self.order,
@@ -118,7 +129,12 @@ impl Options {
             Method::DirectionSet => km::MethodOptions::new(Method::DirectionSet),
             Method::Dipole => km::MethodOptions::Dipole(km::DipoleOptions::default()),
         };
-        Ok(km::Options { method, tolerance: self.tolerance, all_effects: self.all_effects })
+        Ok(km::Options {
+            method,
+            tolerance: self.tolerance,
+            all_effects: self.all_effects,
+            cone_deg: self.cone,
+        })
     }
 }
 

@@ -17,9 +17,15 @@ from conftest import EXAMPLES
 # Monte Carlo with few photons keeps the run short; the seed fixes the result.
 METHODS = [
     ("km", [], {}),
+    ("km", ["--km-model", "two-flux"], {"km_model": "two-flux"}),
     ("multiflux", [], {}),
     ("multiflux", ["--streams", "8"], {"streams": 8}),
     ("mc", ["--samples", "20000", "--seed", "3"], {"samples": 20000, "seed": 3}),
+    (
+        "mc",
+        ["--samples", "20000", "--seed", "3", "--cone", "2"],
+        {"samples": 20000, "seed": 3, "cone": 2.0},
+    ),
     ("dipole", [], {}),
     ("direction-set", [], {}),
     ("multiflux", ["--tolerance", "1e-4"], {"tolerance": 1e-4}),
@@ -76,3 +82,27 @@ def test_to_dict_equals_the_cli_json(km_cli, scene_path, method, flags, options)
 def test_the_examples_are_there():
     # Guards the parametrisation above against an empty glob.
     assert len(EXAMPLES) >= 5
+
+
+def test_model_error_estimate_and_the_new_options():
+    """`model_error_estimate` (km, dipole) is the JSON's key as a property;
+    `km_model` and `cone` reach the library and are refused where they mean
+    nothing. The glass plate (n 1.5, normal incidence) is exact under the
+    four-flux model, 2 r / (1 + r) with r = 0.04, and 0.3986 under the
+    seed's two-flux model, whose estimate covers its error."""
+    plate = km.Scene.from_toml("[[layer]]\ntau = 0\nalbedo = 0\nn = 1.5\n")
+    four = km.solve(plate, "km")
+    assert abs(four.reflectance - 0.08 / 1.04) < 1e-15
+    assert four.model_error_estimate["reflectance"] < 1e-14
+    assert four.to_dict()["model_error_estimate"]["reflectance"] == four.model_error_estimate["reflectance"]
+    two = km.solve(plate, "km", km_model="two-flux")
+    error = abs(two.reflectance - 0.08 / 1.04)
+    assert error > 0.3 and two.model_error_estimate["reflectance"] >= error - 1e-12
+    assert km.solve(plate, "multiflux").model_error_estimate is None
+    for method, options in [("multiflux", {"km_model": "two-flux"}), ("km", {"cone": 2.0})]:
+        with pytest.raises(km.KmError):
+            km.solve(plate, method, **options)
+    with pytest.raises(km.KmError):
+        km.solve(plate, "km", km_model="six-flux")
+    with pytest.raises(km.KmError):
+        km.solve(plate, "mc", samples=100, cone=50.0)

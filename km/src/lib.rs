@@ -12,6 +12,10 @@
 //!   channels with identical coefficients once, cuts a layer too thick to
 //!   transmit anything into a half-space for the dipole, meets an accuracy
 //!   target ([`accuracy`]), and attaches the plan to the [`Solution`].
+//! * [`cone`]: BRDF/BTDF values as means over cones (`Options::cone_deg`):
+//!   Monte Carlo's bins set, the multi-flux values averaged alike.
+//! * [`model_error`]: `model_error_estimate` of the two-flux and dipole
+//!   answers, from a cheap multi-flux solve of the same scene.
 //! * [`profile()`]: the radially resolved reflectance `Rd(r)`.
 //! * [`KmError`]: every refusal, in the library's own words.
 //! * [`text`]: a solution, a scene and a plan as text for people;
@@ -38,11 +42,13 @@
 
 pub mod accuracy;
 pub mod bsdf_file;
+pub mod cone;
 pub mod direction_set;
 mod error;
 pub mod field;
 pub mod mc_field;
 mod method;
+pub mod model_error;
 mod profile;
 mod run;
 pub mod settings;
@@ -57,7 +63,7 @@ pub use km_core::atomic_file;
 pub use km_core::plan::{Plan, Request, Simplification};
 pub use km_core::set::SetEdit;
 pub use km_core::solution::{AccuracyReport, Diagnostics, MethodDiagnostics};
-pub use km_core::two_flux::{KmMapping, KmOptions};
+pub use km_core::two_flux::{KmMapping, KmModel, KmOptions};
 pub use km_core::{
     ChannelResult, Layer, Light, MonoScene, Scene, SceneLimits, Solution, Substrate, Uncertainty,
     read_scene_text,
@@ -108,11 +114,18 @@ use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels}
 /// ```
 pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     let Prepared { plan, solver, reduced, cut } = prepare(scene, options)?;
+    let method = options.method();
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);
+    let solved = work;
     let work = cut.as_ref().map_or(work, |(half, _)| half);
-    let mut sol = match options.tolerance {
-        Some(tol) => solver.solve_unplanned_to(work, tol)?,
-        None => solver.solve_unplanned(work)?,
+    let mut sol = match (options.cone_deg, &solver) {
+        (Some(deg), MethodOptions::Multiflux(_)) => {
+            cone::solve_mean(&solver, work, deg, options.tolerance)?
+        }
+        _ => match options.tolerance {
+            Some(tol) => solver.solve_unplanned_to(work, tol)?,
+            None => solver.solve_unplanned(work)?,
+        },
     };
     if let Some((_, bound)) = cut {
         sol.notes.push(format!(
@@ -120,6 +133,14 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
              the incident (planner rule `transmission`): solved as a half-space",
             bound.max(f64::MIN_POSITIVE)
         ));
+    }
+    // The closed forms say how far they are off (eq. K25), on the channels
+    // solved (before the dipole's half-space cut: the estimate covers it).
+    if matches!(method, Method::Km | Method::Dipole) {
+        model_error::attach(&mut sol, solved);
+    }
+    if method == Method::Mc {
+        cone::note_mc(&mut sol);
     }
     if let Some((_, map)) = &reduced {
         sol = expand_channels(sol, map, scene.labels());
@@ -167,7 +188,7 @@ fn prepare(scene: &Scene, options: &Options) -> Result<Prepared, KmError> {
     let method = options.method();
     let all_effects = options.all_effects || options.method.all_effects();
     let plan = plan_for(scene, method, all_effects);
-    let solver = options.method.with_all_effects(all_effects);
+    let solver = cone::with_cone(options.method.with_all_effects(all_effects), options.cone_deg)?;
     // Channels with identical coefficients are solved once (`duplicate-channels`).
     let reduced = plan.skips(Simplification::DuplicateChannels).then(|| reduce_channels(scene));
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);

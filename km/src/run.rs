@@ -126,6 +126,12 @@ pub const METHOD_SETTINGS: &[MethodSetting] = &[
     setting("order", &[Method::Multiflux], "the Neumann order of multi-flux adding"),
     setting("directions", &[Method::DirectionSet], "the size of the direction set on the sphere"),
     setting("km_mapping", &[Method::Km], "how two-flux K, S come from the scene"),
+    setting("km_model", &[Method::Km], "the four-flux or the two-flux model"),
+    setting(
+        "cone",
+        &[Method::Mc, Method::Multiflux],
+        "the cones the BRDF/BTDF values are means over (Monte Carlo bins; multi-flux averaged alike)",
+    ),
     setting("fdr", &[Method::Dipole], "how the dipole computes F_dr"),
     setting("dipole", &[Method::Dipole], "which dipole"),
     setting(

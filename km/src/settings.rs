@@ -68,6 +68,8 @@ const ALL: &[Method] = &[Km, Mf, Ds, Mc, Dipole];
 
 /// The km-mapping names (`km_core::two_flux::KmMapping`).
 const MAPPINGS: &[&str] = &["seed", "star1988", "gate1974"];
+/// The two-flux models (`km_core::two_flux::KmModel`).
+const KM_MODELS: &[&str] = &["four-flux", "two-flux"];
 /// The absorption estimators of Monte Carlo.
 const ESTIMATORS: &[&str] = &["survival", "analog"];
 /// How the dipole computes `F_dr`.
@@ -98,9 +100,29 @@ pub const SETTINGS: &[Setting] = &[
         name: "km_mapping",
         methods: &[Km],
         kind: Kind::Choice(MAPPINGS),
-        default: Some("seed"),
+        default: Some("gate1974"),
         conflicts: &[],
-        help: "how two-flux K, S come from the scene (seed: K = sigma_a, S = sigma_s)",
+        help: "how two-flux K, S come from the scene (gate1974: K = 2 sigma_a, S = 3/4 sigma_s \
+               (1 - g), the least error on the grid of docs/two-flux.md §13; seed: K = sigma_a, \
+               S = sigma_s)",
+    },
+    Setting {
+        name: "km_model",
+        methods: &[Km],
+        kind: Kind::Choice(KM_MODELS),
+        default: Some("four-flux"),
+        conflicts: &[],
+        help: "the two-flux model: four-flux carries a collimated beam as a beam \
+               (docs/two-flux.md §12); two-flux is the seed's diffuse model",
+    },
+    Setting {
+        name: "cone",
+        methods: &[Mf, Mc],
+        kind: Kind::Real { min: 0.0, max: crate::cone::MAX_CONE_DEG },
+        default: None,
+        conflicts: &[],
+        help: "half-angle in degrees of the cones the BRDF/BTDF values are means over: Monte \
+               Carlo's bins (default 5), or the multi-flux values averaged alike",
     },
     Setting {
         name: "streams",
@@ -452,6 +474,10 @@ impl Settings {
                     "gate1974" => km_core::two_flux::KmMapping::Gate1974,
                     _ => km_core::two_flux::KmMapping::Seed,
                 },
+                model: match self.choice("km_model") {
+                    "two-flux" => km_core::two_flux::KmModel::TwoFlux,
+                    _ => km_core::two_flux::KmModel::FourFlux,
+                },
             }),
             Mf => MethodOptions::Multiflux(km_multiflux::MultifluxOptions {
                 streams: usize_of("streams"),
@@ -488,7 +514,12 @@ impl Settings {
                 },
             }),
         };
-        let options = Options { method, tolerance: self.real("tolerance"), all_effects };
+        let options = Options {
+            method,
+            tolerance: self.real("tolerance"),
+            all_effects,
+            cone_deg: self.real("cone"),
+        };
         match self.get("budget") {
             Some(Value::Real(f)) => options.with_budget(*f),
             _ => Ok(options),
@@ -534,6 +565,8 @@ mod tests {
             panic!()
         };
         assert_eq!(o.directions, crate::direction_set::DEFAULT_DIRECTIONS);
+        let MethodOptions::Km(o) = Settings::new(Km).options().unwrap().method else { panic!() };
+        assert_eq!(o, km_core::two_flux::KmOptions::default());
     }
 
     /// Each refusal names the setting and says why.
@@ -550,6 +583,9 @@ mod tests {
             (Mf, &[("budget", "-1")], "> 0"),
             (Mf, &[("bogus", "1")], "unknown setting"),
             (Mf, &[("order", "2"), ("order", "3")], "given twice"),
+            (Km, &[("km_model", "six-flux")], "four-flux, two-flux"),
+            (Km, &[("cone", "5")], "does not apply to method km"),
+            (Mc, &[("cone", "50")], "<= 45"),
         ];
         for (method, sets, words) in cases {
             let mut s = Settings::new(*method);

@@ -228,6 +228,11 @@ pub struct Options {
     pub tolerance: Option<f64>,
     /// Switch the planner off: compute every effect (for comparison).
     pub all_effects: bool,
+    /// Cone half-angle, degrees, of the BRDF/BTDF values: Monte Carlo's
+    /// bins, or the multi-flux values averaged over the same cones
+    /// ([`crate::cone`]); `None`: Monte Carlo's default bins, multi-flux
+    /// values at the directions themselves.
+    pub cone_deg: Option<f64>,
 }
 
 impl Options {
@@ -252,11 +257,18 @@ impl Options {
         self.all_effects = all_effects;
         self
     }
+
+    /// With BRDF/BTDF values that are means over cones of half-angle
+    /// `deg` degrees (Monte Carlo, multi-flux; docs/montecarlo.md §6).
+    pub fn with_cone(mut self, deg: f64) -> Options {
+        self.cone_deg = Some(deg);
+        self
+    }
 }
 
 impl From<MethodOptions> for Options {
     fn from(method: MethodOptions) -> Options {
-        Options { method, tolerance: None, all_effects: false }
+        Options { method, tolerance: None, all_effects: false, cone_deg: None }
     }
 }
 

@@ -110,14 +110,16 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
             let _ = writeln!(s);
         }
     }
+    cone_lines(&mut s, sol);
+    model_error_lines(&mut s, sol);
     if mc {
         let photons = sol.diagnostics.mc().map(|m| m.samples);
         if let Some(n) = photons {
             let _ = writeln!(s, "Monte Carlo: {n} photons per channel; ± is one standard error");
         }
     }
-    if let MethodDiagnostics::TwoFlux { mapping } = &sol.diagnostics.method {
-        let _ = writeln!(s, "{}", km_mapping_words(mapping.name(), scene));
+    if let MethodDiagnostics::TwoFlux { mapping, model } = &sol.diagnostics.method {
+        let _ = writeln!(s, "{}", km_mapping_words(mapping.name(), model.name(), scene));
     }
     if let Some(a) = &sol.accuracy {
         let _ = writeln!(
@@ -132,17 +134,55 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     s
 }
 
-/// Which two-flux mapping was used, how K, S relate to the scene's
-/// sigma_a, sigma_s and g (docs/two-flux.md eq. K13–K14), and when the
-/// multi-flux method is the better answer.
-fn km_mapping_words(mapping: &str, scene: Option<&Scene>) -> String {
+/// The cones the BRDF/BTDF values are means over (Monte Carlo bins,
+/// cone-averaged multi-flux), per direction, degrees.
+fn cone_lines(s: &mut String, sol: &Solution) {
+    let Some(c) = sol.channels.iter().find_map(|c| c.cones.as_ref()) else { return };
+    let list = |v: &[f64]| v.iter().map(|a| format!("{a:.2}")).collect::<Vec<_>>().join(", ");
+    let _ = writeln!(
+        s,
+        "BRDF/BTDF are means over cones of half-angle (degrees, per direction): BRDF {}; BTDF {}",
+        list(&c.brdf),
+        list(&c.btdf)
+    );
+}
+
+/// The model error estimate of a closed form (docs/two-flux.md eq. K25),
+/// one row per total, one column per channel.
+fn model_error_lines(s: &mut String, sol: &Solution) {
+    if sol.channels.iter().all(|c| c.model_error_estimate.is_none()) {
+        return;
+    }
+    let _ = writeln!(s, "model error estimate (against a 4-stream multi-flux solve, eq. K25):");
+    for ((_, _, get), word) in TOTALS.into_iter().zip(TOTAL_WORDS) {
+        let _ = write!(s, "{word:<24}");
+        for c in &sol.channels {
+            let e = c.model_error_estimate.as_ref().and_then(get);
+            let cell = match e {
+                None => "-".to_string(),
+                Some(0.0) => "0".to_string(),
+                Some(e) => format!("{e:.1e}"),
+            };
+            let _ = write!(s, "{cell:>14}");
+        }
+        let _ = writeln!(s);
+    }
+}
+
+/// Which two-flux model and mapping were used, how K, S relate to the
+/// scene's sigma_a, sigma_s and g (docs/two-flux.md eq. K13–K14), and when
+/// the multi-flux method is the better answer.
+fn km_mapping_words(mapping: &str, model: &str, scene: Option<&Scene>) -> String {
     let formula = match mapping {
         "seed" => "K = sigma_a, S = sigma_s (g ignored)",
         "star1988" => "K = 2 sigma_a, S = 3/4 sigma_s (1 - g) - 1/4 sigma_a",
         "gate1974" => "K = 2 sigma_a, S = 3/4 sigma_s (1 - g)",
         _ => "",
     };
-    let mut s = format!("K/S mapping {mapping}: {formula} (--km-mapping seed|star1988|gate1974)");
+    let mut s = format!(
+        "model {model} (--km-model four-flux|two-flux); K/S mapping {mapping}: {formula} \
+         (--km-mapping seed|star1988|gate1974)"
+    );
     let questionable = scene.is_some_and(|sc| {
         sc.channels()
             .iter()
@@ -151,7 +191,8 @@ fn km_mapping_words(mapping: &str, scene: Option<&Scene>) -> String {
     if questionable {
         s.push_str(
             "\nthe scene has a Fresnel interface or g != 0: the two-flux answer depends on the \
-             mapping; --method multiflux solves the angular problem",
+             mapping and the model (model error estimate above); --method multiflux solves the \
+             angular problem",
         );
     }
     s

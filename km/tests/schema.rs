@@ -232,3 +232,22 @@ fn the_checker_rejects_what_the_schema_forbids() {
     v.as_object_mut().unwrap().remove("notes");
     assert!(!errors(&v).is_empty(), "missing notes accepted");
 }
+
+#[test]
+fn model_error_estimates_and_cones_validate() {
+    // Three channels: model_error_estimate and cone_half_angle_deg become
+    // objects of lists over channels.
+    let paint = example("paint-over-primer.toml");
+    let v = km::solve(&paint, &Options::new(Method::Km)).unwrap().to_json();
+    assert_eq!(v["model_error_estimate"]["brdf"].as_array().unwrap().len(), 3);
+    assert!(errors(&v).is_empty(), "{:?}", errors(&v));
+    let v = km::solve(&paint, &mc(2_000)).unwrap().to_json();
+    assert_eq!(v["cone_half_angle_deg"]["brdf"][2].as_array().unwrap().len(), 3);
+    assert!(errors(&v).is_empty(), "{:?}", errors(&v));
+    let slab = example("fresnel-slab.toml");
+    let one = slab.channels()[0].with_directions(vec![[10.0, 180.0]]).unwrap();
+    let slab = slab.with_channels(vec![one]).unwrap();
+    let v = km::solve(&slab, &Options::new(Method::Multiflux).with_cone(3.0)).unwrap().to_json();
+    assert_eq!(v["cone_half_angle_deg"]["btdf"], json!([3.0]));
+    assert!(errors(&v).is_empty(), "{:?}", errors(&v));
+}

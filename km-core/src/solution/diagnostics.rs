@@ -9,7 +9,7 @@
 
 use serde_json::{Map, Value, json};
 
-use crate::two_flux::KmMapping;
+use crate::two_flux::{KmMapping, KmModel};
 
 /// What a solve reports beside its values (the method's own part and the
 /// front end's).
@@ -40,10 +40,13 @@ pub enum MethodDiagnostics {
     /// None reported.
     #[default]
     None,
-    /// Two-flux Kubelka–Munk: the K, S mapping (JSON `km_mapping`).
+    /// Two-flux Kubelka–Munk: the K, S mapping (JSON `km_mapping`) and the
+    /// model (JSON `km_model`).
     TwoFlux {
         /// How K and S came from the scene.
         mapping: KmMapping,
+        /// Four-flux or two-flux.
+        model: KmModel,
     },
     /// Multi-flux, Fourier–Gauss mode.
     Multiflux(MultifluxDiagnostics),
@@ -212,8 +215,9 @@ impl MethodDiagnostics {
         let mut m = Map::new();
         match self {
             MethodDiagnostics::None => {}
-            MethodDiagnostics::TwoFlux { mapping } => {
+            MethodDiagnostics::TwoFlux { mapping, model } => {
                 m.insert("km_mapping".into(), json!(mapping.name()));
+                m.insert("km_model".into(), json!(model.name()));
             }
             MethodDiagnostics::Multiflux(d) => {
                 if let Some(b) = d.cutoff_bound {

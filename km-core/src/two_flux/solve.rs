@@ -7,14 +7,37 @@ use crate::error::CoreError;
 use crate::scene::{MonoScene, Scene, Substrate};
 use crate::solution::{ChannelResult, Solution};
 
-use super::KmMapping;
 use super::stack::{HemisphericalCache, Slab, stack_adding};
+use super::{KmMapping, KmModel};
 
 /// Options of the two-flux solver.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct KmOptions {
-    /// How `(sigma_a, sigma_s, g)` become `(K, S)`; the seed's identity by default.
+    /// How `(sigma_a, sigma_s, g)` become `(K, S)`.
     pub mapping: KmMapping,
+    /// Four-flux (the default: a collimated beam is carried as a beam) or
+    /// the seed's two-flux model.
+    pub model: KmModel,
+}
+
+impl KmOptions {
+    /// The seed paper's model: two diffuse fluxes with `K = sigma_a`,
+    /// `S = sigma_s` (seed §2). The paper's figures are computed with it.
+    pub const SEED: KmOptions = KmOptions { mapping: KmMapping::Seed, model: KmModel::TwoFlux };
+}
+
+/// `(K, S)` of layer `index` (0-based) under `mapping`, a refusal naming the layer.
+pub(super) fn layer_coefficients(
+    mapping: KmMapping,
+    layer: &crate::layer::Layer,
+    index: usize,
+) -> Result<(f64, f64), CoreError> {
+    mapping.coefficients(layer).map_err(|e| match e {
+        CoreError::Unsupported { method, reason } => {
+            CoreError::Unsupported { method, reason: format!("layer[{}]: {reason}", index + 1) }
+        }
+        other => other,
+    })
 }
 
 /// The stack of one channel as slabs, with bookkeeping for the answer.
@@ -56,12 +79,7 @@ pub(super) fn build(
             t_direct *= iface.t_tb;
             slabs.push(iface);
         }
-        let (k, s) = mapping.coefficients(layer).map_err(|e| match e {
-            CoreError::Unsupported { method, reason } => {
-                CoreError::Unsupported { method, reason: format!("layer[{}]: {reason}", i + 1) }
-            }
-            other => other,
-        })?;
+        let (k, s) = layer_coefficients(mapping, layer, i)?;
         let slab = Slab::layer(k, s, layer.thickness())?;
         t_direct *= if layer.is_half_space() {
             if k + s == 0.0 { 1.0 } else { 0.0 }
@@ -113,6 +131,9 @@ fn solve_channel(
     opts: &KmOptions,
     cache: &mut HemisphericalCache,
 ) -> Result<ChannelResult, CoreError> {
+    if opts.model == KmModel::FourFlux && mono.light().mu0().is_some() {
+        return super::four_flux::solve_channel(mono, opts.mapping, cache);
+    }
     let b = build(mono, opts.mapping, cache)?;
     let f = stack_adding(&b.slabs);
     let t = if b.open_bottom { f.t } else { 0.0 };
@@ -162,7 +183,7 @@ fn solve_channel(
 /// ```
 /// use km_core::two_flux::{solve, KmOptions};
 /// let scene = km_core::Scene::from_toml_str("[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 1.0\n").unwrap();
-/// let sol = solve(&scene, &KmOptions::default()).unwrap();
+/// let sol = solve(&scene, &KmOptions::SEED).unwrap();
 /// let rt = km_core::two_flux::layer_rt(0.1, 0.4, 1.0).unwrap();
 /// assert!((sol.channels[0].reflectance - rt.r).abs() < 1e-15);
 /// ```
@@ -180,7 +201,16 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
     // The collimated-beam notes only where a beam falls on the stack.
     let collimated = scene.channels().iter().any(|m| m.light().mu0().is_some());
     let mut notes = Vec::new();
-    if collimated {
+    if collimated && opts.model == KmModel::FourFlux {
+        notes.push(
+            "four-flux: the collimated beam crosses each interface with the Fresnel reflectance \
+             at its own angle and decays along its refracted path; what it scatters feeds the \
+             diffuse Kubelka-Munk pair (Saunderson interfaces); reflectance_specular and \
+             transmittance_direct are the beam's mirror reflections and the beam leaving the \
+             bottom"
+                .to_string(),
+        );
+    } else if collimated {
         notes.push(
             "two-flux fluxes are diffuse: a collimated beam's angle enters only through the \
              Fresnel reflectance of the top interface (Saunderson)"
@@ -211,7 +241,10 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
         seconds,
         notes,
         diagnostics: crate::solution::Diagnostics {
-            method: crate::solution::MethodDiagnostics::TwoFlux { mapping: opts.mapping },
+            method: crate::solution::MethodDiagnostics::TwoFlux {
+                mapping: opts.mapping,
+                model: opts.model,
+            },
             ..Default::default()
         },
         ..Default::default()

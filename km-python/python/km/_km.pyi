@@ -133,6 +133,9 @@ class Solution:
     def error_estimate(self) -> dict[str, FloatOrArray] | None:
         """Estimated errors by key (an accuracy target was given), or None."""
     @property
+    def model_error_estimate(self) -> dict[str, FloatOrArray] | None:
+        """How far a closed form (km, dipole) may be off, by key (eq. K25), or None."""
+    @property
     def notes(self) -> list[str]:
         """What the solver simplified, with bounds of what it neglected."""
     @property
@@ -177,6 +180,8 @@ def solve(
     threads: int | None = None,
     analog: bool = False,
     all_effects: bool = False,
+    km_model: Literal["four-flux", "two-flux"] | None = None,
+    cone: float | None = None,
 ) -> Solution:
     """Solve a scene, as ``km solve SCENE --method M --json`` does.
 
@@ -185,8 +190,11 @@ def solve(
     photons per channel (default 10^6), seed (default 1), worker threads
     (default all cores; never changes the result), analog absorption;
     ``tolerance`` [multiflux, mc]: accuracy target; ``all_effects``: the
-    planner off. An option the method does not read is refused. The GIL is
-    released while the solver runs.
+    planner off; ``km_model`` [km]: ``"four-flux"`` (default) or the seed's
+    ``"two-flux"``; ``cone`` [mc, multiflux]: BRDF/BTDF values as means over
+    cones of this half-angle in degrees (Monte Carlo's bins, default 5; the
+    multi-flux values averaged alike). An option the method does not read
+    is refused. The GIL is released while the solver runs.
     """
 
 def field(

@@ -92,13 +92,25 @@ pub(crate) fn options(
     all_effects: bool,
 ) -> PyResult<Options> {
     let method: Method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
-    Ok(Options { method, streams, order, samples, seed, tolerance, threads, analog, all_effects })
+    Ok(Options {
+        method,
+        streams,
+        order,
+        samples,
+        seed,
+        tolerance,
+        threads,
+        analog,
+        all_effects,
+        ..Default::default()
+    })
 }
 
 /// Solve a scene (see `km.solve`).
 #[pyfunction]
 #[pyo3(signature = (scene, method="multiflux", *, streams=None, order=None, samples=None,
-                    seed=None, tolerance=None, threads=None, analog=false, all_effects=false))]
+                    seed=None, tolerance=None, threads=None, analog=false, all_effects=false,
+                    km_model=None, cone=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve(
     py: Python<'_>,
@@ -112,8 +124,10 @@ pub(crate) fn solve(
     threads: Option<usize>,
     analog: bool,
     all_effects: bool,
+    km_model: Option<&str>,
+    cone: Option<f64>,
 ) -> PyResult<PySolution> {
-    let opts = options(
+    let mut opts = options(
         py,
         method,
         streams,
@@ -125,6 +139,11 @@ pub(crate) fn solve(
         analog,
         all_effects,
     )?;
+    opts.km_model = km_model
+        .map(|m| m.parse::<km::KmModel>().map_err(|e| Error::option("km_model", e.to_string())))
+        .transpose()
+        .map_err(|e| py_err(py, e))?;
+    opts.cone = cone;
     let scene = &scene.get().scene;
     let sol = guarded(py, || crate::engine::solve(scene, &opts))?;
     Ok(PySolution { sol })

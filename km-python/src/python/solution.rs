@@ -190,6 +190,12 @@ impl PySolution {
     fn error_estimate<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         self.per_key(py, |c| c.error_estimate.as_ref())
     }
+    /// How far a closed form (km, dipole) may be off, by key
+    /// (docs/two-flux.md eq. K25), or None for the other methods.
+    #[getter]
+    fn model_error_estimate<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.per_key(py, |c| c.model_error_estimate.as_ref())
+    }
     /// Notes of the solver (what it simplified, bounds of what it neglected).
     #[getter]
     fn notes(&self) -> Vec<String> {
