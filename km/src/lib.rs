@@ -43,6 +43,7 @@ mod error;
 pub mod mc_field;
 mod method;
 mod profile;
+pub mod request_budget;
 mod run;
 pub mod settings;
 mod solver;
