@@ -135,3 +135,12 @@ def test_fit_of_inconsistent_unscattered_transmittance_is_refused_at_once():
     )
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.startswith("refused:") and "m_u" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("name", ["streams", "order", "samples", "seed", "threads"])
+@pytest.mark.parametrize("value", [-1, 2**70])
+def test_integers_out_of_range_name_the_argument(name, value):
+    s = km.Scene.from_toml(SCENE)
+    method = "multiflux" if name in ("streams", "order") else "mc"
+    with pytest.raises(km.KmError, match=name):
+        km.solve(s, method, **{name: value})

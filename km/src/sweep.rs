@@ -152,7 +152,12 @@ pub fn sweep(
     };
     let first: Vec<f64> = values.iter().map(|v| v[0]).collect();
     if let Ok(scene) = Scene::from_toml_str_edited(text, &edits_at(&first)) {
-        crate::request_budget::check_points(&scene, total, options)?;
+        crate::request_budget::check_points(
+            &scene,
+            total,
+            options,
+            crate::request_budget::SWEEP_POINT_OVERHEAD,
+        )?;
     }
     let named = |point: &[f64], e: KmError| {
         let at: Vec<String> =
