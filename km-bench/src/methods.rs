@@ -145,9 +145,9 @@ pub fn solve(method: Method, scene: &Scene) -> anyhow::Result<Solution> {
         // totals, so the scene is solved without them.
         let channels = scene.channels().iter().map(|c| c.with_directions(Vec::new()));
         let totals_only = scene.with_channels(channels.collect::<Result<_, _>>()?)?;
-        return Ok(method.options().solve(&totals_only)?);
+        return Ok(method.options().solve_unplanned(&totals_only)?);
     }
-    Ok(method.options().solve(scene)?)
+    Ok(method.options().solve_unplanned(scene)?)
 }
 
 /// As [`solve`], with the Monte Carlo work bounded: at most `max_steps`
@@ -170,7 +170,7 @@ pub fn solve_bounded(
                 max_events: Some(max_events),
                 ..mc_options(samples, seed)
             };
-            Ok(opts.solve(scene)?)
+            Ok(opts.solve_unplanned(scene)?)
         }
         _ => solve(method, scene),
     }

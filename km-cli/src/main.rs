@@ -15,6 +15,8 @@ macro_rules! help {
 mod bsdf;
 mod fit;
 mod mc;
+#[cfg(test)]
+mod settings_parity;
 mod solve;
 mod stdout;
 
@@ -215,7 +217,11 @@ fn run(command: Command) -> anyhow::Result<()> {
             solve::sweep(&scene, &set, method, format, budget)
         }
         Command::Plan { input, method, json, all_effects } => {
-            let plan = km::plan_for(&input.load()?, method, all_effects);
+            // The same check as `km solve`: a refused scene has no plan.
+            let options = km::Options::new(method).with_all_effects(all_effects);
+            let plan = km::check(&input.load()?, &options).map_err(|e| {
+                anyhow::Error::new(e).context(format!("--method {}", method.name()))
+            })?;
             if !json {
                 return stdout::print(&km::text::plan_words(&plan, method));
             }

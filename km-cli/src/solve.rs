@@ -70,9 +70,9 @@ pub struct SolveArgs {
     #[arg(long)]
     pub order: Option<usize>,
     /// Directions on the sphere, both hemispheres, in the medium of lowest index (4..=2000)
-    /// [direction-set] (default 303, the seed's).
-    #[arg(long, value_name = "N")]
-    pub directions: Option<usize>,
+    /// [direction-set] (the default is the seed's 303).
+    #[arg(long, value_name = "N", default_value_t = km::direction_set::DEFAULT_DIRECTIONS)]
+    pub directions: usize,
     /// Photons per channel [mc].
     #[arg(long, default_value_t = 1_000_000)]
     pub samples: u64,
@@ -227,7 +227,7 @@ fn options(args: &SolveArgs) -> Result<km::Options> {
             ..Default::default()
         }),
         Method::DirectionSet => km::MethodOptions::DirectionSet(km::DirectionSetOptions {
-            directions: args.directions.unwrap_or(km::direction_set::DEFAULT_DIRECTIONS),
+            directions: args.directions,
         }),
         Method::Mc if args.samples == 0 => bail!("--samples must be at least 1"),
         Method::Mc => km::MethodOptions::Mc(km::McOptions {

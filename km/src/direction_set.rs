@@ -45,7 +45,7 @@ pub const MAX_SET_DIRECTIONS: usize = 2000;
 /// ```
 /// use km::{DirectionSetOptions, Scene, Solver};
 /// let scene = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.9\n").unwrap();
-/// let sol = DirectionSetOptions { directions: 100 }.solve(&scene).unwrap();
+/// let sol = DirectionSetOptions { directions: 100 }.solve_unplanned(&scene).unwrap();
 /// let c = &sol.channels[0];
 /// // docs/multiflux-direction-set.md Table 1: R = 0.26741, T = 0.59163 (DISORT), error 4.4e-5 at 100.
 /// assert!((c.reflectance - 0.26741).abs() < 1e-4 && (c.transmittance - 0.59163).abs() < 1e-4);
@@ -137,7 +137,7 @@ impl Solver for DirectionSetOptions {
     /// No output directions (values on its own nodes only), no clear
     /// half-space layer, and every medium's set within
     /// [`MAX_SET_DIRECTIONS`] (checked when `directions` is in range; an
-    /// out-of-range `directions` is [`Solver::solve`]'s error).
+    /// out-of-range `directions` is [`Solver::solve_unplanned`]'s error).
     fn supports(&self, scene: &Scene) -> Result<(), Unsupported> {
         let no = |reason| Err(Unsupported { method: Method::DirectionSet, reason });
         for (channel, c) in scene.channels().iter().enumerate() {
@@ -170,7 +170,7 @@ impl Solver for DirectionSetOptions {
     /// angular values. The diagnostics are [`DirectionSetDiagnostics`] (JSON
     /// `direction_set`: `directions`, the setting, and `nodes`, directions of
     /// the ambient set in both hemispheres, a list over channels for several).
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError> {
         self.check()?;
         self.supports(scene)?;
         let start = Instant::now();
@@ -200,7 +200,7 @@ impl Solver for DirectionSetOptions {
 
     /// The direction set has no error estimate to meet a target with: its
     /// error is set by `directions` (docs/multiflux-direction-set.md Table 1).
-    fn solve_to(&self, _scene: &Scene, tol: f64) -> Result<Solution, KmError> {
+    fn solve_unplanned_to(&self, _scene: &Scene, tol: f64) -> Result<Solution, KmError> {
         Err(KmError::Option {
             name: "accuracy target",
             value: tol.to_string(),

@@ -91,7 +91,7 @@ use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels}
 /// `transmission` rule (eq. PL1) makes a half-space in every channel solved
 /// as one, with a note giving the bound on the neglected light; the
 /// capability check ([`Solver::supports`]); the solve, or the solve to
-/// `options.tolerance` ([`Solver::solve_to`], eq. E1–E3 of
+/// `options.tolerance` ([`Solver::solve_unplanned_to`], eq. E1–E3 of
 /// docs/planner.md); then the plan and the output directions are attached.
 ///
 /// # Errors
@@ -107,19 +107,12 @@ use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels}
 /// assert!(matches!(dipole, Err(km::KmError::Unsupported(_))));
 /// ```
 pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
-    let method = options.method();
-    let all_effects = options.all_effects || options.method.all_effects();
-    let plan = plan_for(scene, method, all_effects);
-    let solver = options.method.with_all_effects(all_effects);
-    // Channels with identical coefficients are solved once (`duplicate-channels`).
-    let reduced = plan.skips(Simplification::DuplicateChannels).then(|| reduce_channels(scene));
+    let Prepared { plan, solver, reduced, cut } = prepare(scene, options)?;
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);
-    let cut = if method == Method::Dipole { as_half_space(work, all_effects) } else { None };
     let work = cut.as_ref().map_or(work, |(half, _)| half);
-    solver.supports(work)?;
     let mut sol = match options.tolerance {
-        Some(tol) => solver.solve_to(work, tol)?,
-        None => solver.solve(work)?,
+        Some(tol) => solver.solve_unplanned_to(work, tol)?,
+        None => solver.solve_unplanned(work)?,
     };
     if let Some((_, bound)) = cut {
         sol.notes.push(format!(
@@ -141,6 +134,47 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     }
     sol.plan = Some(plan);
     Ok(sol)
+}
+
+/// What [`solve`] does before any work: the plan, the capability check on
+/// the scene as the plan leaves it. `km plan` and `km solve` ask the same
+/// question through this one function, so that a plan is shown exactly for
+/// the scenes a solve accepts, and a refusal is worded the same way.
+///
+/// # Errors
+/// [`KmError::Unsupported`] when the method cannot treat the scene.
+///
+/// ```
+/// let s = km::Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
+/// assert!(km::check(&s, &km::Options::new(km::Method::Multiflux)).is_ok());
+/// assert!(km::check(&s, &km::Options::new(km::Method::Dipole)).is_err());
+/// ```
+pub fn check(scene: &Scene, options: &Options) -> Result<PlanT, KmError> {
+    Ok(prepare(scene, options)?.plan)
+}
+
+/// The scene as [`solve`] works on it, checked.
+struct Prepared {
+    plan: PlanT,
+    solver: MethodOptions,
+    /// Channels with identical coefficients merged, and the map back.
+    reduced: Option<(Scene, Vec<usize>)>,
+    /// The dipole's half-space cut and its bound.
+    cut: Option<(Scene, f64)>,
+}
+
+fn prepare(scene: &Scene, options: &Options) -> Result<Prepared, KmError> {
+    let method = options.method();
+    let all_effects = options.all_effects || options.method.all_effects();
+    let plan = plan_for(scene, method, all_effects);
+    let solver = options.method.with_all_effects(all_effects);
+    // Channels with identical coefficients are solved once (`duplicate-channels`).
+    let reduced = plan.skips(Simplification::DuplicateChannels).then(|| reduce_channels(scene));
+    let work = reduced.as_ref().map_or(scene, |(r, _)| r);
+    let cut = if method == Method::Dipole { as_half_space(work, all_effects) } else { None };
+    let work = cut.as_ref().map_or(work, |(half, _)| half);
+    solver.supports(work)?;
+    Ok(Prepared { plan, solver, reduced, cut })
 }
 
 /// The plan of `scene` for `method`: what the scene calls for and the

@@ -19,7 +19,7 @@ use crate::{Method, accuracy};
 /// Implemented by each method's option type ([`KmOptions`],
 /// [`MultifluxOptions`], [`DirectionSetOptions`], [`McOptions`],
 /// [`DipoleOptions`]) and by
-/// [`MethodOptions`]. [`Solver::solve`] is the bare solver (no plan applied
+/// [`MethodOptions`]. [`Solver::solve_unplanned`] is the bare solver (no plan applied
 /// from outside, no channel merging, no thick-layer cut): [`crate::solve`]
 /// adds those.
 pub trait Solver {
@@ -35,11 +35,14 @@ pub trait Solver {
         Ok(())
     }
 
-    /// Solve `scene` at these settings.
+    /// Solve `scene` at these settings as it is: no plan applied from
+    /// outside, no channel merging, no thick-layer cut, no capability check
+    /// ([`crate::solve`] does those and is what a user calls; this is the
+    /// method's own step, for benchmarks and for the front ends' internals).
     ///
     /// # Errors
     /// The solver's refusal or failure.
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError>;
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError>;
 
     /// Solve `scene` to the accuracy target `tol` (docs/planner.md, eq. E1
     /// and E2): the method's setting is chosen so that every number asked for
@@ -48,7 +51,7 @@ pub trait Solver {
     /// # Errors
     /// [`KmError::NoAccuracySetting`] for the closed forms,
     /// [`KmError::TargetUnreachable`] when the allowed work does not suffice.
-    fn solve_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
+    fn solve_unplanned_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
         let _ = scene;
         Err(KmError::NoAccuracySetting { method: self.method(), target: tol })
     }
@@ -58,7 +61,7 @@ impl Solver for KmOptions {
     fn method(&self) -> Method {
         Method::Km
     }
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError> {
         Ok(km_core::two_flux::solve(scene, self)?)
     }
 }
@@ -76,7 +79,7 @@ impl Solver for MultifluxOptions {
     /// the parts are assembled in channel order, so the result is
     /// bit-identical to the serial [`km_multiflux::solve`] (the first
     /// failing channel's error is the one returned, as there).
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError> {
         if scene.channels().len() < PARALLEL_CHANNELS {
             return Ok(km_multiflux::solve(scene, self)?);
         }
@@ -87,7 +90,7 @@ impl Solver for MultifluxOptions {
         let parts = parts.into_iter().collect::<Result<Vec<_>, _>>()?;
         Ok(km_multiflux::assemble(scene, self, parts, start.elapsed().as_secs_f64()))
     }
-    fn solve_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
+    fn solve_unplanned_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
         accuracy::multiflux(scene, self, tol)
     }
 }
@@ -96,10 +99,10 @@ impl Solver for McOptions {
     fn method(&self) -> Method {
         Method::Mc
     }
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError> {
         Ok(km_montecarlo::solve(scene, self)?)
     }
-    fn solve_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
+    fn solve_unplanned_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
         accuracy::monte_carlo(scene, self, tol)
     }
 }
@@ -126,7 +129,7 @@ impl Solver for DipoleOptions {
         }
         Ok(())
     }
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError> {
         Ok(km_dipole::solve(scene, self)?)
     }
 }
@@ -198,11 +201,11 @@ impl Solver for MethodOptions {
     fn supports(&self, scene: &Scene) -> Result<(), Unsupported> {
         self.solver().supports(scene)
     }
-    fn solve(&self, scene: &Scene) -> Result<Solution, KmError> {
-        self.solver().solve(scene)
+    fn solve_unplanned(&self, scene: &Scene) -> Result<Solution, KmError> {
+        self.solver().solve_unplanned(scene)
     }
-    fn solve_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
-        self.solver().solve_to(scene, tol)
+    fn solve_unplanned_to(&self, scene: &Scene, tol: f64) -> Result<Solution, KmError> {
+        self.solver().solve_unplanned_to(scene, tol)
     }
 }
 

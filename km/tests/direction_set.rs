@@ -107,10 +107,10 @@ fn spectral_channels_are_solved_each_on_its_own_sets() {
     let text = "[spectrum]\nwavelengths_nm = [450, 550, 650]\n[[layer]]\n\
                 sigma_a = [0.1, 0.2, 0.3]\nsigma_s = 1\nthickness = 2\nn = [1.3, 1.4, 1.5]\n";
     let scene = Scene::from_toml_str(text).unwrap();
-    let all = DirectionSetOptions::default().solve(&scene).unwrap();
+    let all = DirectionSetOptions::default().solve_unplanned(&scene).unwrap();
     for (k, c) in all.channels.iter().enumerate() {
         let one = Scene::single(scene.channels()[k].clone());
-        let alone = DirectionSetOptions::default().solve(&one).unwrap();
+        let alone = DirectionSetOptions::default().solve_unplanned(&one).unwrap();
         assert_eq!(c, &alone.channels[0], "channel {k}");
     }
     assert_eq!(all.to_json()["direction_set"]["nodes"].as_array().unwrap().len(), 3);
@@ -123,7 +123,7 @@ fn more_directions_converge_towards_fourier_gauss() {
     let scene = Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.9\ng = 0.75\n").unwrap();
     let r_ref = reference(&scene).channels[0].reflectance;
     let err = |directions| {
-        let s = DirectionSetOptions { directions }.solve(&scene).unwrap();
+        let s = DirectionSetOptions { directions }.solve_unplanned(&scene).unwrap();
         (s.channels[0].reflectance - r_ref).abs()
     };
     let (e100, e303) = (err(100), err(303));

@@ -1,0 +1,51 @@
+//! The flags of `km solve` against the one table of settings
+//! ([`km::settings::SETTINGS`]): every setting is a flag of the same name,
+//! default and choices, and every flag of `km solve` that is a setting of
+//! the solve is in the table. Fails when a setting is added to one and not
+//! the other, or when a default or a choice differs.
+
+use clap::{Args, Command};
+use km::settings::{Kind, SETTINGS};
+
+use crate::solve::SolveArgs;
+
+/// Flags of `km solve` that are not settings of the solve: the scene and its
+/// edits, the method, and where and how the answer is written.
+const NOT_SETTINGS: &[&str] = &["scene", "set", "method", "json", "format", "out", "help"];
+
+#[test]
+fn every_setting_is_a_flag_with_its_default_and_choices() {
+    let cmd = SolveArgs::augment_args(Command::new("solve"));
+    for s in SETTINGS {
+        let arg = cmd
+            .get_arguments()
+            .find(|a| a.get_id().as_str() == s.name)
+            .unwrap_or_else(|| panic!("setting {} has no flag in km solve", s.name));
+        assert_eq!(arg.get_long(), Some(s.name.replace('_', "-").as_str()), "{}", s.name);
+        let defaults: Vec<String> =
+            arg.get_default_values().iter().map(|v| v.to_string_lossy().into_owned()).collect();
+        if s.kind == Kind::Flag {
+            // A flag is off unless given.
+            assert!(matches!(arg.get_action(), clap::ArgAction::SetTrue), "--{}", s.name);
+            assert_eq!(s.default, Some("false"), "default of --{}", s.name);
+            continue;
+        }
+        let want: Vec<String> = s.default.iter().map(|d| d.to_string()).collect();
+        assert_eq!(defaults, want, "default of --{}", s.name);
+        if let Kind::Choice(names) = s.kind {
+            let mut got: Vec<String> =
+                arg.get_possible_values().iter().map(|v| v.get_name().to_string()).collect();
+            let mut want: Vec<String> = names.iter().map(|n| n.to_string()).collect();
+            got.sort();
+            want.sort();
+            assert_eq!(got, want, "choices of --{}", s.name);
+        }
+    }
+    for arg in cmd.get_arguments() {
+        let id = arg.get_id().as_str();
+        assert!(
+            NOT_SETTINGS.contains(&id) || SETTINGS.iter().any(|s| s.name == id),
+            "km solve --{id} is not in km::settings::SETTINGS"
+        );
+    }
+}
