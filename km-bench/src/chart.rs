@@ -22,7 +22,7 @@
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, anyhow};
+use anyhow::{Context, anyhow, bail};
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -167,25 +167,79 @@ pub fn write_chart_layout(
     font::ensure_registered()?;
     let svg = dir.join(format!("{stem}.svg"));
     let png = dir.join(format!("{stem}.png"));
-    let svg_tmp = dir.join(format!(".{stem}.tmp.svg"));
-    let png_tmp = dir.join(format!(".{stem}.tmp.png"));
-    {
-        let root = SVGBackend::new(&svg_tmp, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(pe)?;
-        chart.draw_layout(&root).with_context(|| format!("drawing {}", svg.display()))?;
-        root.present().map_err(pe)?;
-    }
-    let mut layout;
-    {
-        let root = BitMapBackend::new(&png_tmp, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(pe)?;
-        layout = chart.draw_layout(&root).with_context(|| format!("drawing {}", png.display()))?;
-        root.present().map_err(pe)?;
-    }
-    std::fs::rename(&svg_tmp, &svg).with_context(|| format!("writing {}", svg.display()))?;
-    std::fs::rename(&png_tmp, &png).with_context(|| format!("writing {}", png.display()))?;
+    let svg_tmp = temp_file(dir, stem, "svg")?;
+    let png_tmp = match temp_file(dir, stem, "png") {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = std::fs::remove_file(&svg_tmp);
+            return Err(e);
+        }
+    };
+    let drawn = draw_both(chart, [&svg_tmp, &png_tmp], [&svg, &png]).and_then(|layout| {
+        std::fs::rename(&svg_tmp, &svg).with_context(|| format!("writing {}", svg.display()))?;
+        std::fs::rename(&png_tmp, &png).with_context(|| format!("writing {}", png.display()))?;
+        Ok(layout)
+    });
+    let mut layout = match drawn {
+        Ok(layout) => layout,
+        Err(e) => {
+            let _ = std::fs::remove_file(&svg_tmp);
+            let _ = std::fs::remove_file(&png_tmp);
+            return Err(e);
+        }
+    };
     layout.stem = stem.to_string();
     Ok(([svg, png], layout))
+}
+
+/// Draw `chart` into the temporary files `tmp` (SVG, PNG) for the targets
+/// `shown` (named in the errors); the layout of the PNG.
+fn draw_both(
+    chart: &impl Chart,
+    tmp: [&Path; 2],
+    shown: [&Path; 2],
+) -> anyhow::Result<ChartLayout> {
+    {
+        let root = SVGBackend::new(tmp[0], SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| cannot(shown[0], e))?;
+        chart.draw_layout(&root).with_context(|| format!("drawing {}", shown[0].display()))?;
+        root.present().map_err(|e| cannot(shown[0], e))?;
+    }
+    let root = BitMapBackend::new(tmp[1], SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| cannot(shown[1], e))?;
+    let layout =
+        chart.draw_layout(&root).with_context(|| format!("drawing {}", shown[1].display()))?;
+    root.present().map_err(|e| cannot(shown[1], e))?;
+    Ok(layout)
+}
+
+/// A drawing error in words, naming the file (its `Display`, not the nested
+/// `Debug` of the backend's error).
+fn cannot(path: &Path, e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow!("cannot write {}: {e}", path.display())
+}
+
+/// Create an empty temporary file `.STEM.PID-N.tmp.EXT` in `dir` under a
+/// name of its own (`O_CREAT | O_EXCL`): processes drawing the same chart
+/// into the same directory never share one, and an unwritable directory is
+/// refused with the system's words before any drawing.
+fn temp_file(dir: &Path, stem: &str, ext: &str) -> anyhow::Result<PathBuf> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    for _ in 0..16 {
+        let k = NEXT.fetch_add(1, Ordering::Relaxed);
+        let name = format!(".{stem}.{}-{nanos:x}-{k}.tmp.{ext}", std::process::id());
+        let path = dir.join(name);
+        match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+            Ok(_) => return Ok(path),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => bail!("cannot write into {}: {e}", dir.display()),
+        }
+    }
+    bail!("cannot write into {}: no free temporary name", dir.display())
 }
 
 /// The colour of series `i` (a qualitative palette, Tableau 10).

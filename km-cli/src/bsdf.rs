@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
+use km::atomic_file::{WriteOptions, write_atomic_with};
 use km::bsdf::Bsdf;
-use km::bsdf::write::write_atomic;
 use km::bsdf_file::{AngleList, AngleListError, BsdfFile, BsdfFormat, BsdfRequest, RequestError};
 
 // The flags of `km bsdf` (no doc comment: it would become the command's about).
@@ -43,6 +43,9 @@ pub struct BsdfArgs {
     /// Write PNG and SVG pictures (in-plane polar plots, heat maps) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Factor on the grid budgets (angle pairs, table values; docs/limits.md).
+    #[arg(long, default_value_t = 1.0)]
+    pub budget: f64,
 }
 
 /// `km bsdf`: compute, write (nothing half-written), plot, and print a
@@ -59,18 +62,25 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
     let format = args.format.unwrap_or_else(|| BsdfFormat::from_path(args.out.as_deref()));
     let (theta_i, theta_o, phi) =
         (args.theta_i.as_deref(), args.theta_o.as_deref(), args.phi.as_deref());
-    let request =
+    let mut request =
         BsdfRequest::from_lists(theta_i, theta_o, phi, args.from_below, args.streams, format)
             .map_err(flagged)?;
+    if !(args.budget.is_finite() && args.budget > 0.0) {
+        bail!("--budget must be a finite number > 0, not {}", args.budget);
+    }
+    request.budget = args.budget;
     let name = args.scene.display().to_string();
     let file = km::bsdf_file::bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
     if let (Some(out), Some(bytes)) = (&args.out, &file.bytes) {
-        write_atomic(out, bytes)?;
+        // Never over an input: `--out` naming the scene file is refused.
+        let opts = WriteOptions { inputs: vec![args.scene.clone()], ..Default::default() };
+        write_atomic_with(out, bytes, &opts)
+            .with_context(|| format!("cannot write {}", out.display()))?;
     }
-    eprint!("{}", file.summary(args.out.as_deref()));
+    crate::stdout::eprint(&file.summary(args.out.as_deref()))?;
     if let Some(dir) = &args.plot {
         for f in plots(&file, &scene, dir)? {
-            eprintln!("wrote {}", f.display());
+            crate::stdout::eprint(&format!("wrote {}\n", f.display()))?;
         }
     }
     Ok(())

@@ -145,6 +145,22 @@ impl FitArgs {
 /// `km fit`.
 pub fn run(args: &FitArgs) -> Result<()> {
     if args.km {
+        // The slab inverse's inputs mean nothing to the Kubelka–Munk one.
+        let slab = [
+            ("--m-r", args.m_r.is_some()),
+            ("--m-t", args.m_t.is_some()),
+            ("--m-u", args.m_u.is_some()),
+            ("--sigma-r", args.sigma_r.is_some()),
+            ("--sigma-t", args.sigma_t.is_some()),
+            ("--sigma-u", args.sigma_u.is_some()),
+            ("--g", args.g.is_some()),
+            ("--streams", args.streams.is_some()),
+            ("--n-slide", args.n_slide.is_some()),
+            ("a measurement file", args.file.is_some()),
+        ];
+        if let Some((flag, _)) = slab.iter().find(|(_, given)| *given) {
+            bail!("{flag} applies to the slab inverse, not to --km (the readings are --r-*)");
+        }
         return run_km(args);
     }
     // The Kubelka–Munk readings and k2 need --km (thickness and index serve both inverses).
@@ -189,8 +205,7 @@ fn fit_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> Result<Vec<RowFit
     if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
         bail!("give either a measurement file or --m-r/--m-t/--m-u, not both");
     }
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = km_inverse::rxt::read_file(path)?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     let rows = match ext.as_str() {
         "rxt" => parse_rxt(&text),

@@ -123,6 +123,9 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
         format: km::SweepFormat,
+        /// Factor on the budget of the whole sweep (every point's work summed; docs/limits.md).
+        #[arg(long, default_value_t = 1.0)]
+        budget: f64,
     },
     /// Print what a scene calls for: effects present, work skipped and why.
     #[command(after_help = help!("plan"))]
@@ -191,7 +194,7 @@ fn main() -> ExitCode {
     match solve::check_flags(&matches).and_then(|()| run(command)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            stdout::report_error(&e);
             ExitCode::from(2)
         }
     }
@@ -215,7 +218,9 @@ fn run(command: Command) -> anyhow::Result<()> {
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
             solve::profile(&input.load()?, &opts, OutputFormat::of(json, format))
         }
-        Command::Sweep { scene, set, method, format } => solve::sweep(&scene, &set, method, format),
+        Command::Sweep { scene, set, method, format, budget } => {
+            solve::sweep(&scene, &set, method, format, budget)
+        }
         Command::Plan { input, method, json, all_effects } => {
             // The same check as `km solve`: a refused scene has no plan.
             let options = km::Options::new(method).with_all_effects(all_effects);

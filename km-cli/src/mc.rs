@@ -60,9 +60,9 @@ pub fn run(args: &McArgs) -> Result<()> {
             km::atomic_file::write_atomic(npz, &npz_bytes(run, &out, &g))
                 .with_context(|| format!("cannot write {}", npz.display()))?;
         }
-        eprintln!(
+        crate::stdout::eprint(&format!(
             "run {}: {photons} photons in {:.1} s: Rsp {:.6} Rd {:.6} ± {:.1e} A {:.6} Tt {:.6} \
-             ± {:.1e} -> {}",
+             ± {:.1e} -> {}\n",
             k + 1,
             sol.seconds,
             out.rsp,
@@ -72,7 +72,7 @@ pub fn run(args: &McArgs) -> Result<()> {
             out.tt[0],
             out.tt[1],
             mco.display()
-        );
+        ))?;
     }
     Ok(())
 }

@@ -178,7 +178,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         };
         let part = km::mc_shard(&scene, &options(args)?, i, n)?;
         write_json(out, &serde_json::to_value(&part)?, inputs)?;
-        eprintln!("wrote shard {i}/{n} to {}", out.display());
+        stdout::eprint(&format!("wrote shard {i}/{n} to {}\n", out.display()))?;
         return Ok(());
     }
     let sol = solve(&scene, args)?;
@@ -325,7 +325,13 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
 }
 
 /// `km sweep`: the fixed edits and the axes of `--set`, solved over the grid, printed.
-pub fn sweep(scene: &Path, set: &[String], method: Method, format: km::SweepFormat) -> Result<()> {
+pub fn sweep(
+    scene: &Path,
+    set: &[String],
+    method: Method,
+    format: km::SweepFormat,
+    budget: f64,
+) -> Result<()> {
     // Read as every scene file is read (regular file or `-`, size limit).
     let text = km::read_scene_text(scene, km::SceneLimits::from_env().max_bytes)
         .with_context(|| format!("{}", scene.display()))?;
@@ -333,7 +339,11 @@ pub fn sweep(scene: &Path, set: &[String], method: Method, format: km::SweepForm
     if axes.is_empty() {
         bail!("km sweep needs at least one --set KEY=START:STOP:N");
     }
-    let points = km::sweep(&text, &edits, &axes, &options(&SolveArgs::defaults(method))?)?;
+    if !(budget.is_finite() && budget > 0.0) {
+        bail!("--budget must be a finite factor > 0, not {budget}");
+    }
+    let opts = options(&SolveArgs::defaults(method))?.with_budget(budget)?;
+    let points = km::sweep(&text, &edits, &axes, &opts)?;
     stdout::print(&km::sweep_text(&axes, &points, format))
 }
 

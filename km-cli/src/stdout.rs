@@ -12,7 +12,9 @@
 //!   disk, a closed or read-only standard output) into an error for `main`
 //!   to report with a non-zero exit status.
 //!
-//! Every print of the CLI goes through [`print`] (or [`print_json`]).
+//! Every print of the CLI goes through [`print`] (or [`print_json`]), and
+//! every message on standard error through [`eprint`] (or [`report_error`]):
+//! `eprintln!` panics on a full or closed standard error (exit 101).
 
 use std::io::Write;
 
@@ -88,4 +90,22 @@ pub fn print(text: &str) -> Result<()> {
 /// [`print`] a JSON value, pretty, with a final newline.
 pub fn print_json(value: &serde_json::Value) -> Result<()> {
     print(&format!("{}\n", serde_json::to_string_pretty(value)?))
+}
+
+/// Write `text` to standard error and flush it.
+///
+/// # Errors
+/// Any write error (e.g. `2> /dev/full`), as a message naming standard
+/// error (which `main` then cannot print: it exits with status 2).
+pub fn eprint(text: &str) -> Result<()> {
+    let mut err = std::io::stderr().lock();
+    err.write_all(text.as_bytes())
+        .and_then(|()| err.flush())
+        .map_err(|e| anyhow!("cannot write to standard error: {e}"))
+}
+
+/// Print `error: MESSAGE` on standard error, ignoring a failure to write
+/// (there is nowhere left to report it; the exit status says it).
+pub fn report_error(e: &anyhow::Error) {
+    let _ = eprint(&format!("error: {e:#}\n"));
 }

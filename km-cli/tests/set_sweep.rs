@@ -161,7 +161,7 @@ fn sweep_rows_equal_solves_of_the_edited_files() {
 fn bad_sweeps_are_refused() {
     let base = scene_file("sweep-bad", BASE);
     for (set, names) in [
-        ("layer[1].g=0:0.9", "needs at least one"),
+        ("layer[1].g=0:0.9", "START:STOP:N"),
         ("layer[1].g=0:x:3", "START:STOP:N"),
         ("layer[1].g=0:0.9:0", "START:STOP:N"),
         ("layer[1].g=0:2:3", "`layer[1].g`"),

@@ -41,5 +41,7 @@ pub mod two_flux;
 
 pub use error::CoreError;
 pub use layer::Layer;
-pub use scene::{Light, MonoScene, Scene, SceneLimits, Substrate, read_scene_text};
+pub use scene::{
+    Light, MonoScene, Scene, SceneLimits, Substrate, read_checked_text, read_scene_text,
+};
 pub use solution::{AccuracyReport, ChannelResult, Solution, Uncertainty};

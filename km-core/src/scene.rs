@@ -23,8 +23,8 @@ mod parse;
 mod read;
 
 use parse::{Parser, RawScene};
-pub use read::read_scene_text;
 use read::{LineIndex, toml_error, too_big};
+pub use read::{read_checked_text, read_scene_text};
 
 /// Default largest scene file, bytes (16 MiB): a scene of 10^5 layers is
 /// about 3 MB, so this leaves a factor of five over any scene seen in use.

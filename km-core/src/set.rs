@@ -114,6 +114,20 @@ fn apply(doc: &mut DocumentMut, edit: &SetEdit) -> Result<(), CoreError> {
     Ok(())
 }
 
+/// The first edit of `edits` after which `text` no longer validates, when
+/// `text` alone does.
+fn culprit<'a>(text: &str, edits: &'a [SetEdit]) -> Option<&'a SetEdit> {
+    Scene::from_toml_str(text).ok()?;
+    let mut doc: DocumentMut = text.parse().ok()?;
+    for e in edits {
+        apply(&mut doc, e).ok()?;
+        if Scene::from_toml_str(&doc.to_string()).is_err() {
+            return Some(e);
+        }
+    }
+    None
+}
+
 impl Scene {
     /// Parse a scene file's text with `edits` applied first (`--set`).
     ///
@@ -149,17 +163,30 @@ impl Scene {
         for e in edits {
             apply(&mut doc, e)?;
         }
-        Scene::from_toml_str(&doc.to_string()).map_err(|err| match err {
-            CoreError::Scene { key, message, .. }
-                if edits
-                    .iter()
-                    .any(|e| key == e.key || key.starts_with(&format!("{}.", e.key))) =>
-            {
+        Scene::from_toml_str(&doc.to_string()).map_err(|err| {
+            let CoreError::Scene { key, message, .. } = &err else {
+                return err;
+            };
+            if edits.iter().any(|e| *key == e.key || key.starts_with(&format!("{}.", e.key))) {
                 let e = edits.iter().rev().find(|e| key.starts_with(&e.key)).cloned();
                 let from = e.map(|e| format!("{}={}", e.key, e.value)).unwrap_or_default();
-                CoreError::scene(key, None, format!("{message} (from --set {from})"))
+                return CoreError::scene(
+                    key.clone(),
+                    None,
+                    format!("{message} (from --set {from})"),
+                );
             }
-            other => other,
+            // An error at another key (`scene`, a table's unknown field)
+            // that the file alone does not have: the first edit that brings
+            // it in is named, with no line of the file.
+            match culprit(text, edits) {
+                Some(e) => CoreError::scene(
+                    e.key.clone(),
+                    None,
+                    format!("{message} (from --set {}={})", e.key, e.value),
+                ),
+                None => err,
+            }
         })
     }
 

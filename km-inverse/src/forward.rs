@@ -31,6 +31,9 @@ pub struct Sample {
     pub theta_deg: f64,
 }
 
+/// The smallest sample thickness accepted ([`Sample::new`]).
+pub const MIN_THICKNESS: f64 = 1e-290;
+
 impl Sample {
     /// A validated sample description.
     ///
@@ -46,6 +49,18 @@ impl Sample {
     pub fn new(thickness: f64, n_sample: f64, n_slide: Option<f64>) -> Result<Self, InverseError> {
         if !(thickness.is_finite() && thickness > 0.0) {
             return Err(InverseError::invalid("thickness", thickness, "must be finite and > 0"));
+        }
+        // mu = tau / thickness must stay finite for every optical thickness
+        // of the search (up to 1e6 and more): below 1e-290 it overflows.
+        if thickness < MIN_THICKNESS {
+            return Err(InverseError::invalid(
+                "thickness",
+                thickness,
+                &format!(
+                    "is below {MIN_THICKNESS:e}: mu = tau / thickness would overflow; \
+                     rescale the length unit"
+                ),
+            ));
         }
         check_index("n_sample", n_sample)?;
         if let Some(n) = n_slide {

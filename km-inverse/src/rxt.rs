@@ -316,6 +316,26 @@ impl Base {
     }
 }
 
+/// The default size limit of a measurement file ([`read_file`]), bytes.
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
+/// The text of a measurement file (`.rxt`, `.csv`), read through the
+/// checked reader of scenes (`km_core::read_checked_text`): a regular file
+/// (or `-`), refused before opening otherwise (a FIFO without a writer,
+/// `/dev/zero`), opened without blocking, at most [`MAX_FILE_BYTES`]
+/// (`KM_MAX_FIT_BYTES` in the environment raises it).
+///
+/// # Errors
+/// [`InverseError::Parse`] with the reader's message.
+pub fn read_file(path: &std::path::Path) -> Result<String, InverseError> {
+    let max = std::env::var("KM_MAX_FIT_BYTES")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(MAX_FILE_BYTES);
+    km_core::read_checked_text(path, max, "a measurement file", "KM_MAX_FIT_BYTES")
+        .map_err(|e| InverseError::parse(None, e.to_string()))
+}
+
 fn number(tok: &str, line: usize) -> Result<f64, InverseError> {
     tok.parse::<f64>()
         .ok()
@@ -336,6 +356,8 @@ fn number(tok: &str, line: usize) -> Result<f64, InverseError> {
 /// assert_eq!(rows[0].wavelength_nm, Some(500.0));
 /// ```
 pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
+    // A byte order mark (spreadsheets write one) is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = clean_lines(text).into_iter().filter(|(_, l)| !l.trim().is_empty());
     let Some((hno, head)) = lines.next() else {
         return Err(InverseError::parse(None, "empty CSV"));
@@ -343,12 +365,15 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
     let names: Vec<String> = head.split(',').map(|s| s.trim().to_lowercase()).collect();
     const KNOWN: [&str; 8] =
         ["wavelength_nm", "m_r", "m_t", "m_u", "sigma_r", "sigma_t", "sigma_u", "g"];
-    for n in &names {
+    for (i, n) in names.iter().enumerate() {
         if !KNOWN.contains(&n.as_str()) {
             return Err(InverseError::parse(
                 Some(hno),
                 format!("unknown column '{n}' (known: {})", KNOWN.join(", ")),
             ));
+        }
+        if names[..i].contains(n) {
+            return Err(InverseError::parse(Some(hno), format!("column '{n}' appears twice")));
         }
     }
     let col = |n: &str| names.iter().position(|x| x == n);
@@ -366,6 +391,14 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
             ));
         }
         let get = |n: &str| col(n).map(|i| vals[i]);
+        if let Some(w) = get("wavelength_nm")
+            && w <= 0.0
+        {
+            return Err(InverseError::parse(
+                Some(no),
+                format!("wavelength_nm = {w}: a wavelength must be > 0"),
+            ));
+        }
         rows.push(Row {
             wavelength_nm: get("wavelength_nm"),
             setup: *setup,

@@ -198,9 +198,12 @@ impl Problem<'_> {
             broyden_update(&mut jac, &dx, &r, &rn);
             fresh = false;
             (x, r) = (xn, rn);
+            let before = chi2;
             chi2 = sq(&r);
-            // A step below 1e-13 changes nothing further.
-            if step < 1e-13 {
+            // A step below 1e-13 changes nothing further; nor does a step
+            // that lowers chi^2 by less than 1e-12 of itself (a minimum
+            // that is not a root: the search would crawl on to the cap).
+            if step < 1e-13 || before - chi2 <= 1e-12 * before {
                 break;
             }
         }
@@ -338,8 +341,9 @@ pub(crate) fn search_ladder(
         prob.set_streams(n)?;
         let (xn, mut chi2) = prob.levenberg_marquardt(x)?;
         x = xn;
-        // Restarts when the start did not lead to a root (step 2).
-        if square && chi2 > 1e-12 {
+        // Restarts when the start did not lead to a root (step 2), at the
+        // first stream count only: later counts start from its answer.
+        if square && chi2 > 1e-12 && k == 0 {
             let g = if prob.space.fit_g { 0.5 } else { prob.space.g_fixed };
             for (a, b) in restart_grid(prob.set, meas) {
                 let xs = prob.space.point_of(&Optical { albedo: a, tau: b, g });
@@ -351,6 +355,15 @@ pub(crate) fn search_ladder(
             notes.push(format!("restarted from a grid of starting points at {n} streams"));
         }
         if ladder.len() == 1 {
+            break;
+        }
+        // No root at this stream count (a relative misfit above 1e-4): more
+        // streams will not make one; the answer is the nearest point.
+        if square && chi2 > 1e-8 {
+            notes.push(format!(
+                "no exact solution at {n} streams (chi^2 = {chi2:.1e} of log ratios): \
+                 finer stream counts not tried"
+            ));
             break;
         }
         // Stream rule (I7): the forward model at 2N moves by < sigma_min / 10.

@@ -152,6 +152,7 @@ impl FitResult {
 pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResult, InverseError> {
     set.validate()?;
     meas.validate()?;
+    consistent(set, meas)?;
     if let Some(g) = opts.g
         && !km_core::phase::Anisotropy::admits(g)
     {
@@ -244,4 +245,40 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
         evaluations: prob.evaluations,
         notes,
     })
+}
+
+/// Refuse measurements no slab can give (before any search): an unscattered
+/// transmittance `M_U` above that of a clear sample with the same faces
+/// (`tau = 0`), or, without spheres, above the total transmittance
+/// (`M_T >= c_T M_U`: the unscattered beam is part of `M_T` in the
+/// fraction `c_T`).
+fn consistent(set: &Setup, meas: &Measurement) -> Result<(), InverseError> {
+    let Some(u) = meas.m_u else {
+        return Ok(());
+    };
+    let (n_s, n_g) = (set.sample.n_sample, set.sample.n_slide);
+    let top = crate::forward::unscattered_transmittance(n_s, n_g, 0.0);
+    if u > top {
+        return Err(InverseError::invalid(
+            "m_u",
+            u,
+            &format!(
+                "above {top:.6}, the unscattered transmittance of a clear sample with these \
+                 faces (n_sample, n_slide): no slab gives it"
+            ),
+        ));
+    }
+    let c_t = set.unscattered_in_m_t;
+    if set.spheres.is_none() && meas.m_t < c_t * u - 1e-12 {
+        return Err(InverseError::invalid(
+            "m_u",
+            u,
+            &format!(
+                "M_T = {} is below {c_t} x M_U: the total transmittance includes the \
+                 unscattered beam (--unscattered-in-m-t {c_t})",
+                meas.m_t
+            ),
+        ));
+    }
+    Ok(())
 }

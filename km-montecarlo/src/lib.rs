@@ -52,7 +52,9 @@ mod transport;
 pub use error::McError;
 pub use grid::{GridRaw, GridResult, McGrid};
 pub use options::{Estimator, McOptions, Progress, RadialBins};
-pub use run::{RadialProfile, merge_grid, radial_profile, run_shard, solve, solve_grid};
+pub use run::{
+    RadialProfile, merge_grid, projected_steps, radial_profile, run_shard, solve, solve_grid,
+};
 pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,
 };

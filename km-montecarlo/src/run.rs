@@ -182,6 +182,10 @@ fn trace_shard(
     let run = || trace_batches(&tracers, opts, batch_size, &mine, t0);
     let batches = match opts.threads {
         None => run()?,
+        // One thread: on the calling thread, without a pool of its own (a
+        // batch of solves on a pool's workers would otherwise build one pool
+        // per point: hundreds of threads, and a crash).
+        Some(1) => trace_batches_on(&tracers, opts, batch_size, &mine, t0, false)?,
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
@@ -251,21 +255,7 @@ fn preflight(tracers: &[Tracer], opts: &McOptions, shard_photons: f64) -> Result
     }
     // The pilot.
     let t0 = Instant::now();
-    let step = (tracers.len() / PILOT_CHANNELS).max(1);
-    let (mut steps, mut photons) = (0u64, 0u64);
-    for (c, t) in tracers.iter().enumerate().step_by(step).take(PILOT_CHANNELS) {
-        let mut rng = batch_rng(opts.seed ^ PILOT_SEED, c as u64, u64::MAX);
-        let mut sums = vec![0.0; t.layout().len()];
-        let mut s = 0;
-        for _ in 0..PILOT_PHOTONS.min(opts.samples) {
-            s += t.run_batch(&mut rng, 1, &mut sums).steps;
-            photons += 1;
-            if s > PILOT_STEPS {
-                break;
-            }
-        }
-        steps += s;
-    }
+    let (steps, photons) = pilot(tracers, opts);
     let per_photon = steps as f64 / photons.max(1) as f64;
     let projected = floor * per_photon;
     if projected > budget as f64 {
@@ -283,6 +273,42 @@ fn preflight(tracers: &[Tracer], opts: &McOptions, shard_photons: f64) -> Result
     Ok(())
 }
 
+/// The pilot of [`preflight`]: photon steps and photons traced.
+fn pilot(tracers: &[Tracer], opts: &McOptions) -> (u64, u64) {
+    let step = (tracers.len() / PILOT_CHANNELS).max(1);
+    let (mut steps, mut photons) = (0u64, 0u64);
+    for (c, t) in tracers.iter().enumerate().step_by(step).take(PILOT_CHANNELS) {
+        let mut rng = batch_rng(opts.seed ^ PILOT_SEED, c as u64, u64::MAX);
+        let mut sums = vec![0.0; t.layout().len()];
+        let mut s = 0;
+        for _ in 0..PILOT_PHOTONS.min(opts.samples) {
+            s += t.run_batch(&mut rng, 1, &mut sums).steps;
+            photons += 1;
+            if s > PILOT_STEPS {
+                break;
+            }
+        }
+        steps += s;
+    }
+    (steps, photons)
+}
+
+/// The photon steps a run of `opts` on `scene` is projected to take (eq. L2
+/// of docs/limits.md: `photons x channels x` the mean steps per photon of the
+/// budget check's pilot, on streams of its own), for budgets over many runs
+/// (a sweep or a batch of scenes).
+///
+/// # Errors
+/// Options that [`McOptions::validate`] refuses.
+pub fn projected_steps(scene: &Scene, opts: &McOptions) -> Result<f64, McError> {
+    opts.validate()?;
+    let opts = &opts.resolved();
+    let tracers: Vec<Tracer> = scene.channels().iter().map(|c| Tracer::new(c, opts)).collect();
+    let (steps, photons) = pilot(&tracers, opts);
+    let per_photon = (steps as f64 / photons.max(1) as f64).max(1.0);
+    Ok(opts.samples as f64 * tracers.len() as f64 * per_photon)
+}
+
 /// Trace the listed batches in parallel; results in the listed order.
 fn trace_batches(
     tracers: &[Tracer],
@@ -291,68 +317,81 @@ fn trace_batches(
     mine: &[u64],
     t0: Instant,
 ) -> Result<Vec<BatchRecord>, McError> {
+    trace_batches_on(tracers, opts, batch_size, mine, t0, true)
+}
+
+/// Trace the listed batches, in parallel on the current rayon pool when
+/// `parallel`, else one after the other on the calling thread (the same
+/// result: every batch has its own random stream); results in the listed order.
+fn trace_batches_on(
+    tracers: &[Tracer],
+    opts: &McOptions,
+    batch_size: u64,
+    mine: &[u64],
+    t0: Instant,
+    parallel: bool,
+) -> Result<Vec<BatchRecord>, McError> {
     let total = mine.len() as u64;
     let steps_done = AtomicU64::new(0);
     let batches_done = AtomicU64::new(0);
     let abort = AtomicBool::new(false);
     let refusal: Mutex<Option<McError>> = Mutex::new(None);
-    let threads = rayon::current_num_threads().max(1) as f64;
+    let threads = if parallel { rayon::current_num_threads().max(1) as f64 } else { 1.0 };
 
-    let records: Vec<Option<BatchRecord>> = mine
-        .par_iter()
-        .map(|&b| {
-            if abort.load(Ordering::Relaxed) {
-                return None;
-            }
-            let photons = batch_photons(opts.samples, batch_size, b);
-            let mut channels = Vec::with_capacity(tracers.len());
-            let mut steps = 0;
-            for (c, t) in tracers.iter().enumerate() {
-                let mut rng = batch_rng(opts.seed, c as u64, b);
-                let mut sums = vec![0.0; t.layout().len()];
-                let k = t.run_batch(&mut rng, photons, &mut sums);
-                steps += k.steps;
-                channels.push(ChannelBatch {
-                    sums,
-                    interactions: k.interactions,
-                    steps: k.steps,
-                    capped: k.capped,
-                });
-            }
-            // Work budget: refuse as soon as the count or its projection exceeds it.
-            let s = steps_done.fetch_add(steps, Ordering::Relaxed) + steps;
-            let d = batches_done.fetch_add(1, Ordering::Relaxed) + 1;
-            if let Some(budget) = opts.max_events {
-                let projected = s as f64 * total as f64 / d as f64;
-                if s > budget || (d >= total.min(4) && projected > budget as f64) {
-                    let secs = t0.elapsed().as_secs_f64() * threads;
-                    let rate = s as f64 / secs.max(1e-9);
-                    let mut r = refusal.lock().unwrap_or_else(|e| e.into_inner());
-                    if r.is_none() {
-                        *r = Some(McError::TooExpensive {
-                            expected_events: projected,
-                            budget: budget as f64,
-                            expected_seconds: projected / rate,
-                            hint: format!(
-                                "measured {:.1} steps per photon over {d} batch(es); lower \
+    let one = |&b: &u64| {
+        if abort.load(Ordering::Relaxed) {
+            return None;
+        }
+        let photons = batch_photons(opts.samples, batch_size, b);
+        let mut channels = Vec::with_capacity(tracers.len());
+        let mut steps = 0;
+        for (c, t) in tracers.iter().enumerate() {
+            let mut rng = batch_rng(opts.seed, c as u64, b);
+            let mut sums = vec![0.0; t.layout().len()];
+            let k = t.run_batch(&mut rng, photons, &mut sums);
+            steps += k.steps;
+            channels.push(ChannelBatch {
+                sums,
+                interactions: k.interactions,
+                steps: k.steps,
+                capped: k.capped,
+            });
+        }
+        // Work budget: refuse as soon as the count or its projection exceeds it.
+        let s = steps_done.fetch_add(steps, Ordering::Relaxed) + steps;
+        let d = batches_done.fetch_add(1, Ordering::Relaxed) + 1;
+        if let Some(budget) = opts.max_events {
+            let projected = s as f64 * total as f64 / d as f64;
+            if s > budget || (d >= total.min(4) && projected > budget as f64) {
+                let secs = t0.elapsed().as_secs_f64() * threads;
+                let rate = s as f64 / secs.max(1e-9);
+                let mut r = refusal.lock().unwrap_or_else(|e| e.into_inner());
+                if r.is_none() {
+                    *r = Some(McError::TooExpensive {
+                        expected_events: projected,
+                        budget: budget as f64,
+                        expected_seconds: projected / rate,
+                        hint: format!(
+                            "measured {:.1} steps per photon over {d} batch(es); lower \
                                  samples, split the run into shards, or raise the budget (km: \
                                  --budget FACTOR; library: max_events) (a thick, nearly \
                                  conservative layer costs about tau^2 steps per photon that \
                                  crosses it)",
-                                s as f64 / (d * batch_size) as f64 / tracers.len() as f64,
-                            ),
-                        });
-                    }
-                    abort.store(true, Ordering::Relaxed);
-                    return None;
+                            s as f64 / (d * batch_size) as f64 / tracers.len() as f64,
+                        ),
+                    });
                 }
+                abort.store(true, Ordering::Relaxed);
+                return None;
             }
-            if let Some(p) = &opts.progress {
-                p.report(d, total);
-            }
-            Some(BatchRecord { index: b, photons, channels })
-        })
-        .collect();
+        }
+        if let Some(p) = &opts.progress {
+            p.report(d, total);
+        }
+        Some(BatchRecord { index: b, photons, channels })
+    };
+    let records: Vec<Option<BatchRecord>> =
+        if parallel { mine.par_iter().map(one).collect() } else { mine.iter().map(one).collect() };
     if let Some(e) = refusal.into_inner().unwrap_or_else(|e| e.into_inner()) {
         return Err(e);
     }

@@ -287,9 +287,22 @@ impl DirectionSet {
         if layer.sigma_s() == 0.0 || layer.thickness() == 0.0 {
             return Ok(absorber_operators(&self.mu, layer.sigma_t(), layer.thickness()));
         }
-        self.modes(layer.sigma_a(), layer.sigma_s(), layer.phase())?.operators(layer.thickness())
+        // In optical units (sigma_t = 1, thickness tau): the operators
+        // depend on sigma_a z0 and sigma_s z0 only, and the modes' matrices
+        // stay of order 1 (sigma_t = 1e200 overflowed the eigen-solver).
+        let st = layer.sigma_t();
+        let tau = if layer.is_half_space() { f64::INFINITY } else { st * layer.thickness() };
+        // A layer no light crosses to rounding is the half-space: even a
+        // conservative one transmits about 1 / (0.75 tau (1 - g)), below
+        // 1e-13 from tau = HALF_SPACE_TAU on (g <= 0.99).
+        let tau = if tau > HALF_SPACE_TAU { f64::INFINITY } else { tau };
+        self.modes(layer.sigma_a() / st, layer.sigma_s() / st, layer.phase())?.operators(tau)
     }
 }
+
+/// Optical thickness from which the direction-set solver takes a layer for
+/// a half-space (its transmission is below 1e-13 even without absorption).
+pub const HALF_SPACE_TAU: f64 = 1e16;
 
 /// Where a collimated beam arrives: polar angle `theta_deg` in the medium of index `n`.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -218,11 +218,58 @@ pub fn solve_many(
     opts: &Options,
     threads: Option<usize>,
 ) -> Result<Vec<Result<Solution, Error>>, Error> {
+    check_batch(scenes.iter(), scenes.len(), opts)?;
     let mut point = opts.clone();
     if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);
     }
     in_pool(threads, || scenes.par_iter().map(|s| solve(s, &point)).collect::<Vec<_>>())
+}
+
+/// The most points of one batch or sweep (as `km sweep`).
+pub const MAX_POINTS: usize = 100_000;
+
+/// One budget for a whole batch (docs/limits.md eq. L4), before any point
+/// is solved: at most [`MAX_POINTS`] points, and their summed work (each
+/// point's estimate: `km::request_budget::point_work`) within the budget of
+/// one solve. `scenes` yields the points' scenes (a sweep's base scene
+/// stands for all its points).
+fn check_batch<'a>(
+    scenes: impl Iterator<Item = &'a Scene>,
+    points: usize,
+    opts: &Options,
+) -> Result<(), Error> {
+    if points > MAX_POINTS {
+        return Err(Error::option(
+            "scenes",
+            format!("{points} points (at most {MAX_POINTS} per call): solve in chunks"),
+        ));
+    }
+    // Options the method refuses are each point's error, as before.
+    let Ok(lib) = opts.library() else { return Ok(()) };
+    let mut total = 0.0;
+    let mut scenes = scenes.peekable();
+    let Some(first) = scenes.peek() else { return Ok(()) };
+    let Some((_, budget, unit)) = km::request_budget::point_work(first, &lib) else {
+        return Ok(());
+    };
+    let each: Vec<&Scene> = scenes.collect();
+    let n_each = each.len().max(1);
+    for s in &each {
+        total += km::request_budget::point_work(s, &lib).map_or(0.0, |w| w.0);
+    }
+    // A sweep gives its base scene once for all its points.
+    let total = total * (points as f64 / n_each as f64);
+    if points > 1 && total > budget {
+        return Err(Error::option(
+            "budget",
+            format!(
+                "{points} points need about {total:.3e} {unit} in all, over the budget of \
+                 {budget:.3e} for one call: use fewer points, or a coarser grid"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Solve the sweep of `base` over `values` (point-major, `targets.len()`
@@ -243,6 +290,7 @@ pub fn solve_sweep(
     if k == 0 || !values.len().is_multiple_of(k) {
         return Err(Error::option("params", "need at least one key and one value per key"));
     }
+    check_batch(std::iter::once(base), values.len() / k, opts)?;
     let mut point = opts.clone();
     if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);

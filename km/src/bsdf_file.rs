@@ -156,6 +156,66 @@ pub fn parse_angles(text: &str) -> Result<Vec<f64>, AngleListError> {
     Ok(v)
 }
 
+/// The most (channel, theta_i, theta_o) triples of one BSDF at budget 1:
+/// each keeps its Fourier coefficients and correction weights (about 1 kB),
+/// so `2^18` triples stay near 256 MB.
+pub const MAX_PAIRS: usize = 1 << 18;
+
+/// The most values of one table (channels x theta_i x theta_o x phi) at
+/// budget 1: `2^22` values are 32 MB per array of the file.
+pub const MAX_TABLE_VALUES: usize = 1 << 22;
+
+/// The largest azimuth magnitude accepted, degrees (one turn either way:
+/// beyond, `phi` in `f64` has lost its fraction of a degree).
+pub const MAX_PHI_DEG: f64 = 360.0;
+
+/// Refuse a grid over its budget, before any work: `pairs` (channels x
+/// theta_i x theta_o) over [`MAX_PAIRS`] x `budget`, or table values (pairs
+/// x phi, when `table`) over [`MAX_TABLE_VALUES`] x `budget`; and azimuths
+/// beyond [`MAX_PHI_DEG`].
+///
+/// # Errors
+/// [`BsdfError::Input`] naming the grid sizes and the budget.
+pub fn check_grid(
+    channels: usize,
+    request: &BsdfRequest,
+    table: bool,
+    budget: f64,
+) -> Result<(), BsdfError> {
+    let (ni, no, np) = (request.theta_i.len(), request.theta_o.len(), request.phi.len());
+    if let Some(p) = request.phi.iter().find(|p| p.abs() > MAX_PHI_DEG) {
+        return Err(BsdfError::Input {
+            name: "phi",
+            reason: format!("{p:e} degrees is outside [-{MAX_PHI_DEG}, {MAX_PHI_DEG}]"),
+        });
+    }
+    let pairs = channels as f64 * ni as f64 * no as f64;
+    let max_pairs = MAX_PAIRS as f64 * budget;
+    if pairs > max_pairs {
+        return Err(BsdfError::Input {
+            name: "theta_o",
+            reason: format!(
+                "{channels} channel(s) x {ni} theta_i x {no} theta_o = {pairs:.0} angle pairs, \
+                 over the budget of {max_pairs:.0} (about 1 kB each): use coarser angle \
+                 lists, fewer channels, or raise the budget (--budget FACTOR)"
+            ),
+        });
+    }
+    let values = pairs * np as f64;
+    let max_values = MAX_TABLE_VALUES as f64 * budget;
+    if table && values > max_values {
+        return Err(BsdfError::Input {
+            name: "phi",
+            reason: format!(
+                "{pairs:.0} angle pairs x {np} phi = {values:.0} table values, over the \
+                 budget of {max_values:.0}: use fewer azimuths or angles, or raise the \
+                 budget (--budget FACTOR)"
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// What a BSDF file is asked for.
 #[derive(Debug, Clone)]
 pub struct BsdfRequest {
@@ -171,6 +231,8 @@ pub struct BsdfRequest {
     pub streams: Option<usize>,
     /// The file format.
     pub format: BsdfFormat,
+    /// Factor on the grid budgets of [`check_grid`] (default 1).
+    pub budget: f64,
 }
 
 /// The angle lists of a [`BsdfRequest`].
@@ -242,7 +304,7 @@ impl BsdfRequest {
         if format == BsdfFormat::Fourier && from_below {
             return Err(RequestError::FromBelowInFourier);
         }
-        Ok(BsdfRequest { theta_i, theta_o, phi, from_below, streams, format })
+        Ok(BsdfRequest { theta_i, theta_o, phi, from_below, streams, format, budget: 1.0 })
     }
 }
 
@@ -278,6 +340,7 @@ pub fn bsdf_file(
     request: &BsdfRequest,
     with_bytes: bool,
 ) -> Result<BsdfFile, BsdfError> {
+    check_grid(scene.channels().len(), request, true, request.budget)?;
     let (theta_i, theta_o, phi) = (&request.theta_i, &request.theta_o, &request.phi);
     let solver = MultifluxOptions { streams: request.streams, ..Default::default() };
     let side = if request.from_below { Side::Below } else { Side::Above };

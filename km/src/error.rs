@@ -147,6 +147,33 @@ pub enum KmError {
         /// The target asked.
         target: f64,
     },
+    /// One point of a sweep failed; the point's edits name it.
+    #[error("at sweep point {point}: {source}")]
+    SweepPoint {
+        /// The point's swept values, `KEY=VALUE` joined by spaces.
+        point: String,
+        /// Its error.
+        source: Box<KmError>,
+    },
+    /// A request of many points (a sweep, a batch) whose points' work,
+    /// summed before any is solved, exceeds the budget of one request.
+    #[error(
+        "{points} points x {per_point:.3e} {unit} each = {total:.3e} {unit}, over the budget \
+         of {budget:.3e} for the whole request: use fewer points or a coarser grid, or raise \
+         the budget (--budget FACTOR; docs/limits.md)"
+    )]
+    RequestTooLarge {
+        /// Number of points.
+        points: usize,
+        /// Estimated work of one point.
+        per_point: f64,
+        /// Summed work.
+        total: f64,
+        /// The budget of the request (the method's budget of one solve).
+        budget: f64,
+        /// The unit of the work (`multi-flux work units`, `photon steps`).
+        unit: &'static str,
+    },
     /// The accuracy target cannot be met within the work the library allows.
     #[error(
         "accuracy target {target:e} not reached: {limited_by} has an estimated error of \

@@ -50,6 +50,7 @@ pub mod mc_field;
 mod method;
 pub mod model_error;
 mod profile;
+pub mod request_budget;
 mod run;
 pub mod settings;
 mod solver;

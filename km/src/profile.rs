@@ -174,8 +174,9 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
             let d = km_dipole::DipoleOptions::default();
             crate::Solver::supports(&d, scene)?;
             normal_incidence(scene)?;
-            let r: Vec<f64> =
-                (0..points).map(|i| r_max * (i as f64 + 0.5) / points as f64).collect();
+            // The width first: `r_max (i + 1/2)` overflows for r_max near 1e308.
+            let dr = r_max / points as f64;
+            let r: Vec<f64> = (0..points).map(|i| dr * (i as f64 + 0.5)).collect();
             let rd = km_dipole::profile(scene, &r, &d)?;
             (r, rd, None)
         }

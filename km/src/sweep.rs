@@ -70,7 +70,13 @@ impl SweepAxis {
     pub fn split(texts: &[String]) -> Result<(Vec<SetEdit>, Vec<SweepAxis>), KmError> {
         let (mut edits, mut axes) = (Vec::new(), Vec::new());
         for s in texts {
-            if s.split_once('=').is_some_and(|(_, v)| v.split(':').count() == 3) {
+            // A value with a colon (not a quoted string) is a range: a
+            // malformed one (`0:0.5:3:4`) is refused as such.
+            let range = |v: &str| {
+                let v = v.trim();
+                v.contains(':') && !v.starts_with('"') && !v.starts_with('\'')
+            };
+            if s.split_once('=').is_some_and(|(_, v)| range(v)) {
                 axes.push(SweepAxis::parse(s)?);
             } else {
                 edits.push(SetEdit::parse(s)?);
@@ -133,6 +139,31 @@ pub fn sweep(
         }
     };
     let values: Vec<Vec<f64>> = axes.iter().map(SweepAxis::values).collect();
+    // One budget for the whole sweep (eq. L4), before any point is solved:
+    // the first point stands for all (they differ in values only).
+    let edits_at = |point: &[f64]| {
+        let mut all = edits.to_vec();
+        all.extend(
+            axes.iter()
+                .zip(point)
+                .map(|(a, v)| SetEdit { key: a.key.clone(), value: format!("{v:?}") }),
+        );
+        all
+    };
+    let first: Vec<f64> = values.iter().map(|v| v[0]).collect();
+    if let Ok(scene) = Scene::from_toml_str_edited(text, &edits_at(&first)) {
+        crate::request_budget::check_points(
+            &scene,
+            total,
+            options,
+            crate::request_budget::SWEEP_POINT_OVERHEAD,
+        )?;
+    }
+    let named = |point: &[f64], e: KmError| {
+        let at: Vec<String> =
+            axes.iter().zip(point).map(|(a, v)| format!("{}={v}", a.key)).collect();
+        KmError::SweepPoint { point: at.join(" "), source: Box::new(e) }
+    };
     let results: Vec<Result<SweepPoint, KmError>> = (0..total)
         .into_par_iter()
         .map(|index| {
@@ -143,15 +174,14 @@ pub fn sweep(
                 point[k] = values[k][rest % a.n];
                 rest /= a.n;
             }
-            let mut all = edits.to_vec();
-            all.extend(
-                axes.iter()
-                    .zip(&point)
-                    .map(|(a, v)| SetEdit { key: a.key.clone(), value: format!("{v:?}") }),
-            );
-            let scene = Scene::from_toml_str_edited(text, &all)?;
-            let solution = crate::solve(&scene, options)?;
-            Ok(SweepPoint { values: point, solution })
+            let solve = || {
+                let scene = Scene::from_toml_str_edited(text, &edits_at(&point))?;
+                crate::solve(&scene, options)
+            };
+            match solve() {
+                Ok(solution) => Ok(SweepPoint { values: point, solution }),
+                Err(e) => Err(named(&point, e)),
+            }
         })
         .collect();
     results.into_iter().collect()

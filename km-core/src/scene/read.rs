@@ -33,13 +33,15 @@ fn line_of(text: &str, span: Range<usize>) -> usize {
 }
 
 pub(super) fn too_big(what: &str, bytes: u64, max: u64) -> CoreError {
+    too_big_for(what, bytes, max, "KM_MAX_SCENE_BYTES")
+}
+
+fn too_big_for(what: &str, bytes: u64, max: u64, env: &str) -> CoreError {
+    let raise = if env.is_empty() { String::new() } else { format!("set {env} to raise it; ") };
     CoreError::scene(
         "file",
         None,
-        format!(
-            "{what} of {bytes} bytes is over the limit of {max} bytes \
-             (set KM_MAX_SCENE_BYTES to raise it; docs/limits.md)"
-        ),
+        format!("{what} of {bytes} bytes is over the limit of {max} bytes ({raise}docs/limits.md)"),
     )
 }
 
@@ -51,30 +53,52 @@ pub(super) fn too_big(what: &str, bytes: u64, max: u64) -> CoreError {
 /// # Errors
 /// Those of [`Scene::from_path`] about the file.
 pub fn read_scene_text(path: &Path, max: u64) -> Result<String, CoreError> {
+    read_checked_text(path, max, "a scene", "KM_MAX_SCENE_BYTES")
+}
+
+/// The text of any input file (a scene, a measurement file), checked as
+/// [`read_scene_text`] checks a scene: at most `max` bytes (`env` names the
+/// variable that raises the limit in the message, if any: may be empty); `-` is standard input;
+/// anything else must be a regular file, checked before opening and opened
+/// without blocking; `what` names the file's role in the messages ("a
+/// measurement file").
+///
+/// # Errors
+/// A file that is missing, not a regular file, over `max` bytes or not UTF-8.
+pub fn read_checked_text(
+    path: &Path,
+    max: u64,
+    what: &str,
+    env: &str,
+) -> Result<String, CoreError> {
     let shown = path.display();
+    let too_big = |w: &str, b: u64| too_big_for(w, b, max, env);
     let io =
         |e: std::io::Error| CoreError::scene("file", None, format!("cannot read {shown}: {e}"));
+    let not_regular = |m: &std::fs::Metadata| {
+        CoreError::scene(
+            "file",
+            None,
+            format!(
+                "{shown} is {}: {what} must be a regular file (or - for standard input)",
+                crate::atomic_file::kind(&m.file_type())
+            ),
+        )
+    };
     let mut buf = Vec::new();
     if path.as_os_str() == "-" {
         std::io::stdin().lock().take(max + 1).read_to_end(&mut buf).map_err(io)?;
         if buf.len() as u64 > max {
-            return Err(too_big("standard input", buf.len() as u64, max));
+            return Err(too_big("standard input", buf.len() as u64));
         }
     } else {
         // The type before opening: opening a FIFO with no writer blocks.
         let meta = std::fs::metadata(path).map_err(io)?;
         if !meta.is_file() {
-            return Err(CoreError::scene(
-                "file",
-                None,
-                format!(
-                    "{shown} is {}: a scene must be a regular file (or - for standard input)",
-                    crate::atomic_file::kind(&meta.file_type())
-                ),
-            ));
+            return Err(not_regular(&meta));
         }
         if meta.len() > max {
-            return Err(too_big(&format!("{shown}"), meta.len(), max));
+            return Err(too_big(&format!("{shown}"), meta.len()));
         }
         // O_NONBLOCK: should the path be swapped for a FIFO after the check,
         // the open does not hang.
@@ -86,19 +110,12 @@ pub fn read_scene_text(path: &Path, max: u64) -> Result<String, CoreError> {
             .map_err(io)?;
         let meta = f.metadata().map_err(io)?;
         if !meta.is_file() {
-            return Err(CoreError::scene(
-                "file",
-                None,
-                format!(
-                    "{shown} is {}: a scene must be a regular file",
-                    crate::atomic_file::kind(&meta.file_type())
-                ),
-            ));
+            return Err(not_regular(&meta));
         }
         // A file that grows while read is cut at max + 1 bytes and refused.
         f.take(max + 1).read_to_end(&mut buf).map_err(io)?;
         if buf.len() as u64 > max {
-            return Err(too_big(&format!("{shown}"), buf.len() as u64, max));
+            return Err(too_big(&format!("{shown}"), buf.len() as u64));
         }
     }
     String::from_utf8(buf).map_err(|e| {
@@ -116,7 +133,7 @@ pub fn read_scene_text(path: &Path, max: u64) -> Result<String, CoreError> {
 pub(super) fn toml_error(text: &str, e: &toml::de::Error) -> CoreError {
     let line = e.span().map(|s| line_of(text, s));
     // toml's message names the key (e.g. "unknown field `sigmaa`, expected ...").
-    let msg = e.message().trim().to_string();
+    let msg = internal_names(e.message().trim());
     let key = msg
         .split('`')
         .nth(1)
@@ -124,4 +141,20 @@ pub(super) fn toml_error(text: &str, e: &toml::de::Error) -> CoreError {
         .unwrap_or("scene")
         .to_string();
     CoreError::scene(key, line, msg)
+}
+
+/// A parser message with the parser's own type names in words: "expected
+/// struct RawLight" says "expected a table (struct RawLight is internal)".
+fn internal_names(msg: &str) -> String {
+    let mut out = String::new();
+    let mut rest = msg;
+    while let Some(i) = rest.find("struct Raw") {
+        out.push_str(&rest[..i]);
+        let tail = &rest[i + "struct Raw".len()..];
+        let end = tail.find(|c: char| !c.is_alphanumeric()).unwrap_or(tail.len());
+        out.push_str("a table");
+        rest = &tail[end..];
+    }
+    out.push_str(rest);
+    out
 }

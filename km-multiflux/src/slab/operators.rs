@@ -253,6 +253,31 @@ pub fn absorber_operators(mu: &[f64], extras: &[Extra], tau: f64) -> LayerOperat
     }
 }
 
+/// Optical thickness below which a layer is taken for one that does not
+/// scatter, relative to the smallest direction cosine of the request:
+/// single scattering changes no operator element by more than about
+/// `omega tau / mu_min`, so at `tau <= 1e-15 mu_min` the Beer–Lambert
+/// shortcut is exact to rounding, while the eigen-solution loses every
+/// digit (`1 - exp(-k tau)` rounds to 0 for every mode at `tau ~ 1e-19`,
+/// and `I - R1' R2` came out singular).
+const VANISHING_TAU: f64 = 1e-15;
+
+/// Whether a layer of optical thickness `tau` is [`VANISHING_TAU`]-thin for
+/// the node cosines `mu` and the extra directions' cosines.
+fn vanishing(mu: &[f64], extras: &[Extra], tau: f64) -> bool {
+    let mu_min = mu.iter().copied().chain(extras.iter().filter_map(|e| e.mu)).fold(1.0, f64::min);
+    tau <= VANISHING_TAU * mu_min
+}
+
+/// Whether the layer of `p` scatters at this Fourier order (and is not
+/// [`vanishing`]).
+fn scatters(mu: &[f64], extras: &[Extra], p: &SlabOrder<'_>) -> bool {
+    p.omega > 0.0
+        && !vanishing(mu, extras, p.tau)
+        && p.m < p.chi.len()
+        && p.chi[p.m..].iter().any(|&c| c != 0.0)
+}
+
 /// Operators of one layer and order on the augmented space, choosing the
 /// absorber shortcut when nothing scatters.
 ///
@@ -265,8 +290,7 @@ pub fn slab_operators(
     p: &SlabOrder<'_>,
     tms: Option<&Tms>,
 ) -> Result<LayerOperators, MultifluxError> {
-    let scatters =
-        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
+    let scatters = scatters(mu, extras, p);
     if !scatters {
         return Ok(absorber_operators(mu, extras, p.tau));
     }
@@ -293,9 +317,8 @@ pub(crate) fn slab_augmented(
     p: &SlabOrder<'_>,
     eigen: bool,
 ) -> Result<Augmented, MultifluxError> {
-    let scatters =
-        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
-    if !(scatters || eigen && p.tau > 0.0) {
+    let scatters = scatters(mu, extras, p);
+    if !(scatters || eigen && !vanishing(mu, extras, p.tau)) {
         let dense = absorber_operators(mu, &extras[..nbeam], p.tau);
         let mut aug = Augmented::core_only(dense);
         let d: Vec<f64> =
@@ -364,8 +387,7 @@ fn beam_response_parts(
     tms: Option<&Tms>,
     down: bool,
 ) -> Result<(Vec<f64>, Vec<f64>), MultifluxError> {
-    let scatters =
-        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
+    let scatters = scatters(mu, extras, p);
     if !scatters {
         // Beer–Lambert: only the unscattered beam.
         let dim = mu.len() + extras.len();

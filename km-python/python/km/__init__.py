@@ -176,3 +176,34 @@ def solve_many(
     scenes = list(scenes)
     cols = _km._solve_scenes(scenes, method, threads=threads, errors=errors, **options)
     return Batch(cols, (len(scenes),))
+
+
+def _integers_named(f: Any) -> Any:
+    """``f`` with an integer argument out of range (negative, or beyond
+    2^64 - 1 where a count is asked; beyond a float's range for a float) a
+    :class:`KmError` naming the argument, not a bare ``OverflowError``."""
+    import functools
+
+    @functools.wraps(f)
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return f(*args, **kwargs)
+        except OverflowError as e:
+            bad = [k for k, v in kwargs.items()
+                   if isinstance(v, int) and not isinstance(v, bool)
+                   and not (0 <= v < 2**64)]
+            what = ", ".join(bad) if bad else "an integer argument (or an integer scene value)"
+            raise KmError(
+                f"{what}: out of range ({e}); counts and seeds are whole numbers in "
+                f"[0, 2^64), and a value given as an integer must fit a float"
+            ) from None
+
+    return checked
+
+
+solve = _integers_named(solve)
+run_shard = _integers_named(run_shard)
+fit_file = _integers_named(fit_file)
+solve_many = _integers_named(solve_many)
+bsdf = _integers_named(bsdf)
+fit = _integers_named(fit)

@@ -289,11 +289,9 @@ pub(crate) fn fit_file<'py>(
     let list = guarded(py, || {
         let name = path.display().to_string();
         let cannot = |e: String| Error::option("path", format!("{name}: {e}"));
-        let len = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?.len();
-        if len > MAX_FILE_BYTES {
-            return Err(cannot(format!("{len} bytes (at most {MAX_FILE_BYTES})")));
-        }
-        let text = std::fs::read_to_string(&path).map_err(|e| cannot(e.to_string()))?;
+        // The checked reader: a FIFO or /dev/zero is refused before opening.
+        let text = km_core::read_checked_text(&path, MAX_FILE_BYTES, "a measurement file", "")
+            .map_err(|e| cannot(e.to_string()))?;
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
         let rows = match ext.as_str() {
             "rxt" => km_inverse::rxt::parse_rxt(&text),

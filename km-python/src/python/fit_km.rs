@@ -109,16 +109,31 @@ pub(crate) fn colour_of<'py>(
     Ok(d)
 }
 
+/// Refuse a colour triple with a value that is not finite, naming the argument.
+fn finite3(py: Python<'_>, name: &str, v: (f64, f64, f64)) -> PyResult<()> {
+    if [v.0, v.1, v.2].iter().all(|x| x.is_finite()) {
+        return Ok(());
+    }
+    Err(py_err(py, Error::option(name, format!("{v:?} has a value that is not finite"))))
+}
+
 /// CIEDE2000 colour difference of two CIELAB colours (see `km.delta_e2000`).
 #[pyfunction]
-pub(crate) fn delta_e2000(lab1: (f64, f64, f64), lab2: (f64, f64, f64)) -> f64 {
+pub(crate) fn delta_e2000(
+    py: Python<'_>,
+    lab1: (f64, f64, f64),
+    lab2: (f64, f64, f64),
+) -> PyResult<f64> {
+    finite3(py, "lab1", lab1)?;
+    finite3(py, "lab2", lab2)?;
     let l = |(l, a, b): (f64, f64, f64)| Lab { l, a, b };
-    colour::ciede2000(l(lab1), l(lab2))
+    Ok(colour::ciede2000(l(lab1), l(lab2)))
 }
 
 /// sRGB (linear-light encoded to the sRGB curve, 0..1) of CIE XYZ (Y = 100 white).
 #[pyfunction]
-pub(crate) fn srgb(xyz: (f64, f64, f64)) -> (f64, f64, f64) {
+pub(crate) fn srgb(py: Python<'_>, xyz: (f64, f64, f64)) -> PyResult<(f64, f64, f64)> {
+    finite3(py, "xyz", xyz)?;
     let v = colour::srgb(Xyz { x: xyz.0, y: xyz.1, z: xyz.2 });
-    (v[0], v[1], v[2])
+    Ok((v[0], v[1], v[2]))
 }

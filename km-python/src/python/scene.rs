@@ -110,16 +110,11 @@ impl PyScene {
     /// A scene from a scene file on disk.
     #[staticmethod]
     fn from_file(py: Python<'_>, path: PathBuf) -> PyResult<PyScene> {
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            py_err(
-                py,
-                Error::Scene(km_core::CoreError::scene(
-                    "file",
-                    None,
-                    format!("cannot read {}: {e}", path.display()),
-                )),
-            )
-        })?;
+        // The checked reader of `km`: a FIFO or /dev/zero is refused before
+        // opening, and the size limit holds (KM_MAX_SCENE_BYTES).
+        let limits = km_core::SceneLimits::from_env();
+        let text = km_core::read_scene_text(&path, limits.max_bytes)
+            .map_err(|e| py_err(py, Error::Scene(e)))?;
         PyScene::parse(py, text)
     }
 

@@ -1,0 +1,496 @@
+//! Hostile input on the surfaces of batches, sweeps, BSDF grids and fits:
+//! each case ends with a clear refusal or a correct answer within 5 s and
+//! 500 MB of address space (RLIMIT_AS in the child), with no panic and no
+//! damaged or half-written file (docs/limits.md).
+
+#![allow(clippy::unwrap_used)]
+
+use std::io::Read;
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// The memory limit of every run (the issue's 500 MB).
+const MEMORY: u64 = 500_000_000;
+/// The time limit of every run (the issue's 5 s).
+const SECONDS: f64 = 5.0;
+
+struct Run {
+    status: ExitStatus,
+    stdout: String,
+    stderr: String,
+    seconds: f64,
+}
+
+fn command(args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_km"));
+    c.args(args);
+    // SAFETY: setrlimit is async-signal-safe and touches only the child.
+    unsafe {
+        c.pre_exec(|| {
+            let lim = libc::rlimit { rlim_cur: MEMORY, rlim_max: MEMORY };
+            if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    c
+}
+
+/// Wait for `child` at most `SECONDS` (then kill it and fail).
+fn finish(mut child: Child, what: &str, t0: Instant) -> Run {
+    let mut out = child.stdout.take();
+    let mut err = child.stderr.take();
+    // Drain the pipes in threads so a large output cannot block the child.
+    let o = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        if let Some(p) = out.as_mut() {
+            let _ = p.read_to_end(&mut s);
+        }
+        s
+    });
+    let e = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        if let Some(p) = err.as_mut() {
+            let _ = p.read_to_end(&mut s);
+        }
+        s
+    });
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if t0.elapsed().as_secs_f64() > SECONDS {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what}: still running after {SECONDS} s");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let seconds = t0.elapsed().as_secs_f64();
+    Run {
+        status,
+        stdout: String::from_utf8_lossy(&o.join().unwrap()).into_owned(),
+        stderr: String::from_utf8_lossy(&e.join().unwrap()).into_owned(),
+        seconds,
+    }
+}
+
+fn km(args: &[&str]) -> Run {
+    let t0 = Instant::now();
+    let child = command(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run km");
+    finish(child, &args.join(" "), t0)
+}
+
+fn refused(r: &Run, names: &[&str]) {
+    assert_eq!(r.status.code(), Some(2), "not refused: {} / {}", r.stderr, r.stdout);
+    assert!(!r.stderr.contains("panicked"), "panic: {}", r.stderr);
+    assert!(r.stdout.is_empty(), "stdout on a refusal: {}", r.stdout);
+    for n in names {
+        assert!(r.stderr.contains(n), "stderr does not say {n:?}: {}", r.stderr);
+    }
+}
+
+fn ok(r: &Run) {
+    assert!(r.status.success(), "failed: {}", r.stderr);
+    assert!(r.seconds < SECONDS);
+}
+
+fn dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("km-hostile-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn example(name: &str) -> String {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join("examples").join(name);
+    p.to_string_lossy().into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn json_number(text: &str, key: &str) -> f64 {
+    let v: serde_json::Value = serde_json::from_str(text).expect("JSON on stdout");
+    v["channels"][0][key].as_f64().or_else(|| v[key].as_f64()).expect(key)
+}
+
+const TWO_LAYERS: &str =
+    "[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.5\n\n[[layer]]\ntau = 2.0\nalbedo = 0.8\ng = 0.3\n";
+const LOWER_ONLY: &str = "[[layer]]\ntau = 2.0\nalbedo = 0.8\ng = 0.3\n";
+
+fn write(d: &Path, name: &str, text: &str) -> PathBuf {
+    let p = d.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn total(r: &Run, key: &str) -> f64 {
+    ok(r);
+    json_number(&r.stdout, key)
+}
+
+// ---------------------------------------------------------------------------
+// Crashes and damage
+
+#[test]
+fn bsdf_grids_over_the_budget_are_refused_before_work() {
+    let paint = example("paint-over-primer.toml");
+    let d = dir("grid");
+    let out = d.join("x.npz");
+    // 1800 x 1800 angle pairs per channel (5.4 GB and an abort before).
+    let r = km(&[
+        "bsdf",
+        &paint,
+        "--out",
+        s(&out),
+        "--theta-i",
+        "0:90:0.05",
+        "--theta-o",
+        "0:90:0.05",
+        "--phi",
+        "0",
+    ]);
+    refused(&r, &["angle pairs", "--budget"]);
+    // 900 x 900 pairs x 360 azimuths (2.9 GB before).
+    let r = km(&[
+        "bsdf",
+        &paint,
+        "--out",
+        s(&out),
+        "--theta-i",
+        "0:90:0.1",
+        "--theta-o",
+        "0:90:0.1",
+        "--phi",
+        "0:360:1",
+    ]);
+    refused(&r, &["--budget"]);
+    // 10^5 azimuths on the default grid (5.1 s before).
+    let r = km(&["bsdf", &paint, "--out", s(&out), "--phi", "0:360:0.0036"]);
+    refused(&r, &["table values", "--budget"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn bsdf_azimuth_far_outside_a_turn_is_refused() {
+    let d = dir("phi");
+    let scene = write(&d, "s.toml", LOWER_ONLY);
+    let r = km(&[
+        "bsdf",
+        s(&scene),
+        "--out",
+        s(&d.join("x.csv")),
+        "--theta-i",
+        "0",
+        "--theta-o",
+        "0",
+        "--phi",
+        "1e300",
+    ]);
+    refused(&r, &["phi", "1e300"]);
+}
+
+#[test]
+fn bsdf_out_never_replaces_the_scene() {
+    let d = dir("scene-out");
+    let scene = write(&d, "s.toml", LOWER_ONLY);
+    let r = km(&[
+        "bsdf",
+        s(&scene),
+        "--out",
+        s(&scene),
+        "--format",
+        "npz",
+        "--theta-i",
+        "0",
+        "--theta-o",
+        "0",
+        "--phi",
+        "0",
+    ]);
+    refused(&r, &["input"]);
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), LOWER_ONLY);
+}
+
+#[test]
+fn a_full_stderr_is_exit_status_2_not_a_panic() {
+    let d = dir("stderr");
+    let scene = write(&d, "s.toml", TWO_LAYERS);
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let (missing, b_csv) = (d.join("missing.toml"), d.join("b.csv"));
+    let runs: [&[&str]; 3] = [
+        &["solve", s(&scene), "--set", "layer[1].g=5"],
+        &["check", s(&missing)],
+        &["fit", "--m-r", "0.2", "--m-t", "0.3"],
+    ];
+    for args in runs {
+        let t0 = Instant::now();
+        let child =
+            command(args).stdout(Stdio::null()).stderr(full.try_clone().unwrap()).spawn().unwrap();
+        let r = finish(child, &args.join(" "), t0);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {:?}", r.status);
+    }
+    // The summary of a successful km bsdf goes to stderr as well.
+    let t0 = Instant::now();
+    let args =
+        ["bsdf", s(&scene), "--out", s(&b_csv), "--theta-i", "0", "--theta-o", "0", "--phi", "0"];
+    let child = command(&args).stdout(Stdio::null()).stderr(full).spawn().unwrap();
+    let r = finish(child, "bsdf 2>/dev/full", t0);
+    assert_eq!(r.status.code(), Some(2), "{:?}", r.status);
+}
+
+#[test]
+fn parallel_plots_into_one_directory_all_succeed_and_leave_no_temporary_file() {
+    let d = dir("plots");
+    let scene = write(&d, "s.toml", LOWER_ONLY);
+    let plot = d.join("same");
+    let t0 = Instant::now();
+    let children: Vec<Child> = (0..6)
+        .map(|_| {
+            command(&[
+                "bsdf",
+                s(&scene),
+                "--plot",
+                s(&plot),
+                "--theta-i",
+                "0",
+                "--theta-o",
+                "0:90:30",
+                "--phi",
+                "0",
+                "--streams",
+                "4",
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+        })
+        .collect();
+    for c in children {
+        // Six processes on a shared machine: each within the per-case limit
+        // of the whole group, counted from the first start.
+        let r = finish_within(c, 6.0 * SECONDS, t0);
+        assert!(r.status.success(), "{}", r.stderr);
+    }
+    let left: Vec<String> = std::fs::read_dir(&plot)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
+/// [`finish`] with its own time limit.
+fn finish_within(mut child: Child, limit: f64, t0: Instant) -> Run {
+    loop {
+        if child.try_wait().unwrap().is_some() || t0.elapsed().as_secs_f64() > limit {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    finish(child, "parallel plot", Instant::now())
+}
+
+#[test]
+fn an_unwritable_plot_directory_is_named_in_words() {
+    let d = dir("proc");
+    let scene = write(&d, "s.toml", LOWER_ONLY);
+    let r = km(&[
+        "bsdf",
+        s(&scene),
+        "--plot",
+        "/proc/self",
+        "--theta-i",
+        "0",
+        "--theta-o",
+        "0",
+        "--phi",
+        "0",
+        "--streams",
+        "4",
+    ]);
+    refused(&r, &["/proc/self"]);
+    assert!(!r.stderr.contains("BackendError"), "{}", r.stderr);
+}
+
+// ---------------------------------------------------------------------------
+// Hangs
+
+#[test]
+fn fits_of_inconsistent_unscattered_transmittance_end_at_once() {
+    // M_U above M_T: refused before any search (spun > 120 s before).
+    let r = km(&[
+        "fit",
+        "--m-r",
+        ".2",
+        "--m-t",
+        ".3",
+        "--m-u",
+        ".5",
+        "--thickness",
+        "1",
+        "--n-sample",
+        "1.4",
+        "--n-slide",
+        "1.5",
+    ]);
+    refused(&r, &["m_u", "M_T"]);
+    // M_U just below M_T: no slab fits; an answer or a refusal within the limits.
+    for u in [".27", ".28"] {
+        let r = km(&[
+            "fit",
+            "--m-r",
+            ".2",
+            "--m-t",
+            ".2991",
+            "--m-u",
+            u,
+            "--thickness",
+            "1",
+            "--n-sample",
+            "1.4",
+            "--n-slide",
+            "1.5",
+            "--json",
+        ]);
+        assert!(matches!(r.status.code(), Some(0 | 2)), "{u}: {}", r.stderr);
+        assert!(!r.stderr.contains("panicked"));
+    }
+}
+
+#[test]
+fn fit_files_go_through_the_checked_reader() {
+    let d = dir("fit-fifo");
+    let fifo = d.join("m.csv");
+    let c = std::ffi::CString::new(s(&fifo)).unwrap();
+    // SAFETY: mkfifo on a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let r = km(&["fit", s(&fifo), "--thickness", "1"]);
+    refused(&r, &["FIFO", "regular file"]);
+    let r = km(&["fit", "/dev/zero", "--thickness", "1"]);
+    refused(&r, &["regular file"]);
+}
+
+// ---------------------------------------------------------------------------
+// Wrong answers
+
+#[test]
+fn a_vanishing_layer_gives_the_answer_of_no_layer() {
+    let d = dir("vanish");
+    let two = write(&d, "two.toml", TWO_LAYERS);
+    let one = write(&d, "one.toml", LOWER_ONLY);
+    let want = total(&km(&["solve", s(&one), "--json"]), "reflectance");
+    let want_t = total(&km(&["solve", s(&one), "--json"]), "transmittance");
+    for tau in ["1e-19", "1e-25", "1e-300"] {
+        let set = format!("layer[1].tau={tau}");
+        let r = km(&["solve", s(&two), "--set", &set, "--json"]);
+        // 1e-12: the layer changes the answer by about tau / mu_min (< 1e-15).
+        assert!((total(&r, "reflectance") - want).abs() < 1e-12, "{tau}: {}", r.stdout);
+        assert!((total(&r, "transmittance") - want_t).abs() < 1e-12, "{tau}");
+    }
+    let r = km(&["sweep", s(&two), "--set", "layer[1].tau=1e-300:1e-19:3", "--format", "csv"]);
+    ok(&r);
+}
+
+#[test]
+fn a_layer_of_tau_1e200_is_the_half_space_in_the_direction_set() {
+    let d = dir("thick");
+    let two = write(&d, "two.toml", TWO_LAYERS);
+    let half =
+        km(&["solve", s(&two), "--set", "layer[2].tau=inf", "--method", "direction-set", "--json"]);
+    let want = total(&half, "reflectance");
+    let r = km(&[
+        "solve",
+        s(&two),
+        "--set",
+        "layer[2].tau=1e200",
+        "--method",
+        "direction-set",
+        "--json",
+    ]);
+    // 1e-12: the half-space limit is exact to rounding at tau = 1e200.
+    assert!((total(&r, "reflectance") - want).abs() < 1e-12, "{}", r.stdout);
+    assert!(total(&r, "transmittance").abs() < 1e-12);
+}
+
+#[test]
+fn fit_inputs_out_of_their_domains_are_refused() {
+    let r = km(&["fit", "--m-r", ".2", "--m-t", ".3", "--thickness", "1e-308"]);
+    refused(&r, &["thickness", "overflow"]);
+    let r = km(&[
+        "fit",
+        "--km",
+        "--r-black",
+        "0.3",
+        "--r-white",
+        "0.5",
+        "--r-white-ground",
+        "0.8",
+        "--m-r",
+        "0.2",
+    ]);
+    refused(&r, &["--m-r", "--km"]);
+    let d = dir("csv");
+    let cases = [
+        ("dup.csv", "wavelength_nm,m_r,m_t,m_t\n500,0.2,0.3,0.3\n", "twice"),
+        ("neg.csv", "wavelength_nm,m_r,m_t\n-500,0.2,0.3\n", "wavelength"),
+    ];
+    for (name, text, says) in cases {
+        let f = write(&d, name, text);
+        let r = km(&["fit", s(&f), "--thickness", "1"]);
+        refused(&r, &[says]);
+    }
+    // A byte order mark is not part of the first column's name.
+    let f = write(&d, "bom.csv", "\u{feff}wavelength_nm,m_r,m_t\n500,0.2,0.3\n");
+    ok(&km(&["fit", s(&f), "--thickness", "1"]));
+}
+
+// ---------------------------------------------------------------------------
+// Unclear messages and one budget per request
+
+#[test]
+fn set_errors_name_the_edit_not_the_parser() {
+    let d = dir("set");
+    let scene = write(&d, "s.toml", TWO_LAYERS);
+    let r = km(&["solve", s(&scene), "--set", "light=5"]);
+    refused(&r, &["light", "from --set light=5"]);
+    assert!(!r.stderr.contains("RawLight") && !r.stderr.contains("line"), "{}", r.stderr);
+    let r = km(&["solve", s(&scene), "--set", "substrate.kind=0.5"]);
+    refused(&r, &["substrate.kind", "from --set"]);
+    let r = km(&["solve", s(&scene), "--set", "light.foo.bar=1"]);
+    refused(&r, &["from --set light.foo.bar=1"]);
+    let r = km(&["sweep", s(&scene), "--set", "layer[1].g=0:0.5:3:4"]);
+    refused(&r, &["START:STOP:N"]);
+    let r = km(&["sweep", s(&scene), "--set", "layer[1].g=0:1.5:4"]);
+    refused(&r, &["sweep point", "layer[1].g="]);
+}
+
+#[test]
+fn a_sweep_is_one_request_under_one_budget() {
+    let d = dir("sweep-budget");
+    let scene = write(&d, "s.toml", TWO_LAYERS);
+    let r = km(&["sweep", s(&scene), "--set", "layer[1].tau=0.1:10:100000"]);
+    refused(&r, &["100000 points", "--budget"]);
+    // 10^4 points of 10^6 photons: 10^10 photons, more steps than one run may take.
+    let r = km(&["sweep", s(&scene), "--set", "layer[1].tau=0.1:10:10000", "--method", "mc"]);
+    refused(&r, &["10000 points", "photon steps"]);
+}
+
+#[test]
+fn profile_radius_near_the_largest_double_is_not_called_infinite() {
+    let marble = example("marble-half-space.toml");
+    let r = km(&["profile", &marble, "--r-max", "1e308", "--json"]);
+    assert!(!r.stderr.contains("inf"), "{}", r.stderr);
+    assert!(matches!(r.status.code(), Some(0 | 2)));
+}

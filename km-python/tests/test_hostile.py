@@ -1,0 +1,146 @@
+"""Hostile input on the Python surfaces (batches, sweeps, fits, colour):
+each case ends with a clear refusal or a correct answer, in a child process
+limited to 500 MB of address space (RLIMIT_AS) and a time limit, so that a
+crash or a hang fails the test instead of the test run (docs/limits.md)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+import km
+
+# The issue's limits: 500 MB; the time limit is 5 s of work, doubled for a
+# shared machine and the interpreter's start.
+MEMORY = 500_000_000
+SECONDS = 10
+
+SCENE = "[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.5\n"
+
+
+def run_child(code: str) -> subprocess.CompletedProcess[str]:
+    """Run `code` in a fresh interpreter under the memory and time limits."""
+    prelude = textwrap.dedent(
+        f"""
+        import resource
+        resource.setrlimit(resource.RLIMIT_AS, ({MEMORY}, {MEMORY}))
+        import km
+        """
+    )
+    return subprocess.run(
+        [sys.executable, "-c", prelude + textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        timeout=SECONDS,
+    )
+
+
+def test_monte_carlo_batches_do_not_nest_thread_pools():
+    # 1000 points of Monte Carlo segfaulted (a pool of threads per point on
+    # the batch pool's workers, ~320 threads); threads=2 and four Python
+    # threads each running a batch as well.
+    r = run_child(
+        f"""
+        import threading
+        s = km.Scene.from_toml({SCENE!r})
+        b = km.solve_many([s] * 1000, "mc", samples=200)
+        assert len(b) == 1000
+        b = km.solve_many([s] * 300, "mc", samples=200, threads=2)
+        out = []
+        ts = [threading.Thread(target=lambda: out.append(len(km.solve_many([s] * 200, "mc", samples=200))))
+              for _ in range(4)]
+        [t.start() for t in ts]
+        [t.join() for t in ts]
+        assert out == [200] * 4, out
+        b = km.solve_many(s, "mc", params={{"layer[1].g": [0.1 * (i % 9) for i in range(1000)]}}, samples=200)
+        assert len(b) == 1000
+        print("ok")
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip() == "ok"
+
+
+def test_a_batch_over_its_budget_is_refused_before_work():
+    r = run_child(
+        f"""
+        s = km.Scene.from_toml({SCENE!r})
+        for call in (lambda: km.solve_many([s] * 200_000),
+                     lambda: km.solve_many(s, params={{"layer[1].tau": [1.0] * 1_000_000}})):
+            try:
+                call()
+            except km.KmError as e:
+                print("refused:", e)
+            else:
+                print("accepted")
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 2 and all(l.startswith("refused:") and "points" in l for l in lines), r.stdout
+
+
+def test_readers_refuse_fifos_and_devices(tmp_path):
+    fifo = tmp_path / "m.csv"
+    os.mkfifo(fifo)
+    r = run_child(
+        f"""
+        for call in (lambda: km.fit_file({str(fifo)!r}, thickness=1.0),
+                     lambda: km.fit_file("/dev/zero", thickness=1.0),
+                     lambda: km.Scene.from_file("/dev/zero"),
+                     lambda: km.Scene.from_file({str(fifo)!r})):
+            try:
+                call()
+            except km.KmError as e:
+                print("refused:", e)
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 4, r.stdout
+    assert all("regular file" in l for l in lines), r.stdout
+
+
+def test_a_vanishing_layer_gives_the_answer_of_no_layer():
+    lower = "[[layer]]\ntau = 2.0\nalbedo = 0.8\ng = 0.3\n"
+    want = km.solve(km.Scene.from_toml(lower))
+    for tau in (1e-19, 1e-25, 1e-300):
+        s = km.Scene.from_toml(f"[[layer]]\ntau = {tau!r}\nalbedo = 0.9\ng = 0.5\n\n" + lower)
+        got = km.solve(s)
+        # 1e-12: the layer changes the answer by about tau / mu_min (< 1e-15).
+        assert abs(got.reflectance - want.reflectance) < 1e-12
+        assert abs(got.transmittance - want.transmittance) < 1e-12
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_colour_refuses_values_that_are_not_finite(bad):
+    with pytest.raises(km.KmError, match="lab1"):
+        km.delta_e2000((bad, 0.0, 0.0), (50.0, 0.0, 0.0))
+    with pytest.raises(km.KmError, match="xyz"):
+        km.srgb((bad, 1.0, 1.0))
+
+
+def test_fit_of_inconsistent_unscattered_transmittance_is_refused_at_once():
+    r = run_child(
+        """
+        try:
+            km.fit(0.2, 0.3, m_u=0.5, thickness=1.0, n_sample=1.4, n_slide=1.5)
+        except km.KmError as e:
+            print("refused:", e)
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.startswith("refused:") and "m_u" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("name", ["streams", "order", "samples", "seed", "threads"])
+@pytest.mark.parametrize("value", [-1, 2**70])
+def test_integers_out_of_range_name_the_argument(name, value):
+    s = km.Scene.from_toml(SCENE)
+    method = "multiflux" if name in ("streams", "order") else "mc"
+    with pytest.raises(km.KmError, match=name):
+        km.solve(s, method, **{name: value})

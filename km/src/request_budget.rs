@@ -1,0 +1,70 @@
+//! One budget for a request of many points (a sweep, a batch of scenes):
+//! the points' estimated work is summed before any is solved and held to
+//! the budget of one solve of the method (`docs/limits.md` §1, eq. L4), so
+//! that a grid of 10^5 points is refused at once instead of running for
+//! minutes.
+
+use km_core::Scene;
+
+use crate::{KmError, MethodOptions, Options};
+
+/// Work units charged to every multi-flux point of `km sweep` besides its
+/// eq. W1 estimate, for what eq. W1 leaves out (parsing the edited scene
+/// text, planning, the row's text): 0.3 ms at 1.5 ns per unit (a sweep of
+/// 10^5 points of a two-layer scene took about 60 s, 0.6 ms a point).
+pub const SWEEP_POINT_OVERHEAD: f64 = 2e5;
+
+/// Work of one point of a request, in the units of the method's budget, and
+/// that budget: multi-flux work units (eq. W1 of `km-multiflux/src/budget.rs`)
+/// against `max_work`; Monte Carlo photon steps
+/// projected by the pilot of eq. L2 against `max_events`.
+/// `None` for the methods without a work budget (two-flux, direction set,
+/// dipole: closed forms or small dense solves).
+pub fn point_work(scene: &Scene, options: &Options) -> Option<(f64, f64, &'static str)> {
+    match &options.method {
+        MethodOptions::Multiflux(o) => {
+            let w = km_multiflux::budget::estimate(scene, o).units;
+            let budget = o.max_work.unwrap_or(crate::multiflux_budget::DEFAULT_MAX_WORK);
+            Some((w, budget, "multi-flux work units"))
+        }
+        MethodOptions::Mc(o) => {
+            let budget = o.max_events? as f64;
+            // The pilot of the run's own budget check (eq. L2); at least
+            // one step per photon if the options are refused (the run then
+            // reports them).
+            let floor = o.samples as f64 * scene.channels().len() as f64;
+            let steps = km_montecarlo::projected_steps(scene, o).unwrap_or(floor);
+            Some((steps, budget, "photon steps"))
+        }
+        MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_) => None,
+    }
+}
+
+/// Refuse a request of `points` points like `scene` whose summed work
+///
+/// `W_request = points x W_point`   (eq. L4)
+///
+/// exceeds the budget of one solve (scaled by `--budget`), before any point
+/// is solved; `overhead` is added to each multi-flux point's work
+/// ([`SWEEP_POINT_OVERHEAD`] for `km sweep`). `scene` stands for every point (the points of a sweep differ in
+/// values, not in structure).
+///
+/// # Errors
+/// [`KmError::RequestTooLarge`] with the numbers.
+pub fn check_points(
+    scene: &Scene,
+    points: usize,
+    options: &Options,
+    overhead: f64,
+) -> Result<(), KmError> {
+    let Some((work, budget, unit)) = point_work(scene, options) else {
+        return Ok(());
+    };
+    let multiflux = matches!(options.method, MethodOptions::Multiflux(_));
+    let per_point = if multiflux { work + overhead } else { work };
+    let total = per_point * points as f64;
+    if points > 1 && total > budget {
+        return Err(KmError::RequestTooLarge { points, per_point, total, budget, unit });
+    }
+    Ok(())
+}
