@@ -14,6 +14,7 @@ use crate::error::CoreError;
 use crate::layer::is_refractive_index;
 
 mod layer;
+mod tissue;
 
 use layer::RawSub;
 
@@ -29,6 +30,8 @@ pub(super) struct RawScene {
     substrate: Option<RawSubstrate>,
     output: Option<RawOutput>,
     spectrum: Option<RawSpectrum>,
+    /// The file's length unit, `"mm"` or `"cm"` (parse/tissue.rs).
+    units: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -55,6 +58,9 @@ struct RawLayer {
     g: Option<Spanned<Value>>,
     n: Option<Spanned<Value>>,
     preset: Option<Spanned<String>>,
+    mu_a: Option<Spanned<Value>>,
+    mu_s: Option<Spanned<Value>>,
+    mu_s_prime: Option<Spanned<Value>>,
 }
 
 #[derive(Deserialize)]
@@ -79,6 +85,7 @@ struct RawSpectrum {
 }
 
 /// A coefficient per channel: one value (broadcast) or a list.
+#[derive(Clone)]
 struct Coef {
     key: String,
     line: Option<usize>,
@@ -162,9 +169,10 @@ impl Parser {
             ));
         }
         let n_layers = raw_layers.len();
+        let scale = tissue::length_scale(self, raw.units.as_ref())?;
         let mut layers = Vec::with_capacity(n_layers);
         for (i, l) in raw_layers.iter().enumerate() {
-            let lay = self.layer(i, n_layers, l, &ambient_n)?;
+            let lay = self.layer(i, n_layers, l, &ambient_n, scale)?;
             for c in [&lay.a, &lay.b, &lay.thickness, &lay.g, &lay.n] {
                 note(c);
             }
