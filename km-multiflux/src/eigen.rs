@@ -22,8 +22,9 @@
 //! back to radiances (`T^-1`). Up to 64 nodes by plain loops (cyclic
 //! Jacobi up to 6, Householder tridiagonalisation and implicit QL above: on
 //! fixed-size arrays up to 12, on flat buffers with the nodes ordered by the
-//! diagonal of `S` from 13), from there on by faer's routines
-//! (docs/multiflux.md §9 (iv), (vi)).
+//! diagonal of `S` from 13, on one medium's nodes), from there on and for
+//! the nodes of a refracting layer by faer's routines (docs/multiflux.md
+//! §9 (iv), (vi)).
 
 use faer::dyn_stack::StackReq;
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
@@ -84,7 +85,7 @@ pub fn half_size_modes(
     hm: &Mat<f64>,
     conservative: bool,
 ) -> Result<HalfSizeModes, EigenFailure> {
-    half_size_modes_in(hp, hm, conservative, &mut Workspace::default())
+    half_size_modes_in(hp, hm, (conservative, true), &mut Workspace::default())
 }
 
 /// [`half_size_modes`] with its matrices, vectors and faer's scratch taken
@@ -94,17 +95,28 @@ pub fn half_size_modes(
 /// The steps are those of faer's `Mat::llt`, `Mat::self_adjoint_eigen` and
 /// `*` (the same low-level routines, default parameters, `Par::Seq`), so
 /// the result is the same bit for bit.
+///
+/// `one_medium` says that the nodes are one medium's cosines (ascending);
+/// from `SMALL + 1` to [`OWN_MAX`] nodes only those are solved by
+/// [`ql_modes`], the nodes of a refracting layer (the refracted ones of the
+/// medium above, then its own) by faer's routines. Both are backward
+/// stable, but in a nearly conservative refracting layer tens of optical
+/// depths thick the smallest `k` carries the rounding of the whole `S`,
+/// amplified by `e^{-k tau}`, and the outputs of such layers stored before
+/// the own solver existed (the marble half-space, paint over primer of
+/// examples/) were made by faer's path: QL moved them by 3.1e-12 and
+/// 5.8e-12 (towards Jacobi rotations' values, but not the same numbers).
 pub(crate) fn half_size_modes_in(
     hp: &Mat<f64>,
     hm: &Mat<f64>,
-    conservative: bool,
+    (conservative, one_medium): (bool, bool),
     ws: &mut Workspace,
 ) -> Result<HalfSizeModes, EigenFailure> {
     let n = hp.nrows();
     if n <= SMALL {
         return small_modes(hp, hm, conservative, ws);
     }
-    if n <= OWN_MAX {
+    if n <= OWN_MAX && one_medium {
         return ql_modes(hp, hm, conservative, ws);
     }
     let par = Par::Seq;
@@ -471,6 +483,14 @@ fn ql_modes_in(
     res.map_err(|e| EigenFailure::Eigen(e.0))
 }
 
+/// [`ql_modes`] whatever the size and nodes (also those of a refracting
+/// layer, which the solver leaves to faer's routines): the reference of
+/// QL's accuracy on such nodes in the tests.
+#[cfg(test)]
+pub(crate) fn ql_modes_any_order(hp: &Mat<f64>, hm: &Mat<f64>) -> HalfSizeModes {
+    ql_modes(hp, hm, false, &mut Workspace::default()).unwrap()
+}
+
 /// faer's high-level path for eq. EG1 (`Mat::llt`, the `*` products,
 /// `Mat::self_adjoint_eigen`, the triangular solve): `(k, v~, z~)`, the
 /// reference of the tests of the own small path.
@@ -508,8 +528,18 @@ mod tests {
     use super::*;
 
     /// A symmetric positive definite `H+` and a symmetric `H-` of the
-    /// slab's shape (diagonal `1/mu` minus a dense symmetric part).
+    /// slab's shape (diagonal `1/mu` minus a dense symmetric part, on
+    /// ascending cosines: the diagonal falls along the nodes, as on one
+    /// medium's nodes).
     fn operators(n: usize) -> (Mat<f64>, Mat<f64>) {
+        let (hp, hm) = rising_operators(n);
+        let r = |m: &Mat<f64>| Mat::from_fn(n, n, |i, j| m[(n - 1 - i, n - 1 - j)]);
+        (r(&hp), r(&hm))
+    }
+
+    /// [`operators`] on the reversed node order: the diagonal rises along
+    /// the nodes, as it does not on one medium's nodes.
+    fn rising_operators(n: usize) -> (Mat<f64>, Mat<f64>) {
         let s = |i: usize, j: usize, c: f64| 0.3 / (1.0 + (i + j) as f64 + c * (i * j) as f64);
         let hp =
             Mat::from_fn(
@@ -565,7 +595,7 @@ mod tests {
         for (pass, n) in [OWN_MAX + 1, OWN_MAX + 2, 80, 96, OWN_MAX + 2].into_iter().enumerate() {
             let (hp, hm) = operators(n);
             let (_, fresh0) = ws.counts();
-            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let m = half_size_modes_in(&hp, &hm, (false, true), &mut ws).unwrap();
             let (_, fresh1) = ws.counts();
             if pass == 4 {
                 // The second solve at OWN_MAX + 2: everything kept from the first.
@@ -599,7 +629,7 @@ mod tests {
         let mut ws = Workspace::default();
         for n in (1..=24).chain([32, 47, 64]) {
             let (hp, hm) = operators(n);
-            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let m = half_size_modes_in(&hp, &hm, (false, true), &mut ws).unwrap();
             let (k, v, z) = faer_modes(&hp, &hm);
             let kmax = m.k.iter().fold(0.0f64, |a, &b| a.max(b));
             for j in 0..n {
@@ -625,8 +655,34 @@ mod tests {
             }
             let (_, fresh0) = ws.counts();
             give_back(&mut ws, m);
-            let again = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let again = half_size_modes_in(&hp, &hm, (false, true), &mut ws).unwrap();
             assert_eq!(ws.counts().1, fresh0, "a warm small solve takes nothing new");
+            give_back(&mut ws, again);
+        }
+    }
+
+    /// From `SMALL + 1` to [`OWN_MAX`] nodes, where the diagonal of `S` does
+    /// not fall along the nodes (a refracting layer's node set), the solve
+    /// is faer's: the same bits as its high-level path; a warm solve takes
+    /// nothing new.
+    #[test]
+    fn nodes_of_two_media_keep_faers_modes() {
+        let mut ws = Workspace::default();
+        for n in [SMALL + 1, 16, 24, 33, OWN_MAX] {
+            let (hp, hm) = rising_operators(n);
+            let m = half_size_modes_in(&hp, &hm, (false, false), &mut ws).unwrap();
+            let (k, v, z) = faer_modes(&hp, &hm);
+            for j in 0..n {
+                assert_eq!(m.k[j].to_bits(), k[j].to_bits(), "k_{j}, N = {n}");
+                for i in 0..n {
+                    assert_eq!(m.v[(i, j)].to_bits(), v[(i, j)].to_bits(), "v, N = {n}");
+                    assert_eq!(m.z[(i, j)].to_bits(), z[(i, j)].to_bits(), "z, N = {n}");
+                }
+            }
+            let (_, fresh0) = ws.counts();
+            give_back(&mut ws, m);
+            let again = half_size_modes_in(&hp, &hm, (false, false), &mut ws).unwrap();
+            assert_eq!(ws.counts().1, fresh0, "a warm solve takes nothing new, N = {n}");
             give_back(&mut ws, again);
         }
     }
@@ -674,7 +730,7 @@ mod tests {
         for n in (1..=24).chain([40, 64]) {
             let hp = Mat::<f64>::identity(n, n);
             let hm = Mat::from_fn(n, n, |_, _| 1.0);
-            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let m = half_size_modes_in(&hp, &hm, (false, true), &mut ws).unwrap();
             for j in 0..n - 1 {
                 let bound = n as f64 * (10.0 * f64::EPSILON).sqrt();
                 assert!(m.k[j] < bound, "k_{j} = {}, N = {n}", m.k[j]);
@@ -714,7 +770,7 @@ mod tests {
                 exact.push(d(n / 2));
             }
             exact.sort_by(f64::total_cmp);
-            let m = half_size_modes_in(&hp, &hm, false, &mut ws).unwrap();
+            let m = half_size_modes_in(&hp, &hm, (false, true), &mut ws).unwrap();
             let top = exact[n - 1];
             for j in 0..n {
                 let kj = exact[j].sqrt();
@@ -740,7 +796,7 @@ mod tests {
             let mut ws = Workspace::default();
             let hp = Mat::from_fn(n, n, |i, j| if i == j { [1.0, -1.0][i % 2] } else { 0.0 });
             let hm = Mat::<f64>::identity(n, n);
-            let e = half_size_modes_in(&hp, &hm, false, &mut ws).err();
+            let e = half_size_modes_in(&hp, &hm, (false, true), &mut ws).err();
             assert!(matches!(e, Some(EigenFailure::Cholesky(_))), "N = {n}");
             if n > OWN_MAX {
                 let (_, fresh) = ws.counts();

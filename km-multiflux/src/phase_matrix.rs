@@ -134,7 +134,7 @@ pub(crate) fn fourier_blocks(
     lam: &[f64],
     n: usize,
 ) -> (Mat<f64>, Mat<f64>) {
-    fourier_blocks_in(w, m, chi, lam, n, &mut Workspace::default())
+    fourier_blocks_in(w, (m, true), chi, lam, n, &mut Workspace::default())
 }
 
 /// The Fourier–Gauss phase blocks of order `m` on `n` nodes with weights `w`:
@@ -155,15 +155,25 @@ pub(crate) fn fourier_blocks(
 /// Its matrices are taken from `ws` (the two returned blocks are the
 /// workspace's: the caller hands them back); the products are those of
 /// faer's `*` (`matmul`, replacing, `Par::Seq`), the same bit for bit.
+///
+/// Up to [`crate::eigen::SMALL`] nodes, and up to [`crate::eigen::OWN_MAX`]
+/// on one medium's nodes (`one_medium`: cosines ascending), the sums are
+/// taken along rows ([`blocks_by_rows`]); on the nodes of a refracting
+/// layer above `SMALL` (the refracted ones of the medium above, then its
+/// own) they stay faer's products, as the eigen-solve stays faer's there
+/// (`crate::eigen`, `ql_modes`): the other order of the sums moved the
+/// stored output of a nearly conservative refracting layer (paint over
+/// primer) by 8.5e-12 with faer's eigen-solve.
 pub(crate) fn fourier_blocks_in(
     w: &[f64],
-    m: usize,
+    (m, one_medium): (usize, bool),
     chi: &[f64],
     lam: &[f64],
     n: usize,
     ws: &mut Workspace,
 ) -> (Mat<f64>, Mat<f64>) {
-    let (mut pe, mut po) = if n <= crate::eigen::OWN_MAX {
+    let rows = n <= crate::eigen::SMALL || (one_medium && n <= crate::eigen::OWN_MAX);
+    let (mut pe, mut po) = if rows {
         blocks_by_rows(m, chi, lam, n, ws)
     } else {
         blocks_by_products(m, chi, lam, n, ws)

@@ -18,15 +18,7 @@
 //! default streams for peaked phase functions (`docs/multiflux.md` §8: 32
 //! streams for 0.8 < |g| <= 0.9, was 16); the five `*.mc` outputs when the
 //! Monte Carlo azimuth became a rejection sample in the unit disc
-//! (`docs/montecarlo.md` eq. M4: another random sequence for the same seed);
-//! `marble-half-space.multiflux` and `paint-over-primer.multiflux` (by up
-//! to 3.1e-12 and 5.8e-12) when the eigen-solve of layers of 13 to 64
-//! nodes left faer's routines for the own QL on the nodes ordered by the
-//! diagonal of `S` (`docs/multiflux.md` §9 (vi)): these nearly conservative
-//! totals are conditioned at that level (the smallest decay constant comes
-//! from cancellation in `S = L^T H- L`), and Jacobi rotations, whose small
-//! eigenvalues carry a small relative error, give the new values to 8e-13
-//! and 3e-13 where faer's old ones were 3e-12 and 6e-12 off.
+//! (`docs/montecarlo.md` eq. M4: another random sequence for the same seed).
 
 use std::path::PathBuf;
 
