@@ -504,7 +504,9 @@ def sweep_main(root: Path, out: Path, py: Path, repeats: int, km: Path, gs):
     directions, 128 moments and the intensity correction for DISORT) and the
     totals of the same slab (flux only), interleaved per N over
     SWEEP_ROUNDS rounds; best of `repeats` in-process calls each. Writes
-    out/peers-sweep.md and out/peers-sweep.csv (case, n, km_us, disort_us)."""
+    out/peers-sweep.md and out/peers-sweep.csv (case, n, km_us, disort_us: the
+    best of all rounds; km_median_us, disort_median_us: the median of the
+    rounds' bests)."""
     scenes = out / "peers"
     scenes.mkdir(parents=True, exist_ok=True)
     load = os.getloadavg()
@@ -512,9 +514,9 @@ def sweep_main(root: Path, out: Path, py: Path, repeats: int, km: Path, gs):
              f"Slab tau = 1, albedo 0.9, HG g, light at {BRDF_THETA0} degrees. BRDF: black below, "
              f"{len(BRDF_THETA) * len(BRDF_PHI)} exit directions (DISORT: 128 moments, intensity "
              "correction); totals: clear below (DISORT flux only). Best of "
-             f"{repeats} in-process calls, {SWEEP_ROUNDS} rounds alternated per N; load average "
+             f"{repeats} in-process calls per round, {SWEEP_ROUNDS} rounds alternated per N (best: the best of all rounds; median: the median of the rounds' bests); load average "
              f"at the start {load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}.", ""]
-    rows = ["case,n,km_us,disort_us"]
+    rows = ["case,n,km_us,disort_us,km_median_us,disort_median_us"]
     for g in gs:
         brdf = scenes / f"sweep-brdf-g{g}.toml"
         brdf.write_text(brdf_scene_toml(g))
@@ -522,8 +524,9 @@ def sweep_main(root: Path, out: Path, py: Path, repeats: int, km: Path, gs):
         tot.write_text(sweep_totals_scene(g))
         c = dict(tau=1.0, albedo=0.9, g=g, theta=BRDF_THETA0)
         for case in ["brdf", "totals"]:
-            lines += [f"## {case}, g = {g}", "", "| N | km | C DISORT | km / DISORT |",
-                      "|---|---|---|---|"]
+            lines += [f"## {case}, g = {g}", "",
+                      "| N | km best | C DISORT best | ratio | km median | C DISORT median | "
+                      "ratio of medians |", "|---|---|---|---|---|---|---|"]
             for n in SWEEP_N:
                 kt, dt = [], []
                 for _ in range(SWEEP_ROUNDS):
@@ -537,8 +540,11 @@ def sweep_main(root: Path, out: Path, py: Path, repeats: int, km: Path, gs):
                         dt.append(d["seconds"])
                 k = min(kt) * 1e6
                 d = min(dt) * 1e6 if dt else float("nan")
-                lines.append(f"| {n} | {k:.1f} µs | {d:.1f} µs | {k / d:.2f} |")
-                rows.append(f"{case}-g{g},{n},{k:.3f},{d:.3f}")
+                km_med = statistics.median(kt) * 1e6
+                d_med = statistics.median(dt) * 1e6 if dt else float("nan")
+                lines.append(f"| {n} | {k:.1f} µs | {d:.1f} µs | {k / d:.2f} | {km_med:.1f} µs | "
+                             f"{d_med:.1f} µs | {km_med / d_med:.2f} |")
+                rows.append(f"{case}-g{g},{n},{k:.3f},{d:.3f},{km_med:.3f},{d_med:.3f}")
                 print(lines[-1], flush=True)
             lines.append("")
     end = os.getloadavg()
