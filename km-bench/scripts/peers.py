@@ -35,6 +35,13 @@ its defaults otherwise); times are best of --repeats in-process calls (DISORT:
 alternated per case, and the ratio km / DISORT is printed per g. Writes
 out/peers-brdf.md.
 
+`--sweep` runs km at every stream count N = 2..32 against C DISORT at the
+equal grid NSTR = 2N, for the BRDF case (g = 0.9 and 0.5 by default, or
+`--g G` repeated) and the totals of the same slab with a clear half-space
+below; per N both tools alternate over three rounds, best of --repeats
+in-process calls each. Writes out/peers-sweep.md and out/peers-sweep.csv
+(read by `cargo run --release -p km-bench --example sweep_chart`).
+
 `--totals-ladder` runs the slab totals at their cheapest sufficient stream
 count instead: the index-matched slabs of
 km-multiflux/tests/data/slabs.json, each tool at the cheapest stream count
@@ -479,6 +486,74 @@ def totals_main(root: Path, out: Path, py: Path, repeats: int, km: Path):
     print("\n".join(lines))
 
 
+# --- Every stream count side by side (--sweep) ------------------------------
+
+SWEEP_N = list(range(2, 33))
+SWEEP_ROUNDS = 3
+
+
+def sweep_totals_scene(g):
+    return (
+        f'[light]\nkind = "collimated"\ntheta_deg = {BRDF_THETA0!r}\n\n[ambient]\nn = 1.0\n\n'
+        f"[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = {g!r}\nn = 1.0\n\n"
+        '[substrate]\nkind = "transparent"\nn = 1.0\n')
+
+
+def sweep_main(root: Path, out: Path, py: Path, repeats: int, km: Path, gs):
+    """km at N = 2..32 against C DISORT at NSTR = 2N, the BRDF case (30 exit
+    directions, 128 moments and the intensity correction for DISORT) and the
+    totals of the same slab (flux only), interleaved per N over
+    SWEEP_ROUNDS rounds; best of `repeats` in-process calls each. Writes
+    out/peers-sweep.md and out/peers-sweep.csv (case, n, km_us, disort_us: the
+    best of all rounds; km_median_us, disort_median_us: the median of the
+    rounds' bests)."""
+    scenes = out / "peers"
+    scenes.mkdir(parents=True, exist_ok=True)
+    load = os.getloadavg()
+    lines = ["# km at every stream count against C DISORT at NSTR = 2N", "",
+             f"Slab tau = 1, albedo 0.9, HG g, light at {BRDF_THETA0} degrees. BRDF: black below, "
+             f"{len(BRDF_THETA) * len(BRDF_PHI)} exit directions (DISORT: 128 moments, intensity "
+             "correction); totals: clear below (DISORT flux only). Best of "
+             f"{repeats} in-process calls per round, {SWEEP_ROUNDS} rounds alternated per N (best: the best of all rounds; median: the median of the rounds' bests); load average "
+             f"at the start {load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}.", ""]
+    rows = ["case,n,km_us,disort_us,km_median_us,disort_median_us"]
+    for g in gs:
+        brdf = scenes / f"sweep-brdf-g{g}.toml"
+        brdf.write_text(brdf_scene_toml(g))
+        tot = scenes / f"sweep-totals-g{g}.toml"
+        tot.write_text(sweep_totals_scene(g))
+        c = dict(tau=1.0, albedo=0.9, g=g, theta=BRDF_THETA0)
+        for case in ["brdf", "totals"]:
+            lines += [f"## {case}, g = {g}", "",
+                      "| N | km best | C DISORT best | ratio | km median | C DISORT median | "
+                      "ratio of medians |", "|---|---|---|---|---|---|---|"]
+            for n in SWEEP_N:
+                kt, dt = [], []
+                for _ in range(SWEEP_ROUNDS):
+                    if case == "brdf":
+                        kt.append(km_brdf(km, brdf, n, repeats)["seconds"])
+                        d = disort_brdf(py, g, 2 * n, 128, repeats)
+                    else:
+                        kt.append(km_totals(km, tot, n, repeats)["seconds"])
+                        d = disort_totals(py, c, 2 * n, repeats)
+                    if "error" not in d:
+                        dt.append(d["seconds"])
+                k = min(kt) * 1e6
+                d = min(dt) * 1e6 if dt else float("nan")
+                km_med = statistics.median(kt) * 1e6
+                d_med = statistics.median(dt) * 1e6 if dt else float("nan")
+                lines.append(f"| {n} | {k:.1f} µs | {d:.1f} µs | {k / d:.2f} | {km_med:.1f} µs | "
+                             f"{d_med:.1f} µs | {km_med / d_med:.2f} |")
+                rows.append(f"{case}-g{g},{n},{k:.3f},{d:.3f},{km_med:.3f},{d_med:.3f}")
+                print(lines[-1], flush=True)
+            lines.append("")
+    end = os.getloadavg()
+    lines.append(f"Load average at the end {end[0]:.1f}, {end[1]:.1f}, {end[2]:.1f}.")
+    (out / "peers-sweep.md").write_text("\n".join(lines) + "\n")
+    (out / "peers-sweep.csv").write_text("\n".join(rows) + "\n")
+    print("\n".join(lines))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out")
@@ -491,11 +566,21 @@ def main():
     ap.add_argument("--totals-ladder", action="store_true",
                     help="slab totals against C DISORT, each at its cheapest stream count "
                     "within 1e-4, instead")
+    ap.add_argument("--sweep", action="store_true",
+                    help="km at N = 2..32 against C DISORT at NSTR = 2N (BRDF and totals) instead")
+    ap.add_argument("--g", type=float, action="append",
+                    help="with --sweep: the asymmetry (repeatable; default 0.9 and 0.5)")
     ap.add_argument("--km", default=None,
-                    help="with --brdf or --totals-ladder: this km binary instead of building one")
+                    help="with --brdf, --totals-ladder or --sweep: this km binary instead of "
+                    "building one")
     args = ap.parse_args()
     root = Path(__file__).resolve().parents[2]
     out = (root / args.out).resolve()
+    if args.sweep:
+        out.mkdir(parents=True, exist_ok=True)
+        km = Path(args.km) if args.km else build_km(root, args.profile)[0]
+        return sweep_main(root, out, ensure_venv(out, args.python), args.repeats, km,
+                          args.g or [0.9, 0.5])
     if args.totals_ladder:
         out.mkdir(parents=True, exist_ok=True)
         km = Path(args.km) if args.km else build_km(root, args.profile)[0]

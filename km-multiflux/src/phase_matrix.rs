@@ -134,7 +134,7 @@ pub(crate) fn fourier_blocks(
     lam: &[f64],
     n: usize,
 ) -> (Mat<f64>, Mat<f64>) {
-    fourier_blocks_in(w, m, chi, lam, n, &mut Workspace::default())
+    fourier_blocks_in(w, (m, true), chi, lam, n, &mut Workspace::default())
 }
 
 /// The Fourier–Gauss phase blocks of order `m` on `n` nodes with weights `w`:
@@ -155,16 +155,26 @@ pub(crate) fn fourier_blocks(
 /// Its matrices are taken from `ws` (the two returned blocks are the
 /// workspace's: the caller hands them back); the products are those of
 /// faer's `*` (`matmul`, replacing, `Par::Seq`), the same bit for bit.
+///
+/// Up to [`crate::eigen::SMALL`] nodes, and up to [`crate::eigen::OWN_MAX`]
+/// on one medium's nodes (`one_medium`: cosines ascending), the sums are
+/// taken along rows ([`blocks_by_rows`]); on the nodes of a refracting
+/// layer above `SMALL` (the refracted ones of the medium above, then its
+/// own) they stay faer's products, as the eigen-solve stays faer's there
+/// (`crate::eigen`, `ql_modes`): the other order of the sums moved the
+/// stored output of a nearly conservative refracting layer (paint over
+/// primer) by 8.5e-12 with faer's eigen-solve.
 pub(crate) fn fourier_blocks_in(
     w: &[f64],
-    m: usize,
+    (m, one_medium): (usize, bool),
     chi: &[f64],
     lam: &[f64],
     n: usize,
     ws: &mut Workspace,
 ) -> (Mat<f64>, Mat<f64>) {
-    let (mut pe, mut po) = if n <= crate::eigen::SMALL {
-        blocks_by_sums(m, chi, lam, n, ws)
+    let rows = n <= crate::eigen::SMALL || (one_medium && n <= crate::eigen::OWN_MAX);
+    let (mut pe, mut po) = if rows {
+        blocks_by_rows(m, chi, lam, n, ws)
     } else {
         blocks_by_products(m, chi, lam, n, ws)
     };
@@ -177,6 +187,7 @@ pub(crate) fn fourier_blocks_in(
 /// The unscaled blocks of [`fourier_blocks_in`] for few nodes: the sums
 /// directly, once per pair (the blocks are symmetric), without the fixed
 /// cost of a general product.
+#[cfg(test)]
 fn blocks_by_sums(
     m: usize,
     chi: &[f64],
@@ -208,6 +219,61 @@ fn blocks_by_sums(
         }
         (pe, po)
     }
+}
+
+/// [`blocks_by_sums`] arranged along rows: for each node `i` the weights
+/// `chi_l Lambda_l(mu_i)` times the rows `Lambda_l(mu_j)`, `j >= i`, of the
+/// transposed table, summed over `l` in the same order, so every element
+/// gets the same terms in the same order as there (the same bits), with
+/// the loops over `j` vectorised.
+fn blocks_by_rows(
+    m: usize,
+    chi: &[f64],
+    lam: &[f64],
+    n: usize,
+    ws: &mut Workspace,
+) -> (Mat<f64>, Mat<f64>) {
+    let nl = chi.len();
+    // The table transposed: `lt[l * n + j] = Lambda_l(mu_j)`; every element
+    // of it and of the weights is written before it is read.
+    let mut lt = ws.take_for_overwrite(nl * n);
+    for j in 0..n {
+        for l in 0..nl {
+            lt[l * n + j] = lam[j * nl + l];
+        }
+    }
+    let mut wi = ws.take_for_overwrite(nl);
+    let (mut se, mut so) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
+    // Every element is written below (both triangles).
+    let (mut pe, mut po) = (ws.take_mat_for_overwrite(n, n), ws.take_mat_for_overwrite(n, n));
+    for i in 0..n {
+        for l in m..nl {
+            wi[l] = chi[l] * lam[i * nl + l];
+        }
+        // The l + m even terms into se, the odd into so (each in order of l).
+        let (se, so) = (&mut se[i..n], &mut so[i..n]);
+        se.fill(0.0);
+        so.fill(0.0);
+        for (acc, first) in [(&mut *se, m), (&mut *so, m + 1)] {
+            for l in (first..nl).step_by(2) {
+                let w = wi[l];
+                for (x, &t) in acc.iter_mut().zip(&lt[l * n + i..(l + 1) * n]) {
+                    *x += w * t;
+                }
+            }
+        }
+        for (jj, (&e, &o)) in se.iter().zip(so.iter()).enumerate() {
+            let j = i + jj;
+            pe[(i, j)] = e;
+            pe[(j, i)] = e;
+            po[(i, j)] = o;
+            po[(j, i)] = o;
+        }
+    }
+    for v in [lt, wi, se, so] {
+        ws.give(v);
+    }
+    (pe, po)
 }
 
 /// The unscaled blocks of [`fourier_blocks_in`] as two products (faer's
@@ -338,7 +404,7 @@ mod tests {
         // equal to 1e-15 of the largest entry (sums of a few dozen terms in
         // another order).
         let mut ws = Workspace::default();
-        for n in [3usize, 12] {
+        for n in [3usize, 12, 13, 24] {
             let nl = 2 * n;
             let mu: Vec<f64> = km_core::quadrature::gauss_legendre(2 * n)
                 .0
@@ -354,6 +420,13 @@ mod tests {
                     rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
                 }
                 let (se, so) = blocks_by_sums(m, &chi, &lam, n, &mut ws);
+                let (re, ro) = blocks_by_rows(m, &chi, &lam, n, &mut ws);
+                for i in 0..n {
+                    for j in 0..n {
+                        assert_eq!(re[(i, j)].to_bits(), se[(i, j)].to_bits(), "N = {n}, m = {m}");
+                        assert_eq!(ro[(i, j)].to_bits(), so[(i, j)].to_bits(), "N = {n}, m = {m}");
+                    }
+                }
                 let (pe, po) = blocks_by_products(m, &chi, &lam, n, &mut ws);
                 let top = (0..n)
                     .flat_map(|i| (0..n).map(move |j| (i, j)))

@@ -1,7 +1,7 @@
-//! Small dense symmetric eigenproblems on fixed-size arrays: cyclic Jacobi
-//! rotations and Householder tridiagonalisation with the implicit QL
-//! iteration (the solvers of the small path of [`crate::eigen`],
-//! docs/multiflux.md §9 (iv)). Plain products throughout: `f64::mul_add` is
+//! Dense symmetric eigenproblems of up to a few dozen nodes: cyclic Jacobi
+//! rotations and, up to 12 nodes, QL on fixed-size arrays and Householder tridiagonalisation with the implicit QL
+//! iteration (flat row-major storage; the solvers of the own path of [`crate::eigen`],
+//! docs/multiflux.md §9 (iv), (vi)). Plain products throughout: `f64::mul_add` is
 //! a library call on the default x86-64 target (no FMA at compile time),
 //! and in these loops it made the 12-node solve half again as slow.
 
@@ -273,4 +273,288 @@ fn pythag(a: f64, b: f64) -> f64 {
     }
     let t = small / big;
     big * (t * t + 1.0).sqrt()
+}
+
+/// Eigenvalues and eigenvectors of the symmetric `n x n` matrix `a` (flat,
+/// row-major, `a[i * n + k]`, both triangles equal bit for bit) by
+/// Householder reduction to tridiagonal form with the transformation
+/// accumulated, then the implicit QL iteration with Wilkinson-type shifts
+/// on the tridiagonal matrix (the EISPACK routines `tred2` and `tql2`,
+/// Martin, Reinsch & Wilkinson 1968, Bowdler et al. 1968; Press et al.
+/// 2007 §11.4–11.5); an off-diagonal element counts as zero when adding it
+/// to its two diagonal neighbours changes nothing. `a` is overwritten; the
+/// eigenvalues go to `d`, the eigenvectors to the rows of `q` (`q[j * n..]`
+/// = eigenvector `j`: the rotations combine two contiguous rows); `e` and
+/// `gv` are scratch of `n` values. Every loop runs along rows (see
+/// [`householder_tridiagonal_flat`]).
+pub(crate) fn tridiagonal_ql_flat(
+    a: &mut [f64],
+    q: &mut [f64],
+    [d, e, gv]: [&mut [f64]; 3],
+    n: usize,
+) -> Result<(), NoConvergence> {
+    householder_tridiagonal_flat(a, n, d, e, gv);
+    for i in 0..n {
+        for j in 0..n {
+            q[j * n + i] = a[i * n + j];
+        }
+    }
+    implicit_ql_flat(d, e, q, n)
+}
+
+/// `tred2`: the Householder reduction of the symmetric `a` to the
+/// tridiagonal `(d, e)` (the diagonal, and in `e[i]` the element left of
+/// the diagonal in row `i`); `a` becomes the orthogonal `Q` with `Q^T A Q`
+/// tridiagonal. The matrix is kept in full so that every loop runs along a
+/// row: the product `A u` as a sum of rows (`sum_k u_k A_k.`, each
+/// element's terms in the order of `k` of the textbook's column-and-row
+/// walk of the lower triangle), the rank-two update `A -= u q^T + q u^T` on
+/// whole rows (an upper element gets the same two products as its lower
+/// mirror, added in the other order: the same bits, so `A` stays
+/// symmetric bit for bit), and the accumulation of `Q` as a row vector
+/// times a matrix and a rank-one update.
+fn householder_tridiagonal_flat(
+    a: &mut [f64],
+    n: usize,
+    d: &mut [f64],
+    e: &mut [f64],
+    gv: &mut [f64],
+) {
+    for i in (1..n).rev() {
+        let l = i - 1;
+        let mut h = 0.0;
+        let (top, rest) = a.split_at_mut(i * n);
+        let ai = &mut rest[..n];
+        if l > 0 {
+            let scale: f64 = ai[..=l].iter().map(|x| x.abs()).sum();
+            if scale == 0.0 {
+                e[i] = ai[l];
+            } else {
+                for x in &mut ai[..=l] {
+                    *x /= scale;
+                    h += *x * *x;
+                }
+                let f = ai[l];
+                let g = if f >= 0.0 { -h.sqrt() } else { h.sqrt() };
+                e[i] = scale * g;
+                h -= f * g;
+                ai[l] = f - g;
+                // (A u)_j = sum_k A_jk u_k over the active block, by rows k.
+                let gv = &mut gv[..=l];
+                gv.fill(0.0);
+                for k in 0..=l {
+                    let uk = ai[k];
+                    for (g, &x) in gv.iter_mut().zip(&top[k * n..k * n + l + 1]) {
+                        *g += x * uk;
+                    }
+                }
+                let mut f = 0.0;
+                for j in 0..=l {
+                    top[j * n + i] = ai[j] / h;
+                    e[j] = gv[j] / h;
+                    f += e[j] * ai[j];
+                }
+                let hh = f / (h + h);
+                for j in 0..=l {
+                    e[j] -= hh * ai[j];
+                }
+                // A -= u q^T + q u^T (q in e), whole rows of the active block.
+                for j in 0..=l {
+                    let (uj, qj) = (ai[j], e[j]);
+                    let row = &mut top[j * n..j * n + l + 1];
+                    for ((x, &ek), &uk) in row.iter_mut().zip(&e[..=l]).zip(&ai[..=l]) {
+                        *x -= uj * ek + qj * uk;
+                    }
+                }
+            }
+        } else {
+            e[i] = ai[l];
+        }
+        d[i] = h;
+    }
+    if n > 0 {
+        d[0] = 0.0;
+        e[0] = 0.0;
+    }
+    for i in 0..n {
+        if d[i] != 0.0 {
+            // g_j = sum_k a_ik a_kj (j < i), then a_kj -= g_j a_ki.
+            let (top, rest) = a.split_at_mut(i * n);
+            let ai = &rest[..i];
+            let gv = &mut gv[..i];
+            gv.fill(-0.0);
+            for (k, &aik) in ai.iter().enumerate() {
+                for (g, &x) in gv.iter_mut().zip(&top[k * n..k * n + i]) {
+                    *g += aik * x;
+                }
+            }
+            for k in 0..i {
+                let row = &mut top[k * n..k * n + i + 1];
+                let aki = row[i];
+                for (x, &g) in row[..i].iter_mut().zip(gv.iter()) {
+                    *x -= g * aki;
+                }
+            }
+        }
+        d[i] = a[i * n + i];
+        a[i * n + i] = 1.0;
+        for j in 0..i {
+            a[j * n + i] = 0.0;
+            a[i * n + j] = 0.0;
+        }
+    }
+}
+
+/// `tql2`: the eigenvalues of the tridiagonal `(d, e)` of
+/// [`householder_tridiagonal_flat`] into `d`, each rotation applied to two
+/// rows of `q` (the columns of `Q`, transposed; row-major, `n x n`).
+fn implicit_ql_flat(
+    d: &mut [f64],
+    e: &mut [f64],
+    q: &mut [f64],
+    n: usize,
+) -> Result<(), NoConvergence> {
+    const MAX_ITER: usize = 60;
+    for i in 1..n {
+        e[i - 1] = e[i];
+    }
+    if n > 0 {
+        e[n - 1] = 0.0;
+    }
+    // An off-diagonal element below eps^2 times the matrix's scale counts
+    // as zero too (as in [`jacobi`]): between two zero eigenvalues (a
+    // conservative layer's null modes) the relative test alone can stall.
+    let scale = (0..n).map(|i| d[i].abs() + e[i].abs()).fold(0.0, f64::max);
+    let tiny = f64::EPSILON * f64::EPSILON * scale;
+    for l in 0..n {
+        let mut iter = 0;
+        loop {
+            let mut m = l;
+            while m + 1 < n {
+                let dd = d[m].abs() + d[m + 1].abs();
+                if e[m].abs() + dd == dd || e[m].abs() <= tiny {
+                    break;
+                }
+                m += 1;
+            }
+            if m == l {
+                break;
+            }
+            iter += 1;
+            if iter > MAX_ITER || !d[l].is_finite() {
+                return Err(NoConvergence(format!("QL: no convergence in {MAX_ITER} steps")));
+            }
+            let mut g = (d[l + 1] - d[l]) / (2.0 * e[l]);
+            let mut r = pythag(g, 1.0);
+            g = d[m] - d[l] + e[l] / (g + r.copysign(g));
+            let (mut s, mut c, mut p) = (1.0, 1.0, 0.0);
+            let mut deflated = false;
+            for i in (l..m).rev() {
+                let f = s * e[i];
+                let b = c * e[i];
+                r = pythag(f, g);
+                e[i + 1] = r;
+                if r == 0.0 {
+                    d[i + 1] -= p;
+                    e[m] = 0.0;
+                    deflated = true;
+                    break;
+                }
+                let inv = 1.0 / r;
+                s = f * inv;
+                c = g * inv;
+                g = d[i + 1] - p;
+                r = (d[i] - g) * s + 2.0 * c * b;
+                p = s * r;
+                d[i + 1] = g + p;
+                g = c * r - b;
+                let (lo, hi) = q.split_at_mut((i + 1) * n);
+                for (x, y) in lo[i * n..].iter_mut().zip(&mut hi[..n]) {
+                    let f = *y;
+                    *y = s * *x + c * f;
+                    *x = c * *x - s * f;
+                }
+            }
+            if deflated {
+                continue;
+            }
+            d[l] -= p;
+            e[l] = g;
+            e[m] = 0.0;
+        }
+    }
+    Ok(())
+}
+
+/// [`jacobi`] on flat row-major storage of any size (the reference of the
+/// tests of the QL path): `a` (`n x n`,
+/// symmetric) is overwritten, the eigenvalues go to `d` and `Y` (columns
+/// = eigenvectors, row-major) to `y`.
+#[cfg(test)]
+pub(crate) fn jacobi_flat(
+    a: &mut [f64],
+    y: &mut [f64],
+    d: &mut [f64],
+    n: usize,
+) -> Result<(), NoConvergence> {
+    const MAX_SWEEPS: usize = 60;
+    y[..n * n].fill(0.0);
+    for i in 0..n {
+        y[i * n + i] = 1.0;
+    }
+    let scale = (0..n).map(|i| a[i * n + i].abs()).fold(0.0, f64::max);
+    let converged = |a: &[f64]| {
+        (0..n).all(|p| {
+            (p + 1..n).all(|q| {
+                let x = a[p * n + q].abs();
+                x <= f64::EPSILON * (a[p * n + p] * a[q * n + q]).abs().sqrt()
+                    || x <= f64::EPSILON * f64::EPSILON * scale
+            })
+        })
+    };
+    let mut sweeps = 0;
+    while !converged(a) {
+        sweeps += 1;
+        if sweeps > MAX_SWEEPS || a[..n * n].iter().any(|x| !x.is_finite()) {
+            return Err(NoConvergence(format!("Jacobi: no convergence in {MAX_SWEEPS} sweeps")));
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p * n + q];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                let t = if theta.abs() > 1e150 {
+                    0.5 / theta
+                } else {
+                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+                };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let sn = t * c;
+                for r in 0..n {
+                    let (arp, arq) = (a[r * n + p], a[r * n + q]);
+                    a[r * n + p] = c * arp - sn * arq;
+                    a[r * n + q] = sn * arp + c * arq;
+                }
+                let (lo, hi) = a.split_at_mut(q * n);
+                for (x, y) in lo[p * n..p * n + n].iter_mut().zip(&mut hi[..n]) {
+                    let (apr, aqr) = (*x, *y);
+                    *x = c * apr - sn * aqr;
+                    *y = sn * apr + c * aqr;
+                }
+                a[p * n + q] = 0.0;
+                a[q * n + p] = 0.0;
+                for r in 0..n {
+                    let (yp, yq) = (y[r * n + p], y[r * n + q]);
+                    y[r * n + p] = c * yp - sn * yq;
+                    y[r * n + q] = sn * yp + c * yq;
+                }
+            }
+        }
+    }
+    for i in 0..n {
+        d[i] = a[i * n + i];
+    }
+    Ok(())
 }

@@ -74,13 +74,13 @@ impl DiscreteModes {
         // mode (the isotropic radiance; docs eq. DS7): rounding would give it
         // lambda ~ 1e-8 sigma_t / mu_min, which matters at tau ~ 1e4 and above,
         // so its value is set to 0.
-        let HalfSizeModes { k: lambda, v, z } =
-            with_workspace(|ws| half_size_modes_in(&h_odd, &h_even, sigma_a == 0.0, ws)).map_err(
-                |e| match e {
-                    EigenFailure::Cholesky(d) => numerical("Cholesky of the odd operator", d),
-                    EigenFailure::Eigen(d) => numerical("symmetric eigen-decomposition", d),
-                },
-            )?;
+        let HalfSizeModes { k: lambda, v, z } = with_workspace(|ws| {
+            half_size_modes_in(&h_odd, &h_even, (sigma_a == 0.0, mu.is_sorted()), ws)
+        })
+        .map_err(|e| match e {
+            EigenFailure::Cholesky(d) => numerical("Cholesky of the odd operator", d),
+            EigenFailure::Eigen(d) => numerical("symmetric eigen-decomposition", d),
+        })?;
         // Back from the symmetric coordinates: S = (MW)^-1/2 v~, F = (MW)^-1/2 z~.
         let (mut S, mut F) = (v, z);
         for i in 0..n {
