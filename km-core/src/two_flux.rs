@@ -36,6 +36,7 @@ use std::f64::consts::LN_2;
 use crate::error::CoreError;
 
 mod mapping;
+mod rough;
 mod solve;
 mod stack;
 

@@ -40,6 +40,7 @@ pub mod bins;
 pub mod error;
 pub mod options;
 mod rng;
+mod rough;
 pub mod run;
 mod sampling;
 pub mod shard;

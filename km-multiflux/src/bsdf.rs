@@ -55,7 +55,7 @@ use km_core::{MonoScene, Scene, Substrate};
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
 use crate::correction::{e2, phi};
-use crate::interface::{fresnel_operators, lambertian_reflection};
+use crate::interface::lambertian_reflection;
 use crate::quadrature::{AngularGrid, mu_of_invariant};
 use crate::slab::{Extra, SlabOrder, slab_operators};
 use crate::solver::{

@@ -24,7 +24,7 @@ use crate::MultifluxError;
 use crate::adding::LayerOperators;
 use crate::exits::{Azimuths, ChannelExtras, add_order};
 pub use crate::field::{InternalField, internal_field};
-use crate::interface::{fresnel_operators, lambertian_reflection};
+use crate::interface::lambertian_reflection;
 use crate::legendre::delta_m;
 pub use crate::options::{
     DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED,
@@ -205,7 +205,12 @@ fn solve_mono_residual(
     // Delta-M scaling of each layer.
     let layers = scale_layers(scene, opts, n_keep);
     let dirs = scene.directions_deg();
-    let m_max = last_order(&layers, opts, !dirs.is_empty() && beam.is_some(), streams);
+    let mut m_max = last_order(&layers, opts, !dirs.is_empty() && beam.is_some(), streams);
+    if scene.has_rough_face() && !dirs.is_empty() && beam.is_some() && !opts.all_effects {
+        // A rough face's lobe needs every order the streams resolve (the
+        // azimuthal convergence test ends the series early).
+        m_max = (2 * streams - 1).min(opts.max_fourier_order.unwrap_or(usize::MAX));
+    }
 
     let nodes0 = grid.medium(n0);
     let e0 = extras_in(n0);
@@ -245,7 +250,7 @@ fn solve_mono_residual(
                 &layers,
                 n_sub,
                 &extras_in,
-                m,
+                (m, m_max + 1),
                 opts.neumann_order,
                 tms_on && !dirs.is_empty(),
                 all,
@@ -337,7 +342,7 @@ fn lone_layer<'a>(
                 || match scene.substrate() {
                     Substrate::Black => true,
                     Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == scene.ambient_n()),
-                    Substrate::Lambertian { .. } => false,
+                    Substrate::Lambertian { .. } | Substrate::Conductor { .. } => false,
                 };
             floor_free.then_some((b, l))
         }
@@ -397,12 +402,14 @@ fn finish(
     };
     // Exact conservation (eq. 18a): nothing absorbs when every layer scatters
     // conservatively and the floor does not absorb.
-    let lossless = layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
+    // A rough face loses its single-scattering deficit (docs/rough.md).
+    let lossless = !scene.has_rough_face()
+        && layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
         && (layers.last().is_some_and(|l| l.tau.is_infinite())
             || match scene.substrate() {
                 Substrate::Transparent { .. } => true,
                 Substrate::Lambertian { albedo } => albedo == 1.0,
-                Substrate::Black => false,
+                Substrate::Black | Substrate::Conductor { .. } => false,
             });
     let (r_tot, t_tot, a_tot, residual) = conserve(r_tot, t_tot, lossless);
     out.reflectance = r_tot;
@@ -472,6 +479,7 @@ pub(crate) fn scale_layers(
                 phase: l.phase(),
                 factor,
                 secondary: opts.secondary_correction,
+                rough: l.roughness(),
             }
         })
         .collect()
@@ -495,14 +503,14 @@ pub(crate) fn stack_operators(
     layers: &[Scaled],
     n_sub: Option<f64>,
     extras_in: &dyn Fn(f64) -> Vec<Extra>,
-    m: usize,
+    (m, orders): (usize, usize),
     neumann: Option<usize>,
     tms: bool,
     all_effects: bool,
 ) -> Result<LayerOperators, MultifluxError> {
-    let interface = |na: f64, nb: f64| {
-        fresnel_operators(&grid.medium(na), &grid.medium(nb), &extras_in(na), &extras_in(nb))
-    };
+    let faces = crate::rough::Faces { grid, extras_in, m, orders };
+    let interface = |na: f64, nb: f64, rough| faces.interface(na, nb, rough);
+    let conductor = |na: f64, n: f64, k: f64, rough| faces.conductor(na, n, k, rough);
     let layer = |_: usize, l: &Scaled| {
         let nodes = grid.medium(l.n);
         let ex = extras_in(l.n);
@@ -520,7 +528,12 @@ pub(crate) fn stack_operators(
     };
     let lambertian =
         |n: f64, albedo: f64| lambertian_reflection(&grid.medium(n), &extras_in(n), albedo, m);
-    let pieces = StackPieces { interface: &interface, layer: &layer, lambertian: &lambertian };
+    let pieces = StackPieces {
+        interface: &interface,
+        layer: &layer,
+        lambertian: &lambertian,
+        conductor: &conductor,
+    };
     add_stack(scene, layers, n_sub, neumann, all_effects, &pieces)
 }
 

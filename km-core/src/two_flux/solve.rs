@@ -42,19 +42,31 @@ fn build(
     let mut t_direct = if mono.light().mu0().is_some() { 1.0 } else { 0.0 };
     // Saunderson's top interface (eq. K12).
     if first_n != mono.ambient_n() {
-        let top = cache.saunderson_top(mono.light(), mono.ambient_n(), first_n)?;
-        r_specular = top.r_top;
-        t_direct *= top.t_tb;
-        slabs.push(top);
+        if let Some(mf) = mono.layers()[0].roughness() {
+            // A rough top face: no mirror part, no unscattered beam (eq. R9).
+            let light = Some(mono.light()).filter(|l| l.mu0().is_some());
+            slabs.push(super::rough::rough_face(&mf, light, mono.ambient_n(), first_n));
+            t_direct = 0.0;
+        } else {
+            let top = cache.saunderson_top(mono.light(), mono.ambient_n(), first_n)?;
+            r_specular = top.r_top;
+            t_direct *= top.t_tb;
+            slabs.push(top);
+        }
     }
     let mut n_above = first_n;
     let mut open_bottom = true;
     for (i, layer) in mono.layers().iter().enumerate() {
         // Interfaces between layers of different index: diffuse flux both sides.
-        if layer.n() != n_above {
-            let iface = cache.interface(n_above, layer.n())?;
-            t_direct *= iface.t_tb;
-            slabs.push(iface);
+        if layer.n() != n_above && i > 0 {
+            if let Some(mf) = layer.roughness() {
+                slabs.push(super::rough::rough_face(&mf, None, n_above, layer.n()));
+                t_direct = 0.0;
+            } else {
+                let iface = cache.interface(n_above, layer.n())?;
+                t_direct *= iface.t_tb;
+                slabs.push(iface);
+            }
         }
         let (k, s) = mapping.coefficients(layer).map_err(|e| match e {
             CoreError::Unsupported { method, reason } => {
@@ -80,10 +92,20 @@ fn build(
     match mono.substrate() {
         Substrate::Transparent { n } => {
             if n != n_above {
-                let iface = cache.interface(n_above, n)?;
-                t_direct *= iface.t_tb;
-                slabs.push(iface);
+                if let Some(mf) = mono.substrate_roughness() {
+                    slabs.push(super::rough::rough_face(&mf, None, n_above, n));
+                    t_direct = 0.0;
+                } else {
+                    let iface = cache.interface(n_above, n)?;
+                    t_direct *= iface.t_tb;
+                    slabs.push(iface);
+                }
             }
+        }
+        Substrate::Conductor { n, k } => {
+            let mf = mono.substrate_roughness();
+            slabs.push(super::rough::conductor_ground(mf.as_ref(), n_above, n, k)?);
+            open_bottom = false;
         }
         Substrate::Lambertian { albedo } => {
             slabs.push(Slab::ground(albedo)?);

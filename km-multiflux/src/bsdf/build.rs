@@ -170,6 +170,12 @@ pub(super) fn channel(
 
     // Fourier orders (as the solver: up to the last non-negligible moment).
     let m_max = last_moment(&layers).min(opts.max_fourier_order.unwrap_or(usize::MAX));
+    // A rough face's lobe needs every order the streams resolve.
+    let m_max = if scene.has_rough_face() {
+        (2 * streams - 1).min(opts.max_fourier_order.unwrap_or(usize::MAX))
+    } else {
+        m_max
+    };
     let nodes0 = grid.medium(n0);
     let nodes_sub = n_sub.map(|n| grid.medium(n));
     let mut coefs_r: Vec<Vec<f64>> = Vec::new(); // per m, [i * no + o]
@@ -182,8 +188,10 @@ pub(super) fn channel(
         let count = if m == 0 { extras.ex.len() } else { extras.base_len };
         let kinds = &kinds_all[..count];
         let extras_in = |n: f64| extras.in_medium(n, count);
+        // Order 0 has the markers (other extras): its rough faces alone.
+        let mo = (m, if m == 0 { 1 } else { m_max + 1 });
         let ops =
-            stack(scene, &grid, &layers, &corr, n_sub, &extras_in, kinds, m, opts.neumann_order)?;
+            stack(scene, &grid, &layers, &corr, n_sub, &extras_in, kinds, mo, opts.neumann_order)?;
         let read = Readout {
             ops: &ops,
             extras: &extras,
@@ -360,14 +368,19 @@ fn stack(
     n_sub: Option<f64>,
     extras_in: &dyn Fn(f64) -> Vec<Extra>,
     kinds: &[Kind],
-    m: usize,
+    (m, orders): (usize, usize),
     neumann: Option<usize>,
 ) -> Result<LayerOperators, MultifluxError> {
-    let interface = |na: f64, nb: f64| {
-        let mut ops =
-            fresnel_operators(&grid.medium(na), &grid.medium(nb), &extras_in(na), &extras_in(nb));
+    let faces = crate::rough::Faces { grid, extras_in, m, orders };
+    let interface = |na: f64, nb: f64, rough| {
+        let mut ops = faces.interface(na, nb, rough);
         scrub_ops(&mut ops, kinds);
         ops
+    };
+    let conductor = |na: f64, n: f64, k: f64, rough| {
+        let mut g = faces.conductor(na, n, k, rough);
+        scrub(&mut g, kinds);
+        g
     };
     let layer = |li: usize, l: &Scaled| {
         let nodes = grid.medium(l.n);
@@ -413,7 +426,12 @@ fn stack(
         scrub(&mut g, kinds);
         g
     };
-    let pieces = StackPieces { interface: &interface, layer: &layer, lambertian: &lambertian };
+    let pieces = StackPieces {
+        interface: &interface,
+        layer: &layer,
+        lambertian: &lambertian,
+        conductor: &conductor,
+    };
     add_stack(scene, layers, n_sub, neumann, false, &pieces)
 }
 
