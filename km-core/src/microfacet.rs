@@ -757,12 +757,15 @@ pub fn sharpness(n_i: f64, far: Far, transmit: bool) -> f64 {
     }
 }
 
+/// A quadrature rule: points and weights.
+type Rule = (Vec<f64>, Vec<f64>);
+
 /// The rule over `psi` in `[0, pi]` graded towards 0 from `delta`, cached per thread.
-fn psi_rule(delta: f64) -> std::rc::Rc<(Vec<f64>, Vec<f64>)> {
+fn psi_rule(delta: f64) -> std::rc::Rc<Rule> {
     use std::cell::RefCell;
     use std::rc::Rc;
     thread_local! {
-        static CACHE: RefCell<Vec<(u64, Rc<(Vec<f64>, Vec<f64>)>)>> = const { RefCell::new(Vec::new()) };
+        static CACHE: RefCell<Vec<(u64, Rc<Rule>)>> = const { RefCell::new(Vec::new()) };
     }
     CACHE.with(|c| {
         let mut c = c.borrow_mut();

@@ -161,9 +161,12 @@ impl Ctx<'_> {
     }
 }
 
+/// The cell integrals of one incoming point, per side (see [`column`]).
+type Column = Vec<Vec<f64>>;
+
 /// For light arriving at `u_in` from side `x`: `integral_{c_i} F^m(u <- u_in) du`
 /// for every cell `i` of every side (`out[side][i * orders + m]`, eq. R11).
-fn column(c: &Ctx<'_>, x: usize, u_in: f64) -> Vec<Vec<f64>> {
+fn column(c: &Ctx<'_>, x: usize, u_in: f64) -> Column {
     let mo = c.orders;
     let (n_i, far) = (c.sides[x].n, c.far(x));
     let mu_in = c.sides[x].mu_of(u_in);
@@ -386,7 +389,7 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
         let mu = ex[x].get(e)?.mu?;
         (x < c.sides.len()).then(|| c.sides[x].n.powi(2) * (1.0 - mu * mu))
     };
-    let mut memo: Vec<(usize, u64, Rc<Vec<Vec<f64>>>)> = Vec::new();
+    let mut memo: Vec<(usize, u64, Rc<Column>)> = Vec::new();
     let mut col = |x: usize, u: f64| {
         if let Some((_, _, v)) = memo.iter().find(|(s, k, _)| *s == x && *k == u.to_bits()) {
             return Rc::clone(v);

@@ -2,6 +2,8 @@
 //! the microfacet model's own albedo, the smooth limit, and a conductor of
 //! `k = 0` as the dielectric.
 
+#![allow(clippy::needless_range_loop)]
+
 use km_core::microfacet::{Distribution, Far, Microfacet};
 use km_multiflux::adding::LayerOperators;
 use km_multiflux::interface::fresnel_operators;
