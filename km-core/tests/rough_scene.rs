@@ -86,3 +86,31 @@ fn bad_rough_and_conductor_keys_name_the_key() {
     let e = err(&format!("{layer}[substrate]\nkind = \"conductor\"\nn = 0.2\nk = -1.0\n"));
     assert!(e.contains("substrate.k"), "{e}");
 }
+
+/// Table R1 of docs/rough.md: the single-scattering loss of a face air ->
+/// 1.5 (GGX) against roughness. Prints the table; checks that the loss grows
+/// with roughness and vanishes with it (Walter et al. 2007: it is a few
+/// percent at alpha 0.5 near normal incidence and larger at grazing).
+#[test]
+#[ignore = "prints docs/rough.md table R1: cargo test -p km-core --test rough_scene -- --ignored --nocapture"]
+fn loss_table() {
+    use km_core::microfacet::{Far, Microfacet};
+    let mut last = [0.0f64; 4];
+    println!("| alpha | 0 deg | 45 deg | 75 deg | diffuse |");
+    println!("|---|---|---|---|---|");
+    for alpha in [0.01, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0] {
+        let mf = Microfacet::new(alpha, Distribution::Ggx).unwrap();
+        let mut row = [0.0; 4];
+        for (k, t) in [0f64, 45.0, 75.0].iter().enumerate() {
+            let (r, tt) = mf.albedo(t.to_radians().cos(), 1.0, Far::Dielectric(1.5));
+            row[k] = 1.0 - r - tt;
+        }
+        let (r, tt) = mf.hemispherical(1.0, Far::Dielectric(1.5));
+        row[3] = 1.0 - r - tt;
+        println!("| {alpha} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |", row[0], row[1], row[2], row[3]);
+        for k in 0..4 {
+            assert!(row[k] >= last[k] - 1e-9, "loss must grow with alpha");
+        }
+        last = row;
+    }
+}
