@@ -26,8 +26,13 @@ fn stacks() -> Vec<String> {
 /// multi-flux discretisation at 16 streams, which the stream study of
 /// docs/rough.md §7 bounds), BRDF/BTDF within 3.5 standard errors plus 3 %
 /// (the Monte Carlo's cone bins of 2 degrees average the lobes).
+///
+/// Known to fail (docs/rough.md §7): the multi-flux BRDF at a probe in the
+/// quadrature cell of the beam's mirror direction carries a spurious term
+/// of the delta corrections (33.4 against 0.187 at 30/180 degrees), and other
+/// directions differ by up to 14 %. Totals agree to 1.5e-3.
 #[test]
-#[ignore = "a few seconds of Monte Carlo: cargo test -p km-bench --test rough -- --ignored"]
+#[ignore = "fails until the probe/beam cell fix (docs/rough.md §7); a few seconds of Monte Carlo: cargo test -p km-bench --test rough -- --ignored"]
 fn monte_carlo_agrees_with_multiflux_on_rough_stacks() {
     for text in stacks() {
         let scene = Scene::from_toml_str(&text).unwrap();

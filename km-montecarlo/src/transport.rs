@@ -424,11 +424,14 @@ impl Tracer {
             // A rough top face (docs/rough.md eq. R17): the lobe is not a mirror part.
             match crate::rough::meet(&mf, [ux, uy, uz], n0, Far::Dielectric(n1), rng) {
                 crate::rough::Outcome::Reflected(o, g) => {
+                    // The masking loss w (1 - g) is absorbed in the face (eq. R17).
+                    sums[Layout::A] += w * (1.0 - g);
                     self.escape_top(sums, w * g, o, true, 0.0, 0.0);
                     return None;
                 }
                 crate::rough::Outcome::Refracted(o, g) => {
                     (ux, uy, uz) = (o[0], o[1], o[2]);
+                    sums[Layout::A] += w * (1.0 - g);
                     w *= g;
                     scattered = true;
                 }
@@ -522,12 +525,14 @@ impl Tracer {
             match crate::rough::meet(&mf, [p.ux, p.uy, p.uz], n_i, Far::Dielectric(n_t), rng) {
                 crate::rough::Outcome::Reflected(o, g) => {
                     (p.ux, p.uy, p.uz) = (o[0], o[1], o[2]);
+                    sums[Layout::A] += p.w * (1.0 - g);
                     p.w *= g;
                     p.scattered = true;
                     return true;
                 }
                 crate::rough::Outcome::Refracted(o, g) => {
                     (p.ux, p.uy, p.uz) = (o[0], o[1], o[2]);
+                    sums[Layout::A] += p.w * (1.0 - g);
                     p.w *= g;
                     p.scattered = true;
                 }
@@ -599,6 +604,8 @@ impl Tracer {
         // The metal absorbs 1 - r (the face's loss, for a rough one, too); a
         // Beckmann sample's weight may exceed 1 (eq. R17) and only scales.
         if r >= 1.0 {
+            sums[Layout::A_SUB] += p.w * (1.0 - r);
+            sums[Layout::A] += p.w * (1.0 - r);
             p.w *= r;
         } else if !self.absorb(survival, 1.0 - r, r, Layout::A_SUB, &mut p.w, sums, rng) {
             return false;
