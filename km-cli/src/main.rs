@@ -14,6 +14,7 @@ macro_rules! help {
 
 mod bsdf;
 mod fit;
+mod mc;
 mod solve;
 mod stdout;
 
@@ -52,6 +53,9 @@ enum Command {
     /// The whole BSDF of the stack as a table (npz, csv) or a Fourier BSDF file (Mitsuba 0.6, pbrt-v3).
     #[command(after_help = help!("bsdf"))]
     Bsdf(bsdf::BsdfArgs),
+    /// Run an MCML input file (.mci): every run, written as MCML output (.mco) and .npz.
+    #[command(after_help = help!("mc"))]
+    Mc(mc::McArgs),
     /// Combine Monte Carlo shard files into the result of one run.
     #[command(after_help = help!("merge"))]
     Merge {
@@ -68,7 +72,7 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Radially resolved diffuse reflectance Rd(r) of a pencil beam at normal incidence.
+    /// Radially resolved diffuse reflectance Rd(r) of a pencil beam (dipole: normal incidence).
     #[command(after_help = help!("profile"))]
     #[command(mut_arg("scene", |a| {
         a.help("Scene file (its single layer must be a half-space for the dipole)")
@@ -192,6 +196,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Solve(args) => solve::run(&args),
         Command::Fit(args) => fit::run(&args),
         Command::Bsdf(args) => bsdf::run(&args),
+        Command::Mc(args) => mc::run(&args),
         Command::Merge { parts, json, format, out } => {
             let sol = km_montecarlo::merge_files(&parts)?;
             if let Some(out) = &out {

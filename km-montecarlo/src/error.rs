@@ -73,6 +73,16 @@ pub enum McError {
         /// Why.
         reason: String,
     },
+    /// A malformed MCML input (`.mci`) file.
+    #[error("line {line}: {field}: {reason}")]
+    Mci {
+        /// 1-based line.
+        line: usize,
+        /// The field MCML reads there.
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
     /// A file could not be written.
     #[error("cannot write {path}: {source}")]
     Io {

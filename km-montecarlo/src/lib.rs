@@ -37,7 +37,10 @@
 #![deny(missing_docs)]
 
 pub mod bins;
+pub mod depth;
 pub mod error;
+pub mod grid;
+pub mod mcml;
 pub mod options;
 mod rng;
 mod rough;
@@ -48,8 +51,9 @@ mod tally;
 mod transport;
 
 pub use error::McError;
+pub use grid::{GridRaw, GridResult, McGrid};
 pub use options::{Estimator, McOptions, Progress, RadialBins};
-pub use run::{RadialProfile, radial_profile, run_shard, solve};
+pub use run::{RadialProfile, merge_grid, radial_profile, run_shard, solve, solve_grid};
 pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,
 };

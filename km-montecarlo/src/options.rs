@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::McError;
+use crate::grid::McGrid;
 
 /// How absorption is simulated (docs/montecarlo.md §4 states what each tallies).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -114,6 +115,12 @@ pub struct McOptions {
     /// they would exceed this. Default [`DEFAULT_MAX_TALLY_BYTES`].
     #[serde(default = "default_max_tally_bytes")]
     pub max_tally_bytes: u64,
+    /// Optional MCML-style grid ([`McGrid`], docs/montecarlo.md §7):
+    /// `A(z)`, `phi(z)`, the net flux, `A(r, z)`, `Rd(r, a)`, `Tt(r, a)`
+    /// and their marginals, read with [`crate::solve_grid`]. Its sums
+    /// count in the tally memory ([`McOptions::max_tally_bytes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<McGrid>,
 }
 
 /// Default [`McOptions::max_events`]: 2 x 10^10 photon steps, about five
@@ -156,6 +163,7 @@ impl Default for McOptions {
             all_effects: false,
             force_threads: false,
             max_tally_bytes: DEFAULT_MAX_TALLY_BYTES,
+            grid: None,
         }
     }
 }
@@ -223,6 +231,9 @@ impl McOptions {
             if r.count > MAX_RADIAL_BINS {
                 return Err(bad("radial.count", r.count, "more than 10^6 annuli"));
             }
+        }
+        if let Some(g) = &self.grid {
+            g.validate()?;
         }
         Ok(())
     }

@@ -5,15 +5,16 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
-use km_core::{Light, Scene, Solution};
+use km_core::{Scene, Solution};
 use rayon::prelude::*;
 
 use crate::error::McError;
+use crate::grid::{GridResult, grid_result};
 use crate::options::{McOptions, RadialBins};
 use crate::rng::batch_rng;
 use crate::shard::{
-    BatchRecord, ChannelBatch, ChannelMeta, PARTIAL_FORMAT, Partial, accumulate, batch_photons,
-    build_solution, fnv1a_hex, shard_batches,
+    BatchRecord, ChannelBatch, ChannelMeta, Merged, PARTIAL_FORMAT, Partial, accumulate,
+    accumulate_in_memory, batch_photons, build_solution, fnv1a_hex, shard_batches,
 };
 use crate::tally::Layout;
 use crate::transport::Tracer;
@@ -44,10 +45,59 @@ use crate::transport::Tracer;
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-9);
 /// ```
 pub fn solve(scene: &Scene, opts: &McOptions) -> Result<Solution, McError> {
-    let part = run_shard(scene, opts, 0, 1)?;
-    let parts = [part];
-    let m = accumulate(&parts)?;
+    let parts = [trace_shard(scene, opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
     Ok(build_solution(&parts, &m))
+}
+
+/// [`solve`] with the grid tallies of `opts.grid` ([`crate::McGrid`],
+/// docs/montecarlo.md §7): the solution and, per channel, the
+/// [`GridResult`].
+///
+/// # Errors
+/// Those of [`solve`]; [`McError::Option`] when `opts.grid` is `None`.
+///
+/// ```
+/// use km_montecarlo::{McGrid, McOptions, solve_grid};
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let grid = McGrid { dz: 0.1, nz: 10, dr: 0.1, nr: 0, na: 0 };
+/// let opts = McOptions { samples: 20_000, grid: Some(grid), ..Default::default() };
+/// let (sol, g) = solve_grid(&scene, &opts).unwrap();
+/// let a: f64 = g[0].a_z.iter().map(|a| a * 0.1).sum();
+/// assert!((a - sol.channels[0].absorptance).abs() < 1e-12);
+/// ```
+pub fn solve_grid(scene: &Scene, opts: &McOptions) -> Result<(Solution, Vec<GridResult>), McError> {
+    let parts = [trace_shard(scene, opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
+    grids_of(&parts, m)
+}
+
+/// [`crate::merge`] with the grid tallies: the merged solution and, per
+/// channel, the [`GridResult`] (bit-identical to [`solve_grid`]'s).
+///
+/// # Errors
+/// Those of [`crate::merge`]; [`McError::Option`] when the run had no grid.
+pub fn merge_grid(parts: &[Partial]) -> Result<(Solution, Vec<GridResult>), McError> {
+    let m = accumulate(parts)?;
+    grids_of(parts, m)
+}
+
+fn grids_of(parts: &[Partial], m: Merged) -> Result<(Solution, Vec<GridResult>), McError> {
+    let p0 = &parts[0];
+    let Some(grid) = p0.options.grid else {
+        return Err(McError::Option {
+            name: "grid",
+            value: "none".into(),
+            reason: "the run has no grid (set McOptions::grid)",
+        });
+    };
+    let grids = m
+        .stats
+        .iter()
+        .zip(&p0.channels)
+        .map(|(s, meta)| grid_result(s, &meta.layout().grid(), grid, Layout::R))
+        .collect();
+    Ok((build_solution(parts, &m), grids))
 }
 
 /// Trace shard `index` of `count` of the run `opts` (0-based): the
@@ -58,6 +108,16 @@ pub fn solve(scene: &Scene, opts: &McOptions) -> Result<Solution, McError> {
 /// # Errors
 /// [`McError::Shard`] when `count == 0` or `index >= count`, and those of [`solve`].
 pub fn run_shard(
+    scene: &Scene,
+    opts: &McOptions,
+    index: u64,
+    count: u64,
+) -> Result<Partial, McError> {
+    trace_shard(scene, opts, index, count).map(Partial::seal)
+}
+
+/// [`run_shard`] without the checksum (a part that stays in this process).
+fn trace_shard(
     scene: &Scene,
     opts: &McOptions,
     index: u64,
@@ -88,6 +148,9 @@ pub fn run_shard(
                 cone_t: n.cone_t,
                 ring: n.ring,
                 annulus: n.annulus,
+                grid_z: l.grid.z,
+                grid_r: l.grid.r,
+                grid_a: l.grid.a,
             }
         })
         .collect();
@@ -138,8 +201,7 @@ pub fn run_shard(
         batches,
         seconds,
         checksum: String::new(),
-    }
-    .seal())
+    })
 }
 
 /// Pilot photons per sampled channel, and channels sampled, of [`preflight`].
@@ -296,7 +358,7 @@ fn trace_batches(
     Ok(records.into_iter().flatten().collect())
 }
 
-/// The radially resolved diffuse reflectance of a pencil beam at normal incidence.
+/// The radially resolved diffuse reflectance of a pencil beam entering at the origin.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RadialProfile {
     /// Annulus width, length unit of the scene.
@@ -309,7 +371,7 @@ pub struct RadialProfile {
     pub stderr: Vec<Vec<f64>>,
     /// Per channel, the diffuse reflectance escaping beyond the last annulus.
     pub overflow: Vec<f64>,
-    /// The whole solution of the run (totals, BRDF, ...), for normal incidence.
+    /// The whole solution of the run (totals, BRDF, ...).
     pub solution: Solution,
 }
 
@@ -319,8 +381,11 @@ pub struct RadialProfile {
 ///
 /// `Rd(r_i) = W_i / (N 2 pi r_i dr)`   (eq. R1)
 ///
-/// The light of every channel is replaced by a collimated beam at normal
-/// incidence (a pencil beam at the origin); everything else is the scene.
+/// The light is the scene's, entering the top surface at the origin: a
+/// pencil beam at the scene's incidence (`r` is measured from the point of
+/// entry, and the annuli average over the azimuth, so an oblique beam's
+/// profile, shifted forward, is averaged around the entry point), or a
+/// diffuse point source.
 ///
 /// # Errors
 /// Those of [`solve`].
@@ -329,13 +394,9 @@ pub fn radial_profile(
     opts: &McOptions,
     bins: RadialBins,
 ) -> Result<RadialProfile, McError> {
-    let normal = |c: &km_core::MonoScene| c.with_light(Light::Collimated { theta_deg: 0.0 });
-    let channels = scene.channels().iter().map(normal).collect::<Result<Vec<_>, _>>()?;
-    let scene = scene.with_channels(channels)?;
     let opts = McOptions { radial: Some(bins), ..opts.clone() };
-    let part = run_shard(&scene, &opts, 0, 1)?;
-    let parts = [part];
-    let m = accumulate(&parts)?;
+    let parts = [trace_shard(scene, &opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
     let solution = build_solution(&parts, &m);
     let meta = &parts[0].channels;
     let mut rd = Vec::new();

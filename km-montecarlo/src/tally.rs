@@ -12,6 +12,8 @@
 //! (batch statistics: every tally, including BRDF bins, gets an error bar
 //! from the same formula). With a single batch `se` is undefined (NaN, null in JSON).
 
+use crate::grid::{GridDims, GridOffsets};
+
 /// Indices of the tallies of one channel in a batch's vector of sums.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Layout {
@@ -23,6 +25,8 @@ pub(crate) struct Layout {
     pub rings: usize,
     /// Number of radial annuli.
     pub radial: usize,
+    /// The grid's bin counts (all zero without a grid).
+    pub grid: GridDims,
 }
 
 impl Layout {
@@ -68,9 +72,13 @@ impl Layout {
     pub fn radial(&self, k: usize) -> usize {
         Self::BASE + self.layers + 2 * self.dirs + 2 * self.rings + k
     }
+    /// Offsets of the grid's sums (after the annuli).
+    pub fn grid(&self) -> GridOffsets {
+        GridOffsets::new(self.radial(self.radial), self.grid)
+    }
     /// Length of the vector of sums.
     pub fn len(&self) -> usize {
-        Self::BASE + self.layers + 2 * self.dirs + 2 * self.rings + self.radial
+        Self::BASE + self.layers + 2 * self.dirs + 2 * self.rings + self.radial + self.grid.len()
     }
 }
 
@@ -109,6 +117,22 @@ impl BatchStats {
         self.sum[j] / self.n as f64
     }
 
+    /// Mean and standard error (eq. T1) of a quantity derived from each
+    /// batch's sums, `f(sums, photons)`, linear in the sums (so that its
+    /// batch values are the `S_b` of eq. T1).
+    pub fn derived(&self, f: impl Fn(&[f64], f64) -> f64) -> (f64, f64) {
+        let vals: Vec<(f64, f64)> =
+            self.per_batch.iter().map(|(nb, s)| (*nb as f64, f(s, *nb as f64))).collect();
+        let n = self.n as f64;
+        let x = vals.iter().map(|v| v.1).sum::<f64>() / n;
+        if self.batches < 2 {
+            return (x, f64::NAN);
+        }
+        let ss: f64 = vals.iter().map(|(nb, v)| (v - x * nb).powi(2)).sum();
+        let b = self.batches as f64;
+        (x, (b / (b - 1.0) * ss).sqrt() / n)
+    }
+
     /// Standard error of the mean of tally `j` (eq. T1); NaN with one batch.
     pub fn stderr(&self, j: usize) -> f64 {
         if self.batches < 2 {
@@ -145,7 +169,7 @@ mod tests {
 
     #[test]
     fn layout_is_contiguous() {
-        let l = Layout { layers: 3, dirs: 2, rings: 4, radial: 5 };
+        let l = Layout { layers: 3, dirs: 2, rings: 4, radial: 5, grid: GridDims::default() };
         assert_eq!(l.brdf(0), l.a_layer(2) + 1);
         assert_eq!(l.btdf(0), l.brdf(1) + 1);
         assert_eq!(l.ring_r(0), l.btdf(1) + 1);

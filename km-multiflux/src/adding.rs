@@ -81,6 +81,8 @@
 //!   and transfer", J. Math. Phys. 41 (1962) 1–41.
 //! - Seed 000, eq. 11–14 and 21.
 
+pub mod probed;
+
 use faer::linalg::solvers::Solve;
 use faer::{Mat, MatRef};
 
@@ -185,6 +187,16 @@ pub fn add(
     top: &LayerOperators,
     bottom: &LayerOperators,
 ) -> Result<LayerOperators, MultifluxError> {
+    Ok(add_parts(top, bottom)?.0)
+}
+
+/// [`add`], also returning `X^-1 T1` and `X^-1 R1' T2'` (the down-going
+/// streams at the common boundary, for light from above and from below),
+/// which the adding of probes needs ([`probed::add`]).
+pub(crate) fn add_parts(
+    top: &LayerOperators,
+    bottom: &LayerOperators,
+) -> Result<(LayerOperators, Mat<f64>, Mat<f64>), MultifluxError> {
     check_pair(top, bottom)?;
     let (r1, t1, r1p, t1p) = (&top.r_top, &top.t_down, &top.r_bottom, &top.t_up);
     let (r2, t2, r2p, t2p) = (&bottom.r_top, &bottom.t_down, &bottom.r_bottom, &bottom.t_up);
@@ -209,7 +221,7 @@ pub fn add(
         t_up: t1p * (t2p + r2 * &xr),
     };
     check_finite(&out, "adding: I - R1' R2 is singular")?;
-    Ok(out)
+    Ok((out, xt1, xr))
 }
 
 /// Adding with the Neumann series of `X^-1` truncated after `order` round
@@ -243,6 +255,17 @@ pub fn add_truncated(
     bottom: &LayerOperators,
     order: usize,
 ) -> Result<LayerOperators, MultifluxError> {
+    Ok(add_truncated_parts(top, bottom, order)?.0)
+}
+
+/// [`add_truncated`], also returning the truncated `X^-1 T1`,
+/// `X^-1 R1' T2'` and `(I - R2 R1')^-1 T2'` ([`probed::add_truncated`]).
+#[allow(clippy::type_complexity)]
+pub(crate) fn add_truncated_parts(
+    top: &LayerOperators,
+    bottom: &LayerOperators,
+    order: usize,
+) -> Result<(LayerOperators, Mat<f64>, Mat<f64>, Mat<f64>), MultifluxError> {
     check_pair(top, bottom)?;
     let (r1, t1, r1p, t1p) = (&top.r_top, &top.t_down, &top.r_bottom, &top.t_up);
     let (r2, t2, r2p, t2p) = (&bottom.r_top, &bottom.t_down, &bottom.r_bottom, &bottom.t_up);
@@ -263,12 +286,13 @@ pub fn add_truncated(
     // Up-going light at the common boundary from below, for t_up.
     let yt2 = series(r2, r1p, t2p.as_ref());
 
-    Ok(LayerOperators {
+    let out = LayerOperators {
         r_top: r1 + t1p * (r2 * &xt1),
         t_down: t2 * &xt1,
         r_bottom: r2p + t2 * &xr,
         t_up: t1p * &yt2,
-    })
+    };
+    Ok((out, xt1, xr, yt2))
 }
 
 /// Directions trapped between two total reflections with nothing between

@@ -48,21 +48,12 @@ mod build;
 pub mod check;
 pub mod write;
 
-use faer::Mat;
-use km_core::phase::PhaseFunction;
 use km_core::{MonoScene, Scene, Substrate};
 
 use crate::MultifluxError;
-use crate::adding::LayerOperators;
-use crate::correction::{e2, phi};
-use crate::interface::lambertian_reflection;
-use crate::quadrature::{AngularGrid, mu_of_invariant};
-use crate::slab::{Extra, SlabOrder, slab_operators};
-use crate::solver::{
-    FOURIER_TOL, MultifluxOptions, Scaled, default_bsdf_streams, flux, last_moment, media_grid,
-    planned_cutoff, resolve_streams, scale_layers,
-};
-use crate::stack::{StackPieces, add_stack, delta_parts};
+use crate::engine::last_moment;
+use crate::quadrature::AngularGrid;
+use crate::solver::{MultifluxOptions, default_bsdf_streams, resolve_streams};
 use build::channel;
 
 /// An error of the BSDF table or its files.
@@ -115,79 +106,7 @@ impl Default for BsdfOptions {
     }
 }
 
-/// The correction data of one scattering layer (eq. B1, second line).
-#[derive(Debug, Clone)]
-pub(crate) struct TmsLayer {
-    /// Unscaled albedo, truncation fraction, scaled albedo.
-    omega_true: f64,
-    f: f64,
-    omega: f64,
-    /// `(2l + 1) chi*_l`, the scaled moments.
-    chiw: Vec<f64>,
-    /// Legendre recurrence coefficients `((2l - 1)/l, (l - 1)/l)`.
-    rec: Vec<(f64, f64)>,
-    phase: km_core::phase::Phase,
-    /// Cosines in this layer of the beams and of the BRDF / BTDF probes.
-    mu_b: Vec<Option<f64>>,
-    mu_r: Vec<Option<f64>>,
-    mu_t: Vec<Option<f64>>,
-    /// Weights `[W_R, W_T, W_I]` per (incidence, exit), for BRDF and BTDF
-    /// exits (`W_I`: the second-order peak term, eq. B2).
-    w_r: Vec<[f64; 3]>,
-    w_t: Vec<[f64; 3]>,
-    /// The solver's correction of this layer (its `peak_pspike` is the
-    /// angular factor of the `W_I` term).
-    corr: crate::correction::PeakCorrection,
-}
-
-impl TmsLayer {
-    /// `F(cos Theta)` of eq. B1 at two cosines at once (the same sums as the
-    /// solver's correction; the Legendre recurrence `P_l = a_l x P_{l-1} -
-    /// b_l P_{l-2}` with `a_l = (2l-1)/l`, `b_l = (l-1)/l` from `rec`, two
-    /// independent chains for instruction-level parallelism).
-    fn fix2(&self, c1: f64, c2: f64, mu_b: f64) -> (f64, f64) {
-        let (c1, c2) = (c1.clamp(-1.0, 1.0), c2.clamp(-1.0, 1.0));
-        let k = self.omega_true / (1.0 - self.omega_true * self.f);
-        let (e1, e2) = (k * self.phase.eval(c1), k * self.phase.eval(c2));
-        let (mut s1, mut s2) = (self.chiw[0], self.chiw[0]);
-        let (mut p0a, mut p1a, mut p0b, mut p1b) = (1.0, c1, 1.0, c2);
-        if self.chiw.len() > 1 {
-            s1 += self.chiw[1] * c1;
-            s2 += self.chiw[1] * c2;
-        }
-        for l in 2..self.chiw.len() {
-            let (a, b) = self.rec[l];
-            let pa = a * c1 * p1a - b * p0a;
-            let pb = a * c2 * p1b - b * p0b;
-            s1 += self.chiw[l] * pa;
-            s2 += self.chiw[l] * pb;
-            (p0a, p1a, p0b, p1b) = (p1a, pa, p1b, pb);
-        }
-        let q = self.omega / (4.0 * std::f64::consts::PI);
-        ((e1 - q * s1) / mu_b, (e2 - q * s2) / mu_b)
-    }
-}
-
-/// The BSDF of one spectral channel.
-#[derive(Debug, Clone)]
-pub struct ChannelBsdf {
-    /// Fourier coefficients of the BRDF, `[(i * n_o + o) * (M + 1) + m]`, 1/sr.
-    coef_r: Vec<f64>,
-    /// The same for the BTDF (all zero for an opaque substrate).
-    coef_t: Vec<f64>,
-    orders: usize,
-    pub(crate) tms: Vec<TmsLayer>,
-    /// Total reflectance and transmittance per incidence (delta parts included).
-    pub reflectance: Vec<f64>,
-    /// Total transmittance per incidence.
-    pub transmittance: Vec<f64>,
-    /// Mirror reflectance per incidence (delta part).
-    pub reflectance_specular: Vec<f64>,
-    /// Unscattered transmittance per incidence (delta part).
-    pub transmittance_direct: Vec<f64>,
-    /// Stream count used.
-    pub streams: usize,
-}
+pub use crate::engine::ChannelBsdf;
 
 /// The BSDF of a stack on a grid of incidence and exit polar angles, any azimuth.
 #[derive(Debug, Clone)]
@@ -325,16 +244,12 @@ impl Bsdf {
 
     /// The Fourier coefficients `c_m` of eq. B1 (BRDF) for the pair `(i, o)`.
     pub fn brdf_coefficients(&self, c: usize, i: usize, o: usize) -> &[f64] {
-        let ch = &self.channels[c];
-        let k = (i * self.theta_o.len() + o) * ch.orders;
-        &ch.coef_r[k..k + ch.orders]
+        self.channels[c].coefficients(i, o, false)
     }
 
     /// The Fourier coefficients `c_m` of eq. B1 (BTDF) for the pair `(i, o)`.
     pub fn btdf_coefficients(&self, c: usize, i: usize, o: usize) -> &[f64] {
-        let ch = &self.channels[c];
-        let k = (i * self.theta_o.len() + o) * ch.orders;
-        &ch.coef_t[k..k + ch.orders]
+        self.channels[c].coefficients(i, o, true)
     }
 
     /// BRDF (smooth part, 1/sr) of channel `c` for incidence `theta_i[i]`,
@@ -365,50 +280,7 @@ impl Bsdf {
         transmitted: bool,
         out: &mut [f64],
     ) {
-        let ch = &self.channels[c];
-        let no = self.theta_o.len();
-        if transmitted && !self.transmits {
-            out.iter_mut().for_each(|x| *x = 0.0);
-            return;
-        }
-        let coef = if transmitted {
-            self.btdf_coefficients(c, i, o)
-        } else {
-            self.brdf_coefficients(c, i, o)
-        };
-        for (k, &p) in phi_deg.iter().enumerate() {
-            // cos m x by the Chebyshev recurrence, x = phi - 180 deg.
-            let cx = (p - 180.0).to_radians().cos();
-            let (mut c_prev, mut c_cur) = (cx, 1.0);
-            let mut v = 0.0;
-            for &a in coef {
-                v += a * c_cur;
-                let next = 2.0 * cx * c_cur - c_prev;
-                c_prev = c_cur;
-                c_cur = next;
-            }
-            out[k] = v;
-        }
-        // The single-scattering correction (eq. B1, second line).
-        for l in &ch.tms {
-            let w = if transmitted { l.w_t[i * no + o] } else { l.w_r[i * no + o] };
-            if w == [0.0; 3] {
-                continue;
-            }
-            let mu_x = if transmitted { l.mu_t[o] } else { l.mu_r[o] };
-            let (Some(mu_b), Some(mu_x)) = (l.mu_b[i], mu_x) else { continue };
-            let (sx, sb) =
-                ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
-            for (k, &p) in phi_deg.iter().enumerate() {
-                let cphi = (p - 180.0).to_radians().cos();
-                let c_t = mu_x * mu_b + sx * sb * cphi;
-                let (f_r, f_t) = l.fix2(-mu_x * mu_b + sx * sb * cphi, c_t, mu_b);
-                out[k] += w[0] * f_r + w[1] * f_t;
-                if w[2] != 0.0 {
-                    out[k] += w[2] * l.corr.peak_pspike(c_t);
-                }
-            }
-        }
+        self.channels[c].eval_into(i, o, phi_deg, transmitted, out);
     }
 
     /// The table of eq. B1 at every azimuth of `phi_deg`:

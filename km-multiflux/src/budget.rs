@@ -11,21 +11,24 @@
 //! not the layer count, is what grows. The estimate, in units of one
 //! `N^3` step, is
 //!
-//! `W = sum_channels  M  sum_{operators o} (N_o + E)^3 (1 + K)`   (eq. W1)
+//! `W = sum_channels sum_{operators o} [M (N_o + B)^3 + c_p (M P + Q) (N_o + B)^2] (1 + K)`   (eq. W1)
 //!
 //! where the operators are the layers and the interfaces between media of
 //! different index (every boundary with `all_effects`), `N_o` the node count
-//! of the operator's denser medium, `E` the extra columns carried through
-//! every operator (the beam, and one probe per output direction on each
-//! side: 2 x 10^4 directions make operators of 4 x 10^4 rows, 13 GB each),
-//! `M` the number of Fourier orders (1 for
+//! of the operator's denser medium, `B` the beams carried through every
+//! operator (1 under collimated light), `P` the probes (one per distinct exit
+//! polar angle on each side: [`crate::adding::probed`] keeps them apart from
+//! the core, so each costs `(N_o + B)^2` per operator and order), `Q` the
+//! markers of the single-scattering correction at order 0 (up to three per
+//! probe and peaked layer), `M` the number of Fourier orders (1 for
 //! totals; with BRDF/BTDF directions under a beam, `min(2 streams,
 //! TYPICAL_ORDERS)`: the solver stops the azimuthal series once two orders
 //! are negligible, after 10 orders for `g = 0.6` at 64 and at 192 streams on
 //! `examples/paint-over-primer.toml`; `2 streams` with `all_effects`) and `K`
 //! the truncation order of the
 //! Neumann series (`neumann_order`; 0 for exact adding, whose cost the `1`
-//! accounts for).
+//! accounts for). The exit directions themselves cost a cosine sum each per
+//! order, `D M` (counted with the same unit).
 //!
 //! Calibration (2026-11, a 2-core machine): a stack of 60 layers of distinct
 //! indices at 16 streams (`W = 2.8e10`) took 17.7 s unloaded, about 0.7 ns
@@ -40,6 +43,16 @@ use crate::options::MultifluxOptions;
 
 /// Default work budget of one solve (eq. W1 units): 10^10, 7 to 25 s.
 pub const DEFAULT_MAX_WORK: f64 = 1e10;
+
+/// The cost of one probe row per operator and order in units of `(N_o +
+/// B)^2` (eq. W1's `c_p`): its source-function integral in each layer (the
+/// kernels to every node and every mode's path integral, two transposed
+/// solves) and its share of the adding. Measured with callgrind on
+/// `examples/paint-over-primer.toml` with 200 and 2000 distinct exit polar
+/// angles at 6 and 16 streams: about 60 instructions per unit for the probes
+/// against about 2 for the core's `N^3` steps, so that the 0.7 ns per unit of
+/// the calibration below holds for both with `c_p = 50`.
+pub const PROBE_WEIGHT: f64 = 50.0;
 
 /// Fourier orders assumed when angles are asked (eq. W1's `M`), unless the
 /// streams resolve fewer.
@@ -108,34 +121,23 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut distinct: Vec<f64> = media.iter().copied().filter(|x| x.is_finite()).collect();
     distinct.sort_by(|a, b| a.total_cmp(b));
     distinct.dedup();
-    // Extra columns: the beam, and a probe per direction above (and below
-    // when the substrate is transparent).
+    // The beam, and a probe per distinct exit polar angle above (and below
+    // when the substrate is transparent), with up to three markers per probe
+    // and peaked layer at order 0.
     let below = matches!(scene.substrate(), Substrate::Transparent { .. });
-    let extras = 1.0 + scene.directions_deg().len() as f64 * if below { 2.0 } else { 1.0 };
-    let nodes = |n: f64| streams * distinct.partition_point(|&x| x <= n).max(1) as f64;
-    let size = |n: f64| nodes(n) + extras;
-    let mut per_order = 0.0;
-    let mut operators = 0;
-    let mut max_nodes = 0.0f64;
-    for (i, l) in scene.layers().iter().enumerate() {
-        let n_layer = nodes(l.n());
-        max_nodes = max_nodes.max(n_layer);
-        per_order += size(l.n()).powi(3);
-        operators += 1;
-        let above = media[i];
-        if above != l.n() || opts.all_effects {
-            per_order += size(above.max(l.n())).powi(3);
-            operators += 1;
-        }
-    }
-    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate(), scene.layers().last())
-        && (n != last.n() || opts.all_effects)
-    {
-        per_order += size(n.max(last.n())).powi(3);
-        operators += 1;
-    }
     let beam = matches!(scene.light(), Light::Collimated { .. });
-    let angles = !scene.directions_deg().is_empty() && beam;
+    let beams = if beam { 1.0 } else { 0.0 };
+    let dirs = scene.directions_deg();
+    let mut polar: Vec<f64> = dirs.iter().map(|d| d[0]).collect();
+    polar.sort_by(|a, b| a.total_cmp(b));
+    polar.dedup();
+    let probes = polar.len() as f64 * if below { 2.0 } else { 1.0 };
+    let peaked = scene.layers().iter().filter(|l| l.albedo() > 0.0 && l.g() != 0.0).count();
+    let markers = if beam && opts.delta_m { 3.0 * probes * peaked as f64 } else { 0.0 };
+    let nodes = |n: f64| streams * distinct.partition_point(|&x| x <= n).max(1) as f64;
+    let size = |n: f64| nodes(n) + beams;
+    // Per operator: the core's cubic cost, and the probes' and markers' rows.
+    let angles = !dirs.is_empty() && beam;
     let mut orders = if opts.all_effects {
         2.0 * streams
     } else if angles {
@@ -146,9 +148,33 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
     if let Some(m) = opts.max_fourier_order {
         orders = orders.min(m as f64 + 1.0);
     }
+    let cost = |n: f64| {
+        orders * size(n).powi(3) + PROBE_WEIGHT * (orders * probes + markers) * size(n).powi(2)
+    };
+    let mut work = 0.0;
+    let mut operators = 0;
+    let mut max_nodes = 0.0f64;
+    for (i, l) in scene.layers().iter().enumerate() {
+        let n_layer = nodes(l.n());
+        max_nodes = max_nodes.max(n_layer);
+        work += cost(l.n());
+        operators += 1;
+        let above = media[i];
+        if above != l.n() || opts.all_effects {
+            work += cost(above.max(l.n()));
+            operators += 1;
+        }
+    }
+    if let (Substrate::Transparent { n }, Some(last)) = (scene.substrate(), scene.layers().last())
+        && (n != last.n() || opts.all_effects)
+    {
+        work += cost(n.max(last.n()));
+        operators += 1;
+    }
+    work += orders * dirs.len() as f64;
     let neumann = opts.neumann_order.map_or(0.0, |k| k as f64);
     WorkEstimate {
-        units: orders * per_order * (1.0 + neumann),
+        units: work * (1.0 + neumann),
         max_nodes: max_nodes as usize,
         orders: orders as usize,
         operators,

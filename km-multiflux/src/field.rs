@@ -5,10 +5,9 @@ use faer::Mat;
 use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
+use crate::engine::{ExtraSetup, Extras, OrderPieces};
 use crate::options::MultifluxOptions;
-use crate::quadrature::mu_of_invariant;
-use crate::slab::Extra;
-use crate::solver::{Scaled, media_grid, resolve_streams, scale_layers, stack_operators};
+use crate::solver::{Scaled, media_grid, resolve_streams, scale_layers};
 
 /// The radiance field at one depth of a stack, for one Fourier order.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,46 +66,33 @@ pub fn internal_field(
     let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
     let layers = scale_layers(scene, opts, 2 * streams);
-    let ex_s: Vec<(f64, bool)> = scene.beam_invariant().map(|s| (s, true)).into_iter().collect();
-    let extras_in = |n: f64| -> Vec<Extra> {
-        ex_s.iter()
-            .map(|&(s, beam)| Extra { mu: mu_of_invariant(s, n), beam, phi_deg: 0.0 })
-            .collect()
-    };
+    // The beam alone as extra direction (no probe, so no marker).
+    let beams: Vec<f64> = scene.beam_invariant().into_iter().collect();
+    let setup =
+        ExtraSetup { n0, n_sub, layers: &layers, tms_layers: &[], corr: &[], secondary: false };
+    let extras = Extras::new(&beams, &[], &setup);
     let (i_cut, above, below) = split_at_depth(scene, &layers, z);
     let lc = &scene.layers()[i_cut];
     let n_cut = lc.n();
     let scene_above = scene.with_substrate(Substrate::Transparent { n: n_cut })?;
     let scene_below = scene.with_ambient_n(n_cut)?;
-    let tms = false;
-    let a_ops = stack_operators(
-        &scene_above,
-        &grid,
-        &above,
-        Some(n_cut),
-        &extras_in,
-        (m, m + 1),
-        opts.neumann_order,
-        tms,
-        opts.all_effects,
-    )?;
-    let b_ops = stack_operators(
-        &scene_below,
-        &grid,
-        &below,
-        n_sub,
-        &extras_in,
-        (m, m + 1),
-        opts.neumann_order,
-        tms,
-        opts.all_effects,
-    )?;
+    let pieces = OrderPieces {
+        grid: &grid,
+        extras: &extras,
+        corr: &[],
+        count: extras.ex.len(),
+        m,
+        orders: m + 1,
+        all_effects: opts.all_effects,
+    };
+    let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), opts.neumann_order)?.core;
+    let b_ops = pieces.stack(&scene_below, &below, n_sub, opts.neumann_order)?.core;
 
     // Input at the top.
     let nodes0 = grid.medium(n0);
     let na0 = nodes0.mu.len();
-    let mut a = Mat::<f64>::zeros(na0 + ex_s.len(), 1);
-    if ex_s.is_empty() {
+    let mut a = Mat::<f64>::zeros(na0 + beams.len(), 1);
+    if beams.is_empty() {
         if m == 0 {
             for i in 0..na0 {
                 a[(i, 0)] = 1.0 / std::f64::consts::PI;
@@ -128,8 +114,8 @@ pub fn internal_field(
         n: n_cut,
         down: (0..nn).map(|i| d[(i, 0)]).collect(),
         up: (0..nn).map(|i| u[(i, 0)]).collect(),
-        beam_down: if ex_s.is_empty() { 0.0 } else { d[(nn, 0)] },
-        beam_up: if ex_s.is_empty() { 0.0 } else { u[(nn, 0)] },
+        beam_down: if beams.is_empty() { 0.0 } else { d[(nn, 0)] },
+        beam_up: if beams.is_empty() { 0.0 } else { u[(nn, 0)] },
         mu: nodes.mu,
         w: nodes.w,
     };

@@ -40,23 +40,21 @@ pub fn fresnel_operators(
     let mut t_down = Mat::<f64>::zeros(db, da);
     let mut r_bottom = Mat::<f64>::zeros(db, db);
     let mut t_up = Mat::<f64>::zeros(da, db);
-    let ratio2 = (b.n / a.n) * (b.n / a.n);
     // One direction: indices ia / ib on each side (None = absent there).
-    let mut set =
-        |ia: Option<(usize, f64)>, ib: Option<(usize, f64)>, radiance: bool| match (ia, ib) {
-            (Some((i, mu_a)), Some((j, mu_b))) => {
-                let ra = reflectance(mu_a, a.n, b.n);
-                let rb = reflectance(mu_b, b.n, a.n);
-                let (fd, fu) = if radiance { (ratio2, 1.0 / ratio2) } else { (1.0, 1.0) };
-                r_top[(i, i)] = ra;
-                t_down[(j, i)] = (1.0 - ra) * fd;
-                r_bottom[(j, j)] = rb;
-                t_up[(i, j)] = (1.0 - rb) * fu;
-            }
-            (Some((i, _)), None) => r_top[(i, i)] = 1.0,
-            (None, Some((j, _))) => r_bottom[(j, j)] = 1.0,
-            (None, None) => {}
-        };
+    let mut set = |ia: Option<(usize, f64)>, ib: Option<(usize, f64)>, radiance: bool| {
+        let [rt, td, rb, tu] =
+            fresnel_entries(ia.map(|x| x.1), ib.map(|x| x.1), a.n, b.n, radiance);
+        if let Some((i, _)) = ia {
+            r_top[(i, i)] = rt;
+        }
+        if let Some((j, _)) = ib {
+            r_bottom[(j, j)] = rb;
+        }
+        if let (Some((i, _)), Some((j, _))) = (ia, ib) {
+            t_down[(j, i)] = td;
+            t_up[(i, j)] = tu;
+        }
+    };
     for g in 0..na.max(nb) {
         let ia = (g < na).then(|| (g, a.mu[g]));
         let ib = (g < nb).then(|| (g, b.mu[g]));
@@ -68,6 +66,31 @@ pub fn fresnel_operators(
         set(ia, ib, !ea[e].beam);
     }
     LayerOperators { r_top, t_down, r_bottom, t_up }
+}
+
+/// The four entries `[r_top, t_down, r_bottom, t_up]` of eq. F1 for one
+/// direction of cosine `mu_a` above (index `n_a`) and `mu_b` below (`n_b`),
+/// `None` where it cannot propagate (total reflection on the other side);
+/// `radiance` applies the `n^2` law (false for a beam's irradiance).
+pub fn fresnel_entries(
+    mu_a: Option<f64>,
+    mu_b: Option<f64>,
+    n_a: f64,
+    n_b: f64,
+    radiance: bool,
+) -> [f64; 4] {
+    match (mu_a, mu_b) {
+        (Some(mu_a), Some(mu_b)) => {
+            let ratio2 = (n_b / n_a) * (n_b / n_a);
+            let ra = reflectance(mu_a, n_a, n_b);
+            let rb = reflectance(mu_b, n_b, n_a);
+            let (fd, fu) = if radiance { (ratio2, 1.0 / ratio2) } else { (1.0, 1.0) };
+            [ra, (1.0 - ra) * fd, rb, (1.0 - rb) * fu]
+        }
+        (Some(_), None) => [1.0, 0.0, 0.0, 0.0],
+        (None, Some(_)) => [0.0, 0.0, 1.0, 0.0],
+        (None, None) => [0.0; 4],
+    }
 }
 
 /// Reflection operator of a Lambertian substrate of albedo `albedo` for

@@ -32,6 +32,7 @@ pub mod budget;
 pub mod correction;
 pub mod direction_set;
 pub mod eigen;
+mod engine;
 pub mod error;
 mod exits;
 pub mod field;

@@ -602,49 +602,6 @@ pub fn rough_operators_order(
     all[m].clone()
 }
 
-/// How a stack builder gets its faces for one Fourier order: smooth
-/// (eq. F1 of [`crate::interface`]) or rough ([`rough_operators_order`]),
-/// dielectric or conductor; the `interface` and `conductor` pieces of
-/// [`crate::stack::StackPieces`].
-pub(crate) struct Faces<'a> {
-    /// The stack's Snell-mapped grid.
-    pub(crate) grid: &'a crate::quadrature::AngularGrid,
-    /// The extra directions in a medium of index `n`.
-    pub(crate) extras_in: &'a dyn Fn(f64) -> Vec<Extra>,
-    /// The Fourier order.
-    pub(crate) m: usize,
-    /// The number of orders the solve uses (computed at once for a rough face).
-    pub(crate) orders: usize,
-}
-
-impl Faces<'_> {
-    /// The face from index `na` above to `nb` below.
-    pub(crate) fn interface(&self, na: f64, nb: f64, rough: Option<Microfacet>) -> LayerOperators {
-        let (a, b) = (self.grid.medium(na), self.grid.medium(nb));
-        let (ea, eb) = ((self.extras_in)(na), (self.extras_in)(nb));
-        match rough {
-            None => crate::interface::fresnel_operators(&a, &b, &ea, &eb),
-            Some(mf) => {
-                let face = RoughFace { mf, n_above: na, below: Far::Dielectric(nb) };
-                rough_operators_order(face, &a, Some(&b), &ea, &eb, self.m, self.orders)
-            }
-        }
-    }
-
-    /// The reflection operator of a conductor floor `n + i k` under index `na`.
-    pub(crate) fn conductor(&self, na: f64, n: f64, k: f64, rough: Option<Microfacet>) -> Mat<f64> {
-        let a = self.grid.medium(na);
-        let ea = (self.extras_in)(na);
-        match rough {
-            None => smooth_conductor(&a, &ea, n, k),
-            Some(mf) => {
-                let face = RoughFace { mf, n_above: na, below: Far::Conductor(n, k) };
-                rough_operators_order(face, &a, None, &ea, &[], self.m, self.orders).r_top
-            }
-        }
-    }
-}
-
 /// A smooth conductor floor: the mirror reflection `R_c(mu)` of eq. R5 on
 /// the diagonal, for nodes, probes and the beam alike (every order).
 pub fn smooth_conductor(a: &MediumNodes, ea: &[Extra], n: f64, k: f64) -> Mat<f64> {

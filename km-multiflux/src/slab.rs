@@ -67,6 +67,7 @@ use crate::legendre::LegendreRecurrence;
 use crate::phase_matrix::fourier_blocks_in;
 use crate::workspace::{Workspace, with_workspace};
 use lu::{Lu, solve_right};
+pub(crate) use operators::slab_augmented;
 pub use operators::{absorber_operators, slab_beam_reflection, slab_beam_response, slab_operators};
 
 /// An extra direction carried besides the quadrature nodes, in one medium.

@@ -3,39 +3,35 @@
 //!
 //! Per spectral channel:
 //! 1. one [`AngularGrid`] for all media (quadratures that map under Snell);
-//! 2. extra directions: the collimated beam and the probes at the requested
-//!    exit directions (BRDF above, BTDF below), each by its Snell invariant;
-//! 3. delta-M scaling of every layer (Wiscombe 1977) with `2N` moments kept;
+//! 2. delta-M scaling of every layer (Wiscombe 1977) with `2N` moments kept,
+//!    and the plan's thick-layer cut ([`crate::engine::Prepared`]);
+//! 3. extra directions: the collimated beam, one probe per distinct exit
+//!    polar angle on each side, and the markers of the single-scattering
+//!    correction of each peaked layer ([`crate::engine`]);
 //! 4. for each Fourier order `m = 0..M` (`M = 0` for totals; up to the last
 //!    non-negligible scaled moment, at most `2N - 1`, for a BRDF): the
 //!    operators of every interface and layer, added top to bottom (exact,
 //!    or truncated Neumann series of order `k`), then the substrate;
-//! 5. totals from `m = 0`; BRDF/BTDF `= sum_m I^m cos m(phi - 180 deg)`;
+//! 5. totals from `m = 0`; BRDF/BTDF `= sum_m I^m cos m(phi - 180 deg)` plus
+//!    the correction at each direction's azimuth (eq. B1 of `docs/bsdf.md`);
 //! 6. the delta parts (mirror reflection, unscattered beam) from a separate
 //!    one-direction pass with the unscaled optical thicknesses.
 
 use std::time::Instant;
 
-use faer::Mat;
 use km_core::phase::PhaseFunction;
 use km_core::{ChannelResult, MonoScene, Scene, Solution, Substrate};
 
 use crate::MultifluxError;
-use crate::adding::LayerOperators;
-use crate::exits::{Azimuths, ChannelExtras, add_order};
+use crate::engine::{ChannelBsdf, DirectionValues, Incidence, Prepared, Request, Stop, last_order};
 pub use crate::field::{InternalField, internal_field};
-use crate::interface::lambertian_reflection;
 use crate::legendre::delta_m;
 pub use crate::options::{
     DEFAULT_STREAMS, DEFAULT_STREAMS_ANGULAR, DEFAULT_STREAMS_HARD, DEFAULT_STREAMS_PEAKED,
     FOURIER_TOL, MultifluxOptions, default_bsdf_streams, default_streams,
 };
 use crate::quadrature::{AngularGrid, MediumNodes};
-use crate::slab::{
-    Extra, SlabOrder, SlabSolution, Tms, slab_beam_reflection, slab_beam_response, slab_operators,
-};
 pub(crate) use crate::stack::Scaled;
-use crate::stack::{StackPieces, add_stack, delta_parts};
 
 /// Solve every channel of a scene (Fourier–Gauss mode).
 ///
@@ -102,10 +98,7 @@ pub fn solve_channel(
     ch: &MonoScene,
     opts: &MultifluxOptions,
 ) -> Result<ChannelPart, MultifluxError> {
-    let streams = opts.streams.unwrap_or_else(|| default_streams(ch));
-    let (r, cut) = (std::cell::Cell::new(0.0), std::cell::Cell::new(None));
-    let (result, orders) = solve_mono_residual(ch, opts, &r, &cut)?;
-    Ok(ChannelPart { result, streams, orders, residual: r.get(), cutoff: cut.get() })
+    solve_mono_parts(ch, opts)
 }
 
 /// The [`Solution`] of `scene` from its channels' parts (in channel order)
@@ -170,235 +163,83 @@ pub fn solve_mono(
     scene: &MonoScene,
     opts: &MultifluxOptions,
 ) -> Result<(ChannelResult, usize), MultifluxError> {
-    solve_mono_residual(scene, opts, &std::cell::Cell::new(0.0), &std::cell::Cell::new(None))
+    solve_mono_parts(scene, opts).map(|p| (p.result, p.orders))
 }
 
-/// [`solve_mono`], also reporting in `out_residual` the size of the
-/// conservation fix-up of eq. 18a (0 when none was needed) and in
-/// `out_cutoff` the bound of the planner's thick-layer cut (eq. PL1 of
-/// `docs/planner.md`; `None` when no layer was cut), so that the plan is
-/// made once per channel.
-fn solve_mono_residual(
+/// One channel by the angular engine ([`crate::engine`]): the channel
+/// prepared once (streams, grid, delta-M, the plan's cut), its exit
+/// directions as one probe per distinct polar angle and side, the azimuths
+/// as cosine sums; with the size of the conservation fix-up of eq. 18a and
+/// the bound of the planner's thick-layer cut (eq. PL1 of `docs/planner.md`).
+fn solve_mono_parts(
     scene: &MonoScene,
     opts: &MultifluxOptions,
-    out_residual: &std::cell::Cell<f64>,
-    out_cutoff: &std::cell::Cell<Option<f64>>,
-) -> Result<(ChannelResult, usize), MultifluxError> {
+) -> Result<ChannelPart, MultifluxError> {
     let streams = resolve_streams(scene, opts)?;
-    // The plan's `transmission` rule: a layer through which nothing measurable
-    // returns is a half-space; nothing below it is built.
-    let (cut, bound) = planned_cutoff(scene, opts);
-    out_cutoff.set(bound);
-    let scene = cut.as_ref().unwrap_or(scene);
-    let all = opts.all_effects;
-
-    // Media, top to bottom: ambient, layers, substrate (if transparent).
-    let n0 = scene.ambient_n();
-    let (n_sub, grid) = media_grid(scene, streams);
-    // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
-    let n_keep = 2 * streams;
-    let ex = ChannelExtras::new(scene, n_sub, opts.delta_m);
-    let beam = ex.beam;
-    let tms_on = opts.delta_m && beam.is_some();
-    let extras_in = |n: f64| ex.in_medium(n);
-
-    // Delta-M scaling of each layer.
-    let layers = scale_layers(scene, opts, n_keep);
-    let dirs = scene.directions_deg();
-    let mut m_max = last_order(&layers, opts, !dirs.is_empty() && beam.is_some(), streams);
-    if scene.has_rough_face() && !dirs.is_empty() && beam.is_some() && !opts.all_effects {
-        // A rough face's lobe needs every order the streams resolve (the
-        // azimuthal convergence test ends the series early).
-        m_max = (2 * streams - 1).min(opts.max_fourier_order.unwrap_or(usize::MAX));
-    }
-
-    let nodes0 = grid.medium(n0);
-    let e0 = extras_in(n0);
-    let nodes_sub = n_sub.map(|n| grid.medium(n));
-    let na0 = nodes0.mu.len();
-    let mut out = ChannelResult {
-        brdf: vec![0.0; dirs.len()],
-        // Opaque substrates and half-spaces transmit nothing: their BTDF is 0.
-        btdf: vec![0.0; dirs.len()],
-        ..Default::default()
+    let prep = Prepared::new(scene, opts, streams);
+    let dirs = prep.scene.directions_deg();
+    let (theta_o, o_of) = distinct_polar(dirs);
+    let beam = prep.scene.beam_invariant();
+    let beams: Vec<f64> = beam.into_iter().collect();
+    let incidence = if beam.is_some() { Incidence::Beams(&beams) } else { Incidence::Diffuse };
+    let stop = if opts.all_effects { Stop::Never } else { Stop::Values };
+    let last = last_order(&prep, !dirs.is_empty() && beam.is_some());
+    let req = Request {
+        incidence,
+        theta_o: &theta_o,
+        directions: dirs,
+        o_of: &o_of,
+        stop,
+        last_order: last,
     };
-    let (mut r_tot, mut t_tot) = (0.0, 0.0);
-
-    let mut stop = FourierStop::default();
-    let mut m_used = 0;
-    let lone = lone_layer(scene, &layers, beam, n_sub, all);
-    // cos m(phi - 180 deg) once per distinct azimuth and order.
-    let azimuths = Azimuths::new(dirs);
-    let mut cos_m = vec![0.0; azimuths.values.len()];
-    for m in 0..=m_max {
-        m_used = m;
-        azimuths.cos_order(m, &mut cos_m);
-        let (up, down) = if let Some((b, l)) = lone {
-            let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-            let t = (tms_on && !dirs.is_empty() && m == 0).then(|| l.correction(n_keep));
-            let t = t.as_ref();
-            if nodes_sub.is_some() {
-                slab_beam_response(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?
-            } else {
-                // Nothing below receives the transmitted light: reflection only.
-                (slab_beam_reflection(&nodes0.mu, &nodes0.w, &e0, b, &p, t)?, Vec::new())
-            }
-        } else {
-            let ops = stack_operators(
-                scene,
-                &grid,
-                &layers,
-                n_sub,
-                &extras_in,
-                (m, m_max + 1),
-                opts.neumann_order,
-                tms_on && !dirs.is_empty(),
-                all,
-            )?;
-            let a = top_input(na0, &e0, beam, m);
-            let down = if nodes_sub.is_some() { apply(&ops.t_down, &a) } else { Vec::new() };
-            (apply(&ops.r_top, &a), down)
-        };
-        if m == 0 {
-            r_tot = flux(&nodes0, &up[..na0]) + beam.map_or(0.0, |b| up[na0 + b]);
-        }
-        let (of, c) = (&azimuths.of, &cos_m);
-        let mut term = add_order(&mut out.brdf, &up[na0..], &ex.brdf_ix, of, c);
-        if let Some(ns) = &nodes_sub {
-            let nb = ns.mu.len();
-            if m == 0 {
-                t_tot = flux(ns, &down[..nb]) + beam.map_or(0.0, |b| down[nb + b]);
-            }
-            term = term.max(add_order(&mut out.btdf, &down[nb..], &ex.btdf_ix, of, c));
-        }
-        // The order's exit radiances go back to the workspace (reused by the next order).
-        crate::workspace::with_workspace(|ws| [up, down].into_iter().for_each(|v| ws.give(v)));
-        if m > 0 && !all && stop.converged(term, &out) {
-            break;
-        }
-    }
-    finish(scene, &layers, n_sub, &ex, &nodes0, (r_tot, t_tot), &mut out, out_residual)?;
-    Ok((out, m_used + 1))
+    let (table, values) = prep.respond(&req)?;
+    let values = values.unwrap_or(DirectionValues { brdf: Vec::new(), btdf: Vec::new() });
+    let mut out = ChannelResult { brdf: values.brdf, btdf: values.btdf, ..Default::default() };
+    let residual = finish(&prep, &table, &mut out)?;
+    Ok(ChannelPart { result: out, streams, orders: table.orders, residual, cutoff: prep.cutoff })
 }
 
-/// Azimuthal convergence (as DISORT's ACCUR test): stop after two
-/// consecutive orders whose Fourier amplitudes `|I^m|` are all below
-/// [`FOURIER_TOL`] times the largest BRDF/BTDF value so far.
-#[derive(Default)]
-struct FourierStop {
-    small_orders: usize,
-}
-
-impl FourierStop {
-    /// After an order whose largest amplitude is `term`: whether the series has converged.
-    fn converged(&mut self, term: f64, out: &ChannelResult) -> bool {
-        let largest = out.brdf.iter().chain(&out.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
-        self.small_orders = if term <= FOURIER_TOL * largest { self.small_orders + 1 } else { 0 };
-        self.small_orders == 2
-    }
-}
-
-/// The last Fourier order: 0 for totals; with exit directions under a beam
-/// (`angles`), up to the last non-negligible moment; every order the streams
-/// resolve (`2N - 1`) with all effects; never above the options' bound.
-fn last_order(layers: &[Scaled], opts: &MultifluxOptions, angles: bool, streams: usize) -> usize {
-    let bound = opts.max_fourier_order.unwrap_or(usize::MAX);
-    if opts.all_effects {
-        return (2 * streams - 1).min(bound);
-    }
-    if !angles {
-        return 0;
-    }
-    last_moment(layers).min(bound)
-}
-
-/// The last non-negligible (`> 1e-12`) scaled moment over the scattering
-/// layers: the last Fourier order a BRDF needs.
-pub(crate) fn last_moment(layers: &[Scaled]) -> usize {
-    let mut m = 0;
-    for l in layers {
-        if l.omega > 0.0
-            && let Some(last) = l.chi.iter().rposition(|c| c.abs() > 1e-12)
-        {
-            m = m.max(last);
-        }
-    }
-    m
-}
-
-/// A layer alone in the ambient medium under a beam (no interface, nothing
-/// below it): the answer is one column of its operators, computed without
-/// the node-to-node operators (`slab_beam_response`). Never with all effects.
-fn lone_layer<'a>(
-    scene: &MonoScene,
-    layers: &'a [Scaled],
-    beam: Option<usize>,
-    n_sub: Option<f64>,
-    all: bool,
-) -> Option<(usize, &'a Scaled)> {
-    match (beam, layers) {
-        (Some(b), [l]) if !all && l.n == scene.ambient_n() => {
-            let floor_free = l.tau.is_infinite()
-                || match scene.substrate() {
-                    Substrate::Black => true,
-                    Substrate::Transparent { .. } => n_sub.is_none_or(|ns| ns == scene.ambient_n()),
-                    Substrate::Lambertian { .. } | Substrate::Conductor { .. } => false,
-                };
-            floor_free.then_some((b, l))
-        }
-        _ => None,
-    }
-}
-
-/// The input at the top for order `m`: the beam's unit irradiance, or for
-/// diffuse light (order 0 only) uniform radiance 1/pi (unit irradiance) in
-/// every down-going direction: the nodes and the probes (whose direct
-/// transmission and mirror reflection are smooth in angle for diffuse light,
-/// so they belong to the BRDF/BTDF).
-fn top_input(na0: usize, e0: &[Extra], beam: Option<usize>, m: usize) -> Vec<f64> {
-    let mut a = vec![0.0; na0 + e0.len()];
-    match beam {
-        Some(b) => a[na0 + b] = 1.0,
-        None if m == 0 => {
-            for (i, x) in a.iter_mut().enumerate() {
-                if i < na0 || e0[i - na0].mu.is_some() {
-                    *x = 1.0 / std::f64::consts::PI;
-                }
-            }
-        }
-        None => {}
-    }
-    a
+/// The distinct exit polar angles of `dirs` in order of first appearance,
+/// and the index of each direction's angle among them.
+fn distinct_polar(dirs: &[[f64; 2]]) -> (Vec<f64>, Vec<usize>) {
+    let mut theta_o: Vec<f64> = Vec::new();
+    let mut index: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+    let o_of = dirs
+        .iter()
+        .map(|d| {
+            *index.entry(d[0].to_bits()).or_insert_with(|| {
+                theta_o.push(d[0]);
+                theta_o.len() - 1
+            })
+        })
+        .collect();
+    (theta_o, o_of)
 }
 
 /// The channel's totals: the delta parts with the true (unscaled) optical
-/// thicknesses, exact conservation (eq. 18a), and a refusal of non-finite
-/// results; `(r_tot, t_tot)` are the diffuse-and-all totals from order 0.
-#[allow(clippy::too_many_arguments)]
+/// thicknesses (integrated over the nodes for diffuse light), exact
+/// conservation (eq. 18a), and a refusal of non-finite results. Returns the
+/// size of the conservation fix-up.
 fn finish(
-    scene: &MonoScene,
-    layers: &[Scaled],
-    n_sub: Option<f64>,
-    ex: &ChannelExtras,
-    nodes0: &MediumNodes,
-    (r_tot, t_tot): (f64, f64),
+    prep: &Prepared<'_>,
+    table: &ChannelBsdf,
     out: &mut ChannelResult,
-    out_residual: &std::cell::Cell<f64>,
-) -> Result<(), MultifluxError> {
+) -> Result<f64, MultifluxError> {
+    let (scene, layers) = (&prep.scene, &prep.layers);
     let n0 = scene.ambient_n();
-    let (spec, direct) = match ex.beam {
-        Some(b) => delta_parts(scene, layers, n_sub, ex.ex_s[b].0),
-        None => {
-            let (mut s, mut d) = (0.0, 0.0);
-            for i in 0..nodes0.mu.len() {
-                let sx = n0 * (1.0 - nodes0.mu[i] * nodes0.mu[i]).max(0.0).sqrt();
-                let (si, di) = delta_parts(scene, layers, n_sub, sx);
-                let f = 2.0 * nodes0.w[i] * nodes0.mu[i];
-                s += f * si;
-                d += f * di;
-            }
-            (s, d)
+    let (spec, direct) = if scene.beam_invariant().is_some() {
+        (table.reflectance_specular[0], table.transmittance_direct[0])
+    } else {
+        let nodes0 = &prep.nodes0;
+        let (mut s, mut d) = (0.0, 0.0);
+        for i in 0..nodes0.mu.len() {
+            let sx = n0 * (1.0 - nodes0.mu[i] * nodes0.mu[i]).max(0.0).sqrt();
+            let (si, di) = prep.delta_parts(sx);
+            let f = 2.0 * nodes0.w[i] * nodes0.mu[i];
+            s += f * si;
+            d += f * di;
         }
+        (s, d)
     };
     // Exact conservation (eq. 18a): nothing absorbs when every layer scatters
     // conservatively and the floor does not absorb.
@@ -411,13 +252,13 @@ fn finish(
                 Substrate::Lambertian { albedo } => albedo == 1.0,
                 Substrate::Black | Substrate::Conductor { .. } => false,
             });
+    let (r_tot, t_tot) = (table.reflectance[0], table.transmittance[0]);
     let (r_tot, t_tot, a_tot, residual) = conserve(r_tot, t_tot, lossless);
     out.reflectance = r_tot;
     out.reflectance_specular = spec;
     out.transmittance = t_tot;
     out.transmittance_direct = direct;
     out.absorptance = a_tot;
-    out_residual.set(residual);
     let finite = [r_tot, t_tot, spec, direct].iter().all(|x| x.is_finite())
         && out.brdf.iter().chain(&out.btdf).all(|x| x.is_finite());
     if !finite {
@@ -426,7 +267,7 @@ fn finish(
             detail: "non-finite result".into(),
         });
     }
-    Ok(())
+    Ok(residual)
 }
 
 /// Totals that obey the bounds exactly (eq. 18a of `docs/multiflux.md`):
@@ -491,52 +332,6 @@ pub(crate) fn flux(nodes: &MediumNodes, i: &[f64]) -> f64 {
         * nodes.mu.iter().zip(&nodes.w).zip(i).map(|((u, w), x)| u * w * x).sum::<f64>()
 }
 
-fn apply(m: &Mat<f64>, a: &[f64]) -> Vec<f64> {
-    (0..m.nrows()).map(|i| (0..m.ncols()).map(|j| m[(i, j)] * a[j]).sum()).collect()
-}
-
-/// The operators of the whole stack for Fourier order `m`, substrate included.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn stack_operators(
-    scene: &MonoScene,
-    grid: &AngularGrid,
-    layers: &[Scaled],
-    n_sub: Option<f64>,
-    extras_in: &dyn Fn(f64) -> Vec<Extra>,
-    (m, orders): (usize, usize),
-    neumann: Option<usize>,
-    tms: bool,
-    all_effects: bool,
-) -> Result<LayerOperators, MultifluxError> {
-    let faces = crate::rough::Faces { grid, extras_in, m, orders };
-    let interface = |na: f64, nb: f64, rough| faces.interface(na, nb, rough);
-    let conductor = |na: f64, n: f64, k: f64, rough| faces.conductor(na, n, k, rough);
-    let layer = |_: usize, l: &Scaled| {
-        let nodes = grid.medium(l.n);
-        let ex = extras_in(l.n);
-        let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
-        let t = (tms && m == 0).then(|| l.correction(2 * grid.streams));
-        let t = t.as_ref();
-        // The plan's `scattering` rule lives in `slab_operators` (a layer that
-        // does not scatter is Beer–Lambert attenuation); with all effects every
-        // layer of finite positive thickness is eigen-solved.
-        if all_effects && l.tau > 0.0 {
-            eigen_operators(&nodes.mu, &nodes.w, &ex, &p, t)
-        } else {
-            slab_operators(&nodes.mu, &nodes.w, &ex, &p, t)
-        }
-    };
-    let lambertian =
-        |n: f64, albedo: f64| lambertian_reflection(&grid.medium(n), &extras_in(n), albedo, m);
-    let pieces = StackPieces {
-        interface: &interface,
-        layer: &layer,
-        lambertian: &lambertian,
-        conductor: &conductor,
-    };
-    add_stack(scene, layers, n_sub, neumann, all_effects, &pieces)
-}
-
 /// The stream count of `opts`, or the scene's default; `1..=512`.
 pub(crate) fn resolve_streams(
     scene: &MonoScene,
@@ -565,24 +360,6 @@ pub(crate) fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, Ang
     all_n.extend(scene.layers().iter().map(|l| l.n()));
     all_n.extend(n_sub);
     (n_sub, AngularGrid::new(&all_n, streams))
-}
-
-/// Operators of one layer and order by the eigen-solve (eq. S1–S5), also when
-/// the layer does not scatter (`--all-effects`: the closed form of
-/// [`slab_operators`] is not taken).
-fn eigen_operators(
-    mu: &[f64],
-    w: &[f64],
-    extras: &[Extra],
-    p: &SlabOrder<'_>,
-    tms: Option<&Tms>,
-) -> Result<LayerOperators, MultifluxError> {
-    let s = SlabSolution::build(mu, w, p, true)?;
-    Ok(crate::workspace::with_workspace(|ws| {
-        let ops = s.operators_in(extras, tms, ws);
-        s.recycle(ws);
-        ops
-    }))
 }
 
 /// The scene as the plan's `transmission` rule leaves it (eq. PL1 of

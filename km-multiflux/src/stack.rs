@@ -1,25 +1,25 @@
 //! A stack's operators for one Fourier order: its interfaces and layers added
 //! top to bottom (seed eq. 14, or the truncated Neumann series of eq. 21),
 //! closed by its substrate (seed §3.4); and the scalar pass of the delta
-//! parts. Shared by the scene solver ([`crate::solver`]) and the whole BSDF
-//! ([`crate::bsdf`]), which differ only in how they build one layer.
+//! parts. The one stack builder of the Fourier–Gauss mode: the angular
+//! engine ([`crate::engine`]) gives it its pieces for every request (solve,
+//! BSDF table, internal field).
 
-use faer::Mat;
 use km_core::microfacet::Microfacet;
 use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
-use crate::adding::{LayerOperators, add, add_truncated};
+use crate::adding::probed::{Augmented, add, add_truncated};
 use crate::quadrature::mu_of_invariant;
 use crate::slab::Tms;
 
 /// Add `next` below `acc` (exact adding, seed eq. 14, or its Neumann series
 /// truncated after `neumann` round trips, eq. 21); `acc = None` is the empty stack.
 pub(crate) fn combine(
-    acc: Option<LayerOperators>,
-    next: LayerOperators,
+    acc: Option<Augmented>,
+    next: Augmented,
     neumann: Option<usize>,
-) -> Result<LayerOperators, MultifluxError> {
+) -> Result<Augmented, MultifluxError> {
     match acc {
         None => Ok(next),
         Some(a) => match neumann {
@@ -33,14 +33,16 @@ pub(crate) fn combine(
 pub(crate) struct StackPieces<'a> {
     /// The interface from index `n_a` above to `n_b` below: smooth (Fresnel)
     /// or rough (`Some`: [`crate::rough`]).
-    pub(crate) interface: &'a dyn Fn(f64, f64, Option<Microfacet>) -> LayerOperators,
-    /// The reflection operator of a conductor floor `n + i k` under index
-    /// `n_above` (`n_above, n, k, roughness`).
-    pub(crate) conductor: &'a dyn Fn(f64, f64, f64, Option<Microfacet>) -> Mat<f64>,
+    pub(crate) interface:
+        &'a dyn Fn(f64, f64, Option<Microfacet>) -> Result<Augmented, MultifluxError>,
+    /// A conductor floor `n + i k` under index `n_above` (`n_above, n, k,
+    /// roughness`; nothing below it).
+    pub(crate) conductor:
+        &'a dyn Fn(f64, f64, f64, Option<Microfacet>) -> Result<Augmented, MultifluxError>,
     /// The operators of layer `i` (delta-M scaled).
-    pub(crate) layer: &'a dyn Fn(usize, &Scaled) -> Result<LayerOperators, MultifluxError>,
-    /// The reflection operator of a Lambertian floor of `albedo` under index `n`.
-    pub(crate) lambertian: &'a dyn Fn(f64, f64) -> Mat<f64>,
+    pub(crate) layer: &'a dyn Fn(usize, &Scaled) -> Result<Augmented, MultifluxError>,
+    /// A Lambertian floor of `albedo` under index `n` (nothing below it).
+    pub(crate) lambertian: &'a dyn Fn(f64, f64) -> Augmented,
 }
 
 /// The operators of the whole stack for one Fourier order: interfaces (only
@@ -57,15 +59,15 @@ pub(crate) fn add_stack(
     neumann: Option<usize>,
     all_effects: bool,
     pieces: &StackPieces<'_>,
-) -> Result<LayerOperators, MultifluxError> {
-    let mut acc: Option<LayerOperators> = None;
+) -> Result<Augmented, MultifluxError> {
+    let mut acc: Option<Augmented> = None;
     let mut n_above = scene.ambient_n();
     for (i, l) in layers.iter().enumerate() {
         // The plan's `interface` rule: equal indices are no interface (the
         // Fresnel operator would be the identity); built anyway with all effects.
         if l.n != n_above || all_effects {
             let rough = l.rough.filter(|_| l.n != n_above);
-            acc = Some(combine(acc, (pieces.interface)(n_above, l.n, rough), neumann)?);
+            acc = Some(combine(acc, (pieces.interface)(n_above, l.n, rough)?, neumann)?);
         }
         acc = Some(combine(acc, (pieces.layer)(i, l)?, neumann)?);
         n_above = l.n;
@@ -92,13 +94,13 @@ pub(crate) struct Closing {
 /// Close the operators `acc` of a stack's layers: refuse an empty stack, stop
 /// at a half-space, then add the substrate (seed §3.4): the Fresnel interface
 /// into a clear half-space of another index, or the Lambertian floor
-/// `lambertian(n, albedo)` (its reflection operator), or nothing for a black one.
+/// `lambertian(n, albedo)`, or nothing for a black one.
 pub(crate) fn close_stack(
     scene: &MonoScene,
-    acc: Option<LayerOperators>,
+    acc: Option<Augmented>,
     close: &Closing,
     pieces: &StackPieces<'_>,
-) -> Result<LayerOperators, MultifluxError> {
+) -> Result<Augmented, MultifluxError> {
     let (interface, lambertian) = (pieces.interface, pieces.lambertian);
     let Some(mut acc) = acc else {
         return Err(MultifluxError::Scene(km_core::CoreError::scene(
@@ -116,30 +118,15 @@ pub(crate) fn close_stack(
             let ns = close.n_sub.unwrap_or(n_above);
             if ns != n_above || close.all_effects {
                 let rough = scene.substrate_roughness().filter(|_| ns != n_above);
-                acc = combine(Some(acc), interface(n_above, ns, rough), neumann)?;
+                acc = combine(Some(acc), interface(n_above, ns, rough)?, neumann)?;
             }
         }
         Substrate::Lambertian { albedo } => {
-            let g = lambertian(n_above, albedo);
-            let dim = g.nrows();
-            let floor = LayerOperators {
-                r_top: g,
-                t_down: Mat::zeros(0, dim),
-                r_bottom: Mat::zeros(0, 0),
-                t_up: Mat::zeros(dim, 0),
-            };
-            acc = combine(Some(acc), floor, neumann)?;
+            acc = combine(Some(acc), lambertian(n_above, albedo), neumann)?;
         }
         Substrate::Black => {}
         Substrate::Conductor { n, k } => {
-            let g = (pieces.conductor)(n_above, n, k, scene.substrate_roughness());
-            let dim = g.nrows();
-            let floor = LayerOperators {
-                r_top: g,
-                t_down: Mat::zeros(0, dim),
-                r_bottom: Mat::zeros(0, 0),
-                t_up: Mat::zeros(dim, 0),
-            };
+            let floor = (pieces.conductor)(n_above, n, k, scene.substrate_roughness())?;
             acc = combine(Some(acc), floor, neumann)?;
         }
     }

@@ -169,8 +169,26 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
     let mut n = 4;
     let mut coarse = at(n, base.neumann_order)?;
     seconds += coarse.seconds;
+    // The last comparison's worst number, reported if the budget stops the search.
+    let mut last: Option<(Worst, usize)> = None;
     loop {
-        let fine = at(2 * n, base.neumann_order)?;
+        let fine = match (at(2 * n, base.neumann_order), last.take()) {
+            (Err(km_multiflux::MultifluxError::TooExpensive { .. }), Some((worst, m))) => {
+                return Err(KmError::TargetUnreachable {
+                    target: tol,
+                    limited_by: worst.name,
+                    estimate: worst.estimate,
+                    allowed: worst.allowed,
+                    work: format!(
+                        "{m} streams (checked at {}; {} would exceed the work budget, \
+                         --budget or max_work)",
+                        2 * m,
+                        4 * m
+                    ),
+                });
+            }
+            (r, _) => r?,
+        };
         seconds += fine.seconds;
         // Eq. E1, number by number.
         let mut estimates: Vec<Vec<f64>> = coarse
@@ -226,6 +244,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
                 work: format!("{n} streams (checked at {})", 2 * n),
             });
         }
+        last = Some((worst, n));
         n *= 2;
         coarse = fine;
     }

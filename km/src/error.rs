@@ -36,6 +36,17 @@ pub enum Reason {
         /// The layer's optical thickness `tau = (sigma_a + sigma_s) * thickness`.
         tau: f64,
     },
+    /// The dipole's radial profile is that of a beam at normal incidence.
+    #[error(
+        "its Rd(r) is that of a pencil beam at normal incidence and channel {channel} has {light} \
+         (Monte Carlo gives Rd(r) at any incidence: --method mc)"
+    )]
+    NormalIncidenceOnly {
+        /// 0-based channel.
+        channel: usize,
+        /// The channel's light, in words.
+        light: String,
+    },
     /// The method gives no radially resolved profile.
     #[error("it gives no radial profile Rd(r) (the dipole and Monte Carlo do)")]
     NoProfile,
@@ -107,6 +118,18 @@ pub enum KmError {
         /// The rule it breaks.
         reason: &'static str,
     },
+    /// A setting of [`crate::settings::SETTINGS`] refused: an unknown name,
+    /// a value outside its range, a setting the method does not read, or two
+    /// that exclude each other.
+    #[error("{}", setting_message(name, value, reason))]
+    Setting {
+        /// The setting's name.
+        name: String,
+        /// The value given, as text (empty when there is none).
+        value: String,
+        /// What is wrong.
+        reason: String,
+    },
     /// The method has no setting an accuracy target could choose.
     #[error(
         "accuracy target {target}: method {method} is a closed form with no accuracy setting; \
@@ -135,6 +158,15 @@ pub enum KmError {
         /// The largest work, in words (e.g. `256 streams`).
         work: String,
     },
+}
+
+/// `name = value: reason`, or `name: reason` without a value.
+fn setting_message(name: &str, value: &str, reason: &str) -> String {
+    if value.is_empty() {
+        format!("setting {name}: {reason}")
+    } else {
+        format!("setting {name} = {value}: {reason}")
+    }
 }
 
 /// `x` with at most 6 significant digits and no trailing zeros (`64`, not `64.000000000001`).

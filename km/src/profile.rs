@@ -1,6 +1,7 @@
-//! `Rd(r)`: the radially resolved diffuse reflectance of a pencil beam at
-//! normal incidence, by the dipole (closed form, docs/diffusion.md eq. D11)
-//! or by Monte Carlo (annuli, docs/montecarlo.md eq. R1).
+//! `Rd(r)`: the radially resolved diffuse reflectance of a pencil beam, by
+//! the dipole (normal incidence only; closed form, docs/diffusion.md eq.
+//! D11) or by Monte Carlo (any incidence; annuli around the point of entry,
+//! docs/montecarlo.md eq. R1).
 
 use std::fmt::Write;
 
@@ -113,12 +114,28 @@ impl Profile {
     }
 }
 
+/// Refuse a light other than a collimated beam at normal incidence (the
+/// dipole's profile is that of a normally incident pencil beam).
+fn normal_incidence(scene: &Scene) -> Result<(), KmError> {
+    for (channel, c) in scene.channels().iter().enumerate() {
+        let light = match c.light() {
+            km_core::Light::Collimated { theta_deg: 0.0 } => continue,
+            km_core::Light::Collimated { theta_deg } => format!("a beam at {theta_deg} degrees"),
+            km_core::Light::Diffuse => "diffuse light".to_string(),
+        };
+        let reason = Reason::NormalIncidenceOnly { channel, light };
+        return Err(Unsupported { method: Method::Dipole, reason }.into());
+    }
+    Ok(())
+}
+
 /// `Rd(r)` of `scene` at `points` radii up to `r_max`.
 ///
 /// Dipole: `Rd(r)` at `r_i = r_max (i + 1/2) / points` (docs/diffusion.md
 /// eq. D11). Monte Carlo: the mean over annuli of width `r_max / points`
-/// (docs/montecarlo.md eq. R1). Domain: a single half-space layer for the
-/// dipole; any scene for Monte Carlo.
+/// (docs/montecarlo.md eq. R1) around the point of entry, at the scene's
+/// incidence. Domain: a single half-space layer at normal incidence for the
+/// dipole (other light is refused with the reason); any scene for Monte Carlo.
 ///
 /// # Errors
 /// A method other than the two, `points = 0`, a non-positive `r_max`, a
@@ -156,6 +173,7 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
         Method::Dipole => {
             let d = km_dipole::DipoleOptions::default();
             crate::Solver::supports(&d, scene)?;
+            normal_incidence(scene)?;
             let r: Vec<f64> =
                 (0..points).map(|i| r_max * (i as f64 + 0.5) / points as f64).collect();
             let rd = km_dipole::profile(scene, &r, &d)?;

@@ -15,6 +15,7 @@ use crate::layer::is_refractive_index;
 
 mod layer;
 mod rough;
+mod tissue;
 
 use layer::RawSub;
 
@@ -30,6 +31,8 @@ pub(super) struct RawScene {
     substrate: Option<RawSubstrate>,
     output: Option<RawOutput>,
     spectrum: Option<RawSpectrum>,
+    /// The file's length unit, `"mm"` or `"cm"` (parse/tissue.rs).
+    units: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -58,6 +61,9 @@ struct RawLayer {
     preset: Option<Spanned<String>>,
     roughness: Option<Spanned<Value>>,
     distribution: Option<Spanned<String>>,
+    mu_a: Option<Spanned<Value>>,
+    mu_s: Option<Spanned<Value>>,
+    mu_s_prime: Option<Spanned<Value>>,
 }
 
 #[derive(Deserialize)]
@@ -86,6 +92,7 @@ struct RawSpectrum {
 }
 
 /// A coefficient per channel: one value (broadcast) or a list.
+#[derive(Clone)]
 struct Coef {
     key: String,
     line: Option<usize>,
@@ -169,10 +176,11 @@ impl Parser {
             ));
         }
         let n_layers = raw_layers.len();
+        let scale = tissue::length_scale(self, raw.units.as_ref())?;
         let mut layers = Vec::with_capacity(n_layers);
         let mut faces = Vec::with_capacity(n_layers);
         for (i, l) in raw_layers.iter().enumerate() {
-            let lay = self.layer(i, n_layers, l, &ambient_n)?;
+            let lay = self.layer(i, n_layers, l, &ambient_n, scale)?;
             for c in [&lay.a, &lay.b, &lay.thickness, &lay.g, &lay.n] {
                 note(c);
             }

@@ -61,7 +61,7 @@ fn crc32(data: &[u8]) -> u32 {
 /// A zip archive of stored (uncompressed) entries (PKWARE APPNOTE 6.3, §4.3):
 /// local headers, data, central directory, end record. Entries must stay
 /// below 4 GiB (no zip64); the caller bounds the table size.
-fn zip_stored(entries: &[(String, Vec<u8>)]) -> Vec<u8> {
+pub fn zip_stored(entries: &[(String, Vec<u8>)]) -> Vec<u8> {
     let mut out = Vec::new();
     let mut central = Vec::new();
     for (name, data) in entries {
@@ -114,7 +114,7 @@ fn zip_stored(entries: &[(String, Vec<u8>)]) -> Vec<u8> {
 
 /// An `.npy` file (format version 1.0): magic, header dict padded to a
 /// multiple of 64 bytes, then the data in C order.
-fn npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
+pub fn npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
     let shape = match dims.len() {
         0 => "()".to_string(),

@@ -7,6 +7,7 @@ use faer::Mat;
 use super::{Extra, SlabOrder, SlabSolution, Tms, atten, mat_vec_into};
 use crate::MultifluxError;
 use crate::adding::LayerOperators;
+use crate::adding::probed::{Augmented, ProbeRows};
 use crate::workspace::{Workspace, with_workspace};
 
 impl SlabSolution {
@@ -26,20 +27,7 @@ impl SlabSolution {
     ) -> LayerOperators {
         let n = self.n;
         let dim = n + extras.len();
-        let mut rr = Mat::<f64>::zeros(dim, dim);
-        let mut tt = Mat::<f64>::zeros(dim, dim);
-        let lazy;
-        let (r, tr) = if self.r.nrows() == n {
-            (&self.r, &self.tr)
-        } else {
-            // Built without `full`: the node operators from the factors.
-            lazy = self.node_operators();
-            (&lazy.0, &lazy.1)
-        };
-        for j in 0..n {
-            rr.col_as_slice_mut(j)[..n].copy_from_slice(r.col_as_slice(j));
-            tt.col_as_slice_mut(j)[..n].copy_from_slice(tr.col_as_slice(j));
-        }
+        let (mut rr, mut tt) = self.node_blocks(dim);
         // Probe rows first (needed by the beam columns), once per distinct cosine.
         let probes = self.probes(extras, ws);
         let vectors: Vec<_> =
@@ -74,6 +62,94 @@ impl SlabSolution {
         }
         probes.recycle(ws);
         LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt }
+    }
+
+    /// `dim x dim` zero matrices with the node operators `R`, `T` in their
+    /// leading `N x N` blocks (from the factors when built without `full`).
+    fn node_blocks(&self, dim: usize) -> (Mat<f64>, Mat<f64>) {
+        let n = self.n;
+        let mut rr = Mat::<f64>::zeros(dim, dim);
+        let mut tt = Mat::<f64>::zeros(dim, dim);
+        let lazy;
+        let (r, tr) = if self.r.nrows() == n {
+            (&self.r, &self.tr)
+        } else {
+            // Built without `full`: the node operators from the factors.
+            lazy = self.node_operators();
+            (&lazy.0, &lazy.1)
+        };
+        for j in 0..n {
+            rr.col_as_slice_mut(j)[..n].copy_from_slice(r.col_as_slice(j));
+            tt.col_as_slice_mut(j)[..n].copy_from_slice(tr.col_as_slice(j));
+        }
+        (rr, tt)
+    }
+
+    /// The operators on the core `[nodes, beams]` and on the probes apart
+    /// (eq. PA1 of [`crate::adding::probed`]), for `extras` holding `nbeam`
+    /// beams first and then probes: the same numbers as
+    /// [`SlabSolution::operators_in`] without its `(N + E)^2` matrices.
+    pub(crate) fn augmented_in(
+        &self,
+        extras: &[Extra],
+        nbeam: usize,
+        ws: &mut Workspace,
+    ) -> Augmented {
+        let n = self.n;
+        let (core, np) = (n + nbeam, extras.len() - nbeam);
+        let (mut rr, mut tt) = self.node_blocks(core);
+        let (mut pr, mut pt) = (Mat::<f64>::zeros(np, core), Mat::<f64>::zeros(np, core));
+        let mut dt = vec![0.0; np];
+        // Probe rows first (needed by the beam columns), once per distinct cosine.
+        let probes = self.probes(extras, ws);
+        let vectors: Vec<_> =
+            (0..probes.len()).map(|p| self.probe_row_vectors(&probes.row(p), ws)).collect();
+        for (e, ex) in extras.iter().enumerate() {
+            let Some(mu_x) = ex.mu else { continue };
+            if e < nbeam {
+                tt[(n + e, n + e)] = atten(self.tau, mu_x);
+                continue;
+            }
+            dt[e - nbeam] = atten(self.tau, mu_x);
+            if let Some(p) = probes.of(e) {
+                let (rx, tx) = &vectors[p];
+                for i in 0..n {
+                    pr[(e - nbeam, i)] = rx[i];
+                    pt[(e - nbeam, i)] = tx[i];
+                }
+            }
+        }
+        for (eb, ex) in extras[..nbeam].iter().enumerate() {
+            let (true, Some(mu_b)) = (ex.beam, ex.mu) else { continue };
+            let (cr, ct) = self.beam_response_rows(mu_b, extras, &probes, None, true, ws);
+            for i in 0..n {
+                rr[(i, n + eb)] = cr[i];
+                tt[(i, n + eb)] = ct[i];
+            }
+            for e in nbeam..extras.len() {
+                if probes.of(e).is_some() {
+                    pr[(e - nbeam, n + eb)] = cr[n + e];
+                    pt[(e - nbeam, n + eb)] = ct[n + e];
+                }
+            }
+            ws.give(cr);
+            ws.give(ct);
+        }
+        for (rx, tx) in vectors {
+            ws.give(rx);
+            ws.give(tx);
+        }
+        probes.recycle(ws);
+        // The layer is symmetric: r_bottom = r_top, t_up = t_down.
+        let core = LayerOperators { r_top: rr.clone(), t_down: tt.clone(), r_bottom: rr, t_up: tt };
+        let probes = ProbeRows {
+            r_top: pr.clone(),
+            t_down: pt.clone(),
+            r_bottom: pr,
+            t_up: pt,
+            diag: [vec![0.0; np], dt.clone(), vec![0.0; np], dt],
+        };
+        Augmented { core, probes }
     }
 
     /// `(R a + T b, T a + R b)` at the nodes (radiances), for down-going `a`
@@ -197,6 +273,43 @@ pub fn slab_operators(
     let s = SlabSolution::build(mu, w, p, true)?;
     Ok(with_workspace(|ws| {
         let ops = s.operators_in(extras, tms, ws);
+        s.recycle(ws);
+        ops
+    }))
+}
+
+/// [`slab_operators`] on the core `[nodes, beams]` and the probes apart
+/// ([`SlabSolution::augmented_in`]; `extras` holds `nbeam` beams first);
+/// with `eigen` the eigen-solve is taken even when nothing scatters
+/// (all effects), else the Beer–Lambert shortcut.
+///
+/// # Errors
+/// Those of [`SlabSolution::new`].
+pub(crate) fn slab_augmented(
+    mu: &[f64],
+    w: &[f64],
+    extras: &[Extra],
+    nbeam: usize,
+    p: &SlabOrder<'_>,
+    eigen: bool,
+) -> Result<Augmented, MultifluxError> {
+    let scatters =
+        p.omega > 0.0 && p.tau > 0.0 && p.m < p.chi.len() && p.chi[p.m..].iter().any(|&c| c != 0.0);
+    if !(scatters || eigen && p.tau > 0.0) {
+        let dense = absorber_operators(mu, &extras[..nbeam], p.tau);
+        let mut aug = Augmented::core_only(dense);
+        let d: Vec<f64> =
+            extras[nbeam..].iter().map(|e| e.mu.map_or(0.0, |m| atten(p.tau, m))).collect();
+        let np = d.len();
+        let core = mu.len() + nbeam;
+        aug.probes = ProbeRows::zeros(np, core, core);
+        aug.probes.diag[1] = d.clone();
+        aug.probes.diag[3] = d;
+        return Ok(aug);
+    }
+    let s = SlabSolution::build(mu, w, p, true)?;
+    Ok(with_workspace(|ws| {
+        let ops = s.augmented_in(extras, nbeam, ws);
         s.recycle(ws);
         ops
     }))

@@ -221,15 +221,28 @@ impl SlabSolution {
     pub(super) fn probes(&self, extras: &[Extra], ws: &mut Workspace) -> Probes {
         let mut mu = ws.take(0);
         let mut of = ws.take_idx(extras.len());
+        // Distinct cosines by a linear search, or by their bits once there are
+        // many (a request of thousands of exit polar angles).
+        let mut seen: Option<std::collections::HashMap<u64, usize>> =
+            (extras.len() > 64).then(std::collections::HashMap::new);
         for (o, ex) in of.iter_mut().zip(extras) {
             *o = match (ex.beam, ex.mu) {
-                (false, Some(mu_x)) => match mu.iter().position(|&p| p == mu_x) {
-                    Some(i) => i,
-                    None => {
-                        mu.push(mu_x);
-                        mu.len() - 1
+                (false, Some(mu_x)) => {
+                    let found = match &seen {
+                        Some(map) => map.get(&mu_x.to_bits()).copied(),
+                        None => mu.iter().position(|&p| p == mu_x),
+                    };
+                    match found {
+                        Some(i) => i,
+                        None => {
+                            mu.push(mu_x);
+                            if let Some(map) = &mut seen {
+                                map.insert(mu_x.to_bits(), mu.len() - 1);
+                            }
+                            mu.len() - 1
+                        }
                     }
-                },
+                }
                 _ => NO_PROBE,
             };
         }

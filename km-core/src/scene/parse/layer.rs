@@ -2,6 +2,7 @@
 
 use toml::{Spanned, Value};
 
+use super::tissue::scaled;
 use super::{Coef, Parser, RawLayer, RawSubstrate, check_theta};
 use crate::error::CoreError;
 use crate::layer::{Layer, is_refractive_index};
@@ -15,20 +16,36 @@ impl Parser {
         n_layers: usize,
         l: &RawLayer,
         ambient_n: &Coef,
+        scale: f64,
     ) -> Result<LayerCoefs, CoreError> {
         let k = |name: &str| format!("layer[{}].{name}", i + 1);
-        let sigma_a = self.opt_coef(&k("sigma_a"), &l.sigma_a)?;
-        let sigma_s = self.opt_coef(&k("sigma_s"), &l.sigma_s)?;
-        let thickness = self.opt_coef(&k("thickness"), &l.thickness)?;
+        let sigma_a = self.opt_coef(&k("sigma_a"), &l.sigma_a)?.map(|c| scaled(c, 1.0 / scale));
+        let sigma_s = self.opt_coef(&k("sigma_s"), &l.sigma_s)?.map(|c| scaled(c, 1.0 / scale));
+        let thickness = self.opt_coef(&k("thickness"), &l.thickness)?.map(|c| scaled(c, scale));
         let tau = self.opt_coef(&k("tau"), &l.tau)?;
         let albedo = self.opt_coef(&k("albedo"), &l.albedo)?;
-        let g = self.opt_coef(&k("g"), &l.g)?.unwrap_or(Coef::constant(&k("g"), 0.0));
+        let g_given = self.opt_coef(&k("g"), &l.g)?;
+        let g = g_given.clone().unwrap_or(Coef::constant(&k("g"), 0.0));
         let n = self.opt_coef(&k("n"), &l.n)?;
         let is_last = i + 1 == n_layers;
 
-        // The layer's form: preset, (sigma_a, sigma_s, thickness) or (tau, albedo).
+        // The layer's form: preset, (sigma_a, sigma_s, thickness), (tau,
+        // albedo) or the tissue keys (parse/tissue.rs).
         let sigma_form = sigma_a.is_some() || sigma_s.is_some();
         let tau_form = tau.is_some() || albedo.is_some();
+        let other = if sigma_form {
+            Some("sigma_a/sigma_s")
+        } else if tau_form {
+            Some("tau/albedo")
+        } else {
+            l.preset.as_ref().map(|_| "preset")
+        };
+        let n_or_ambient =
+            n.clone().unwrap_or(Coef { key: k("n"), line: None, values: ambient_n.values.clone() });
+        let (t, gg) = (thickness.clone(), g_given);
+        if let Some(t) = self.tissue_layer(i, is_last, l, other, t, gg, n_or_ambient, scale)? {
+            return Ok(t);
+        }
         if let Some(p) = &l.preset {
             let line = self.line(p.span());
             if sigma_form || tau_form {

@@ -1,0 +1,561 @@
+//! The settings of a solve, written once: their names, the methods they
+//! apply to, their kinds, ranges and defaults, the settings they exclude and
+//! one line of help ([`SETTINGS`]). Every front end builds its request from
+//! this table: the `km` command's flags (`--name`, `_` written `-`) and the
+//! Python package's keyword arguments are checked against it, and
+//! [`Settings`] turns the values given into [`Options`], refusing a setting
+//! the method does not read, a value outside its range, or two settings that
+//! exclude each other, in the same words for both.
+//!
+//! ```
+//! use km::settings::Settings;
+//! let mut s = Settings::new(km::Method::Mc);
+//! s.set_text("samples", "20000").unwrap();
+//! s.set_text("seed", "7").unwrap();
+//! assert!(s.set_text("streams", "8").is_err(), "streams is multi-flux's");
+//! assert!(s.set_text("tolerance", "1e-3").is_err(), "samples and tolerance exclude each other");
+//! let km::MethodOptions::Mc(o) = s.options().unwrap().method else { unreachable!() };
+//! assert_eq!((o.samples, o.seed), (20_000, 7));
+//! ```
+
+use crate::{DirectionSetOptions, KmError, Method, MethodOptions, Options};
+
+/// What values a setting takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Kind {
+    /// On or off (a flag without a value on the command line).
+    Flag,
+    /// A whole number in `min..=max`.
+    Count {
+        /// Smallest value.
+        min: u64,
+        /// Largest value.
+        max: u64,
+    },
+    /// A finite real number `> min` (`min` excluded) and `<= max`.
+    Real {
+        /// Lower bound (excluded).
+        min: f64,
+        /// Upper bound (included).
+        max: f64,
+    },
+    /// One of these names.
+    Choice(&'static [&'static str]),
+    /// A shard `I/N` of a Monte Carlo run, `0 <= I < N`.
+    Shard,
+}
+
+/// One setting of a solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setting {
+    /// Its name (`_` between words; the command line writes `-`).
+    pub name: &'static str,
+    /// The methods that read it.
+    pub methods: &'static [Method],
+    /// Its values.
+    pub kind: Kind,
+    /// Its default as text (`None`: the method chooses, see `help`).
+    pub default: Option<&'static str>,
+    /// The settings it excludes.
+    pub conflicts: &'static [&'static str],
+    /// One line of help.
+    pub help: &'static str,
+}
+
+use Method::{Dipole, DirectionSet as Ds, Km, Mc, Multiflux as Mf};
+
+const ALL: &[Method] = &[Km, Mf, Ds, Mc, Dipole];
+
+/// The km-mapping names (`km_core::two_flux::KmMapping`).
+const MAPPINGS: &[&str] = &["seed", "star1988", "gate1974"];
+/// The absorption estimators of Monte Carlo.
+const ESTIMATORS: &[&str] = &["survival", "analog"];
+/// How the dipole computes `F_dr`.
+const FDR: &[&str] = &["exact", "egan-hilgeman"];
+/// The dipoles.
+const DIPOLES: &[&str] = &["jensen2001", "better"];
+
+/// Every setting of a solve, in the order of the documentation.
+pub const SETTINGS: &[Setting] = &[
+    Setting {
+        name: "tolerance",
+        methods: &[Mf, Mc],
+        kind: Kind::Real { min: 0.0, max: 1.0 },
+        default: None,
+        conflicts: &["streams", "samples", "shard"],
+        help: "accuracy target: every number asked for within TOL * max(1, |x|); chooses the \
+               streams or photons and reports error_estimate",
+    },
+    Setting {
+        name: "all_effects",
+        methods: ALL,
+        kind: Kind::Flag,
+        default: Some("false"),
+        conflicts: &[],
+        help: "compute every effect (the planner off), for comparison",
+    },
+    Setting {
+        name: "km_mapping",
+        methods: &[Km],
+        kind: Kind::Choice(MAPPINGS),
+        default: Some("seed"),
+        conflicts: &[],
+        help: "how two-flux K, S come from the scene (seed: K = sigma_a, S = sigma_s)",
+    },
+    Setting {
+        name: "streams",
+        methods: &[Mf],
+        kind: Kind::Count { min: 1, max: 512 },
+        default: None,
+        conflicts: &["tolerance"],
+        help: "Gauss nodes per hemisphere and Snell segment (default: the scene's rule, 16 for \
+               most scenes)",
+    },
+    Setting {
+        name: "order",
+        methods: &[Mf],
+        kind: Kind::Count { min: 0, max: 100_000 },
+        default: None,
+        conflicts: &[],
+        help: "truncate the adding after this many round trips (seed eq. 21; default exact)",
+    },
+    Setting {
+        name: "directions",
+        methods: &[Ds],
+        kind: Kind::Count { min: 4, max: 2000 },
+        default: Some("303"),
+        conflicts: &[],
+        help: "directions on the sphere in the medium of lowest index (the seed's 303)",
+    },
+    Setting {
+        name: "samples",
+        methods: &[Mc],
+        kind: Kind::Count { min: 1, max: u64::MAX },
+        default: Some("1000000"),
+        conflicts: &["tolerance"],
+        help: "photons per channel",
+    },
+    Setting {
+        name: "seed",
+        methods: &[Mc],
+        kind: Kind::Count { min: 0, max: u64::MAX },
+        default: Some("1"),
+        conflicts: &[],
+        help: "random seed; the same seed gives bit-identical results for any thread count",
+    },
+    Setting {
+        name: "threads",
+        methods: &[Mc],
+        kind: Kind::Count { min: 1, max: 4096 },
+        default: None,
+        conflicts: &[],
+        help: "worker threads (default: all cores); never changes the result",
+    },
+    Setting {
+        name: "estimator",
+        methods: &[Mc],
+        kind: Kind::Choice(ESTIMATORS),
+        default: Some("survival"),
+        conflicts: &[],
+        help: "absorption estimator: survival biasing with Russian roulette (as MCML) or analog",
+    },
+    Setting {
+        name: "shard",
+        methods: &[Mc],
+        kind: Kind::Shard,
+        default: None,
+        conflicts: &["tolerance", "repeat"],
+        help: "run shard I of N (0-based) of a Monte Carlo run; merge the shards with km merge",
+    },
+    Setting {
+        name: "budget",
+        methods: &[Mf, Mc],
+        kind: Kind::Real { min: 0.0, max: 1e12 },
+        default: Some("1"),
+        conflicts: &[],
+        help: "multiply every default work and memory budget by this factor (docs/limits.md)",
+    },
+    Setting {
+        name: "repeat",
+        methods: ALL,
+        kind: Kind::Count { min: 1, max: 10_000 },
+        default: Some("1"),
+        conflicts: &["shard"],
+        help: "solve K times: seconds stays the first call's, seconds_best and seconds_median \
+               are over all K",
+    },
+    Setting {
+        name: "fdr",
+        methods: &[Dipole],
+        kind: Kind::Choice(FDR),
+        default: Some("exact"),
+        conflicts: &[],
+        help: "how the dipole computes F_dr: the exact integral or Egan & Hilgeman's fit",
+    },
+    Setting {
+        name: "dipole",
+        methods: &[Dipole],
+        kind: Kind::Choice(DIPOLES),
+        default: Some("jensen2001"),
+        conflicts: &[],
+        help: "which dipole: Jensen et al. 2001 or d'Eon 2012's better dipole",
+    },
+];
+
+/// The setting named `name` (`-` and `_` alike).
+pub fn setting(name: &str) -> Option<&'static Setting> {
+    let name = name.replace('-', "_");
+    SETTINGS.iter().find(|s| s.name == name)
+}
+
+/// A setting's value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    /// A flag.
+    Flag(bool),
+    /// A whole number.
+    Count(u64),
+    /// A real number.
+    Real(f64),
+    /// A name of a [`Kind::Choice`].
+    Choice(&'static str),
+    /// Shard `I` of `N`.
+    Shard(u64, u64),
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Flag(b) => write!(f, "{b}"),
+            Value::Count(n) => write!(f, "{n}"),
+            Value::Real(x) => write!(f, "{x}"),
+            Value::Choice(c) => f.write_str(c),
+            Value::Shard(i, n) => write!(f, "{i}/{n}"),
+        }
+    }
+}
+
+/// A refusal in the settings' words.
+fn refuse(name: &str, value: impl ToString, reason: impl Into<String>) -> KmError {
+    KmError::Setting { name: name.to_string(), value: value.to_string(), reason: reason.into() }
+}
+
+impl Setting {
+    /// Parse `text` as this setting's value (`1e6` is a whole number; a shard is `I/N`).
+    ///
+    /// # Errors
+    /// [`KmError::Setting`] naming the setting, the text and the rule.
+    pub fn parse(&self, text: &str) -> Result<Value, KmError> {
+        let t = text.trim();
+        let bad = |why: &str| refuse(self.name, text, why);
+        let value = match self.kind {
+            Kind::Flag => match t {
+                "true" | "1" | "yes" | "on" => Value::Flag(true),
+                "false" | "0" | "no" | "off" => Value::Flag(false),
+                _ => return Err(bad("expected true or false")),
+            },
+            Kind::Count { .. } => {
+                let n = match t.parse::<u64>() {
+                    Ok(n) => n,
+                    // `1e6` and `1000000.0` name whole numbers too.
+                    Err(_) => match t.parse::<f64>() {
+                        Ok(x) if x.fract() == 0.0 && (0.0..1.8e19).contains(&x) => x as u64,
+                        _ => return Err(bad("expected a whole number")),
+                    },
+                };
+                Value::Count(n)
+            }
+            Kind::Real { .. } => Value::Real(t.parse().map_err(|_| bad("expected a number"))?),
+            Kind::Choice(names) => match names.iter().find(|n| **n == t) {
+                Some(n) => Value::Choice(n),
+                None => return Err(bad(&format!("expected one of {}", names.join(", ")))),
+            },
+            Kind::Shard => {
+                let (i, n) = t.split_once('/').ok_or_else(|| bad("expected I/N, e.g. 0/4"))?;
+                let i: u64 = i.trim().parse().map_err(|_| bad("I is not a whole number"))?;
+                let n: u64 = n.trim().parse().map_err(|_| bad("N is not a whole number"))?;
+                Value::Shard(i, n)
+            }
+        };
+        self.check(&value)?;
+        Ok(value)
+    }
+
+    /// Check `value` against this setting's kind and range.
+    ///
+    /// # Errors
+    /// [`KmError::Setting`] naming the setting, the value and the rule.
+    pub fn check(&self, value: &Value) -> Result<(), KmError> {
+        let bad = |why: String| Err(refuse(self.name, value, why));
+        match (self.kind, value) {
+            (Kind::Flag, Value::Flag(_)) => Ok(()),
+            (Kind::Count { min, max }, Value::Count(n)) if *n < min || *n > max => {
+                bad(format!("must lie in {min}..={max}"))
+            }
+            (Kind::Count { .. }, Value::Count(_)) => Ok(()),
+            (Kind::Real { min, max }, Value::Real(x))
+                if !(x.is_finite() && *x > min && *x <= max) =>
+            {
+                bad(format!("must be a finite number > {min} and <= {max}"))
+            }
+            (Kind::Real { .. }, Value::Real(_)) => Ok(()),
+            (Kind::Choice(names), Value::Choice(c)) if !names.contains(c) => {
+                bad(format!("expected one of {}", names.join(", ")))
+            }
+            (Kind::Choice(_), Value::Choice(_)) => Ok(()),
+            (Kind::Shard, Value::Shard(i, n)) if *n == 0 || i >= n => bad("need 0 <= I < N".into()),
+            (Kind::Shard, Value::Shard(..)) => Ok(()),
+            _ => bad(format!("not a value of this setting ({:?})", self.kind)),
+        }
+    }
+
+    /// Whether `method` reads this setting.
+    pub fn applies_to(&self, method: Method) -> bool {
+        self.methods.contains(&method)
+    }
+}
+
+/// The settings given for one solve by one method, each checked once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    method: Method,
+    given: Vec<(&'static Setting, Value)>,
+}
+
+impl Settings {
+    /// No setting given yet for `method`.
+    pub fn new(method: Method) -> Settings {
+        Settings { method, given: Vec::new() }
+    }
+
+    /// The method.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// Give setting `name` the value `text` ([`Setting::parse`]).
+    ///
+    /// # Errors
+    /// As [`Settings::set`], and a text that is not a value of the setting.
+    pub fn set_text(&mut self, name: &str, text: &str) -> Result<(), KmError> {
+        let s = self.known(name)?;
+        let v = s.parse(text)?;
+        self.set(name, v)
+    }
+
+    /// Give setting `name` the value `value`.
+    ///
+    /// # Errors
+    /// [`KmError::Setting`]: an unknown name, a setting the method does not
+    /// read (naming the methods that do), a value outside its range, a
+    /// setting given twice, or one that excludes a setting already given.
+    pub fn set(&mut self, name: &str, value: Value) -> Result<(), KmError> {
+        let s = self.known(name)?;
+        s.check(&value)?;
+        if !s.applies_to(self.method) {
+            let names: Vec<&str> = s.methods.iter().map(|m| m.name()).collect();
+            return Err(refuse(
+                s.name,
+                &value,
+                format!(
+                    "does not apply to method {}: it sets the {} (method {})",
+                    self.method.name(),
+                    s.help.split([':', ';', '(']).next().unwrap_or(s.help).trim(),
+                    names.join(" or ")
+                ),
+            ));
+        }
+        if self.given.iter().any(|(g, _)| g.name == s.name) {
+            return Err(refuse(s.name, &value, "given twice"));
+        }
+        if let Some((other, _)) = self.given.iter().find(|(g, _)| s.conflicts.contains(&g.name)) {
+            return Err(refuse(
+                s.name,
+                &value,
+                format!("give either {} or {}, not both", other.name, s.name),
+            ));
+        }
+        self.given.push((s, value));
+        Ok(())
+    }
+
+    fn known(&self, name: &str) -> Result<&'static Setting, KmError> {
+        setting(name).ok_or_else(|| {
+            let names: Vec<&str> = SETTINGS.iter().map(|s| s.name).collect();
+            refuse(name, "", format!("unknown setting (known: {})", names.join(", ")))
+        })
+    }
+
+    /// The value given for `name`, if any.
+    pub fn get(&self, name: &str) -> Option<&Value> {
+        self.given.iter().find(|(s, _)| s.name == name).map(|(_, v)| v)
+    }
+
+    /// The value of `name`: the one given, else its default.
+    fn value(&self, name: &str) -> Option<Value> {
+        self.get(name).cloned().or_else(|| {
+            let s = setting(name)?;
+            s.default.and_then(|d| s.parse(d).ok())
+        })
+    }
+
+    fn count(&self, name: &str) -> Option<u64> {
+        match self.value(name) {
+            Some(Value::Count(n)) => Some(n),
+            _ => None,
+        }
+    }
+
+    fn real(&self, name: &str) -> Option<f64> {
+        match self.value(name) {
+            Some(Value::Real(x)) => Some(x),
+            _ => None,
+        }
+    }
+
+    fn choice(&self, name: &str) -> &'static str {
+        match self.value(name) {
+            Some(Value::Choice(c)) => c,
+            _ => "",
+        }
+    }
+
+    /// How many times to solve (`repeat`, default 1).
+    pub fn repeat(&self) -> u32 {
+        self.count("repeat").map_or(1, |n| n.min(u32::MAX as u64) as u32)
+    }
+
+    /// The shard `(I, N)` asked for, if any.
+    pub fn shard(&self) -> Option<(u64, u64)> {
+        match self.get("shard") {
+            Some(Value::Shard(i, n)) => Some((*i, *n)),
+            _ => None,
+        }
+    }
+
+    /// Whether the planner is off.
+    pub fn all_effects(&self) -> bool {
+        matches!(self.value("all_effects"), Some(Value::Flag(true)))
+    }
+
+    /// The library options these settings stand for (defaults where not given).
+    ///
+    /// # Errors
+    /// Those of [`Options::with_budget`].
+    pub fn options(&self) -> Result<Options, KmError> {
+        let all_effects = self.all_effects();
+        let usize_of = |name: &str| self.count(name).map(|n| n.min(usize::MAX as u64) as usize);
+        let method = match self.method {
+            Km => MethodOptions::Km(km_core::two_flux::KmOptions {
+                mapping: match self.choice("km_mapping") {
+                    "star1988" => km_core::two_flux::KmMapping::StarEtAl1988,
+                    "gate1974" => km_core::two_flux::KmMapping::Gate1974,
+                    _ => km_core::two_flux::KmMapping::Seed,
+                },
+            }),
+            Mf => MethodOptions::Multiflux(km_multiflux::MultifluxOptions {
+                streams: usize_of("streams"),
+                neumann_order: usize_of("order"),
+                all_effects,
+                ..Default::default()
+            }),
+            Ds => MethodOptions::DirectionSet(DirectionSetOptions {
+                directions: usize_of("directions")
+                    .unwrap_or(crate::direction_set::DEFAULT_DIRECTIONS),
+            }),
+            Mc => {
+                let d = km_montecarlo::McOptions::default();
+                MethodOptions::Mc(km_montecarlo::McOptions {
+                    samples: self.count("samples").unwrap_or(d.samples),
+                    seed: self.count("seed").unwrap_or(d.seed),
+                    threads: usize_of("threads"),
+                    estimator: match self.choice("estimator") {
+                        "analog" => km_montecarlo::Estimator::Analog,
+                        _ => km_montecarlo::Estimator::SurvivalBiasing,
+                    },
+                    all_effects,
+                    ..d
+                })
+            }
+            Dipole => MethodOptions::Dipole(km_dipole::DipoleOptions {
+                fdr: match self.choice("fdr") {
+                    "egan-hilgeman" => km_dipole::FdrModel::EganHilgeman,
+                    _ => km_dipole::FdrModel::Exact,
+                },
+                model: match self.choice("dipole") {
+                    "better" => km_dipole::DipoleModel::Better,
+                    _ => km_dipole::DipoleModel::Jensen2001,
+                },
+            }),
+        };
+        let options = Options { method, tolerance: self.real("tolerance"), all_effects };
+        match self.get("budget") {
+            Some(Value::Real(f)) => options.with_budget(*f),
+            _ => Ok(options),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every default parses as its own setting's value, every conflict names
+    /// a setting of the table (both ways), every setting applies to a method.
+    #[test]
+    fn the_table_is_consistent() {
+        for s in SETTINGS {
+            if let Some(d) = s.default {
+                s.parse(d).unwrap_or_else(|e| panic!("{}: default {d}: {e}", s.name));
+            }
+            assert!(!s.methods.is_empty(), "{}", s.name);
+            for c in s.conflicts {
+                let other = setting(c).unwrap_or_else(|| panic!("{} conflicts with {c}", s.name));
+                assert!(other.conflicts.contains(&s.name), "{c} must exclude {} too", s.name);
+            }
+        }
+    }
+
+    /// The options of the defaults are the libraries' own defaults.
+    #[test]
+    fn defaults_are_the_libraries_defaults() {
+        let mc = Settings::new(Mc).options().unwrap();
+        let MethodOptions::Mc(o) = mc.method else { panic!() };
+        let d = km_montecarlo::McOptions::default();
+        assert_eq!(
+            (o.samples, o.seed, o.threads, o.estimator),
+            (d.samples, d.seed, None, d.estimator)
+        );
+        let MethodOptions::Multiflux(o) = Settings::new(Mf).options().unwrap().method else {
+            panic!()
+        };
+        assert_eq!(o, km_multiflux::MultifluxOptions::default());
+        let MethodOptions::DirectionSet(o) = Settings::new(Ds).options().unwrap().method else {
+            panic!()
+        };
+        assert_eq!(o.directions, crate::direction_set::DEFAULT_DIRECTIONS);
+    }
+
+    /// Each refusal names the setting and says why.
+    #[test]
+    fn refusals_name_the_setting() {
+        type Case = (Method, &'static [(&'static str, &'static str)], &'static str);
+        let cases: &[Case] = &[
+            (Km, &[("streams", "8")], "does not apply to method km"),
+            (Mf, &[("streams", "0")], "1..=512"),
+            (Mf, &[("streams", "8"), ("tolerance", "1e-4")], "not both"),
+            (Mc, &[("samples", "x")], "whole number"),
+            (Mc, &[("shard", "4/4")], "0 <= I < N"),
+            (Mc, &[("estimator", "implicit")], "survival, analog"),
+            (Mf, &[("budget", "-1")], "> 0"),
+            (Mf, &[("bogus", "1")], "unknown setting"),
+            (Mf, &[("order", "2"), ("order", "3")], "given twice"),
+        ];
+        for (method, sets, words) in cases {
+            let mut s = Settings::new(*method);
+            let e = sets.iter().try_for_each(|(n, v)| s.set_text(n, v)).unwrap_err().to_string();
+            assert!(e.contains(words), "{sets:?}: {e}");
+            assert!(e.contains(sets.last().unwrap().0), "{sets:?}: {e}");
+        }
+    }
+}
