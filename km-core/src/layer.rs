@@ -11,6 +11,7 @@
 //! and the `with_*` variants), so every solver receives a valid one.
 
 use crate::error::CoreError;
+use crate::microfacet::Microfacet;
 use crate::phase::{Anisotropy, Phase};
 
 /// A validated homogeneous layer (one channel). It clones in constant time
@@ -27,6 +28,8 @@ pub struct Layer {
     phase: Phase,
     /// Refractive index, `>= 1`.
     n: f64,
+    /// Roughness of the layer's top face (`None`: smooth), docs/rough.md.
+    roughness: Option<Microfacet>,
 }
 
 impl Layer {
@@ -51,7 +54,7 @@ impl Layer {
     ) -> Result<Self, CoreError> {
         check_fields(sigma_a, sigma_s, thickness, n)?;
         let phase = Phase::henyey_greenstein(g)?;
-        Ok(Layer { sigma_a, sigma_s, thickness, phase, n })
+        Ok(Layer { sigma_a, sigma_s, thickness, phase, n, roughness: None })
     }
 
     /// A validated layer with a given phase function: every check of a layer
@@ -67,7 +70,7 @@ impl Layer {
         n: f64,
     ) -> Result<Self, CoreError> {
         check_fields(sigma_a, sigma_s, thickness, n)?;
-        Ok(Layer { sigma_a, sigma_s, thickness, phase, n })
+        Ok(Layer { sigma_a, sigma_s, thickness, phase, n, roughness: None })
     }
 
     /// This layer with another thickness (checked as in [`Layer::new`]).
@@ -76,6 +79,7 @@ impl Layer {
     /// A negative or NaN thickness, or an optical thickness that overflows.
     pub fn with_thickness(&self, thickness: f64) -> Result<Self, CoreError> {
         Layer::from_phase(self.sigma_a, self.sigma_s, thickness, self.phase.clone(), self.n)
+            .map(|l| l.with_roughness(self.roughness))
     }
 
     /// This layer with another refractive index.
@@ -84,6 +88,7 @@ impl Layer {
     /// `n < 1` or non-finite.
     pub fn with_n(&self, n: f64) -> Result<Self, CoreError> {
         Layer::from_phase(self.sigma_a, self.sigma_s, self.thickness, self.phase.clone(), n)
+            .map(|l| l.with_roughness(self.roughness))
     }
 
     /// This layer with other coefficients `sigma_a`, `sigma_s`.
@@ -92,11 +97,23 @@ impl Layer {
     /// Those of [`Layer::new`] on the coefficients.
     pub fn with_coefficients(&self, sigma_a: f64, sigma_s: f64) -> Result<Self, CoreError> {
         Layer::from_phase(sigma_a, sigma_s, self.thickness, self.phase.clone(), self.n)
+            .map(|l| l.with_roughness(self.roughness))
     }
 
     /// This layer with another phase function (always valid).
     pub fn with_phase(&self, phase: Phase) -> Self {
         Layer { phase, ..self.clone() }
+    }
+
+    /// This layer with another top face: `None` smooth, or a rough face
+    /// (docs/rough.md; a face between equal indices has no effect).
+    pub fn with_roughness(&self, roughness: Option<Microfacet>) -> Self {
+        Layer { roughness, ..self.clone() }
+    }
+
+    /// The roughness of the layer's top face, `None` when smooth.
+    pub fn roughness(&self) -> Option<Microfacet> {
+        self.roughness
     }
 
     /// Absorption coefficient `sigma_a`, 1/length, `>= 0`.

@@ -13,6 +13,8 @@
 //! them as valid and check nothing again (docs/architecture.md).
 //! * [`fresnel`]: Snell, unpolarised Fresnel, total internal reflection,
 //!   hemispherical averages.
+//! * [`microfacet`]: rough faces (Walter et al. 2007), conductor Fresnel;
+//!   [`metals`]: the n, k table of named metals.
 //! * [`quadrature`]: Gauss–Legendre and Gauss–Radau rules.
 //! * [`legendre`]: Legendre polynomials and normalised associated functions.
 //! * [`two_flux`]: Kubelka–Munk (seed 000 §2).
@@ -29,6 +31,8 @@ pub mod error;
 pub mod fresnel;
 pub mod layer;
 pub mod legendre;
+pub mod metals;
+pub mod microfacet;
 pub mod mie;
 pub mod phase;
 pub mod plan;

@@ -312,12 +312,18 @@ pub fn distinct_channels(scene: &Scene) -> Vec<usize> {
             for x in [l.sigma_a(), l.sigma_s(), l.thickness(), l.g(), l.n()] {
                 f(x);
             }
+            f(l.roughness().map_or(0.0, |r| r.alpha()));
         }
         match c.substrate() {
             Substrate::Transparent { n } => f(n),
             Substrate::Lambertian { albedo } => f(-1.0 - albedo),
             Substrate::Black => f(f64::INFINITY),
+            Substrate::Conductor { n, k } => {
+                f(-10.0 - n);
+                f(k);
+            }
         }
+        f(c.substrate_roughness().map_or(0.0, |r| r.alpha()));
         for d in c.directions_deg() {
             f(d[0]);
             f(d[1]);

@@ -18,6 +18,7 @@ use std::path::Path;
 
 use crate::error::CoreError;
 use crate::layer::{Layer, is_refractive_index};
+use crate::microfacet::Microfacet;
 
 mod parse;
 mod read;
@@ -143,6 +144,16 @@ pub enum Substrate {
     },
     /// An opaque perfect absorber.
     Black,
+    /// An opaque conductor (metal) of complex refractive index `n + i k`,
+    /// in optical contact with the last layer: its face reflects with the
+    /// conductor Fresnel reflectance (docs/rough.md eq. R5), smooth or rough
+    /// ([`MonoScene::substrate_roughness`]).
+    Conductor {
+        /// Real part of the complex index, `> 0`.
+        n: f64,
+        /// Imaginary part (extinction coefficient), `>= 0`.
+        k: f64,
+    },
 }
 
 impl Substrate {
@@ -185,6 +196,12 @@ impl Substrate {
             Substrate::Lambertian { albedo } if !(0.0..=1.0).contains(&albedo) => {
                 Err(CoreError::scene("substrate.albedo", None, "must lie in [0, 1]"))
             }
+            Substrate::Conductor { n, .. } if !(n.is_finite() && n > 0.0) => {
+                Err(CoreError::scene("substrate.n", None, "a conductor's n must be finite and > 0"))
+            }
+            Substrate::Conductor { k, .. } if !(k.is_finite() && k >= 0.0) => {
+                Err(CoreError::scene("substrate.k", None, "must be finite and >= 0"))
+            }
             _ => Ok(()),
         }
     }
@@ -208,6 +225,8 @@ pub struct MonoScene {
     /// Exit directions `[theta_deg, phi_deg]` for BRDF/BTDF samples
     /// (`theta` from the normal on the exit side, `0 <= theta < 90`).
     directions_deg: Vec<[f64; 2]>,
+    /// Roughness of the substrate's face (transparent or conductor), `None`: smooth.
+    substrate_roughness: Option<Microfacet>,
 }
 
 impl MonoScene {
@@ -238,7 +257,14 @@ impl MonoScene {
         check_ambient_n(ambient_n)?;
         substrate.check()?;
         check_directions(&directions_deg)?;
-        Ok(MonoScene { light, ambient_n, layers, substrate, directions_deg })
+        Ok(MonoScene {
+            light,
+            ambient_n,
+            layers,
+            substrate,
+            directions_deg,
+            substrate_roughness: None,
+        })
     }
 
     /// This channel with other layers (checked as in [`MonoScene::new`]).
@@ -253,6 +279,7 @@ impl MonoScene {
             layers,
             substrate: self.substrate,
             directions_deg: self.directions_deg.clone(),
+            substrate_roughness: self.substrate_roughness,
         })
     }
 
@@ -277,6 +304,7 @@ impl MonoScene {
             layers: self.layers.clone(),
             substrate: self.substrate,
             directions_deg,
+            substrate_roughness: self.substrate_roughness,
         })
     }
 
@@ -296,6 +324,50 @@ impl MonoScene {
         let mut layers = self.layers[..i].to_vec();
         layers.push(layer.with_thickness(f64::INFINITY)?);
         self.with_layers(layers)
+    }
+
+    /// This channel with another substrate face: `None` smooth, or rough
+    /// (docs/rough.md).
+    ///
+    /// # Errors
+    /// A rough face on a Lambertian or black substrate (neither has a face of
+    /// its own: they are in optical contact with the last layer).
+    pub fn with_substrate_roughness(
+        &self,
+        roughness: Option<Microfacet>,
+    ) -> Result<MonoScene, CoreError> {
+        if roughness.is_some()
+            && matches!(self.substrate, Substrate::Lambertian { .. } | Substrate::Black)
+        {
+            return Err(CoreError::scene(
+                "substrate.roughness",
+                None,
+                "a lambertian or black substrate has no face of its own to roughen",
+            ));
+        }
+        Ok(MonoScene { substrate_roughness: roughness, ..self.clone() })
+    }
+
+    /// The roughness of the substrate's face (`None`: smooth).
+    pub fn substrate_roughness(&self) -> Option<Microfacet> {
+        self.substrate_roughness
+    }
+
+    /// True when some face of the stack is rough: a layer's top face where
+    /// the index changes, or the substrate's face (docs/rough.md §1).
+    pub fn has_rough_face(&self) -> bool {
+        let mut above = self.ambient_n;
+        for l in &self.layers {
+            if l.roughness().is_some() && l.n() != above {
+                return true;
+            }
+            above = l.n();
+        }
+        match self.substrate {
+            Substrate::Transparent { n } => self.substrate_roughness.is_some() && n != above,
+            Substrate::Conductor { .. } => self.substrate_roughness.is_some(),
+            _ => false,
+        }
     }
 
     /// This channel under another light.

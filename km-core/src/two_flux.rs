@@ -38,6 +38,7 @@ use crate::error::CoreError;
 mod depth;
 mod four_flux;
 mod mapping;
+mod rough;
 mod solve;
 mod stack;
 

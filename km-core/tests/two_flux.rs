@@ -482,9 +482,10 @@ fn substrates_and_half_spaces() {
     // A half-space under a layer equals a very thick last layer.
     let h = km_core::Layer::new(0.3, 2.0, f64::INFINITY, 0.0, 1.0).unwrap();
     let thick = km_core::Layer::new(0.3, 2.0, 1e3, 0.0, 1.0).unwrap();
-    let a = &solve(&mono(vec![l.clone(), h], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::SEED)
-        .unwrap()
-        .channels[0];
+    let a =
+        &solve(&mono(vec![l.clone(), h], Light::Diffuse, 1.0, Substrate::Black), &KmOptions::SEED)
+            .unwrap()
+            .channels[0];
     let b = &solve(
         &mono(vec![l, thick], Light::Diffuse, 1.0, Substrate::Transparent { n: 1.0 }),
         &KmOptions::SEED,

@@ -26,6 +26,16 @@ pub enum DipoleError {
         /// Number of layers in the scene.
         count: usize,
     },
+    /// The dipole's boundary condition is that of a smooth Fresnel face.
+    #[error(
+        "the dipole takes a smooth top face: layer 1 has roughness {alpha} (its boundary \
+         condition and Fresnel transmission are those of a smooth face; docs/rough.md §6); \
+         the multi-flux and Monte Carlo methods treat rough faces"
+    )]
+    RoughFace {
+        /// The roughness of the top face.
+        alpha: f64,
+    },
     /// Without scattering there is no diffusion (reduced albedo 0).
     #[error(
         "the diffusion approximation needs scattering: sigma_s = {sigma_s} (layer {layer}, \

@@ -205,6 +205,9 @@ fn half_space(mono: &MonoScene, channel: usize) -> Result<&km_core::Layer, Dipol
         return Err(DipoleError::LayerCount { count: mono.layers().len() });
     }
     let layer = &mono.layers()[0];
+    if let (Some(r), true) = (layer.roughness(), layer.n() != mono.ambient_n()) {
+        return Err(DipoleError::RoughFace { alpha: r.alpha() });
+    }
     if !layer.is_half_space() {
         return Err(DipoleError::FiniteThickness { layer: 1, thickness: layer.thickness() });
     }

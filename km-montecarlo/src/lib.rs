@@ -43,6 +43,7 @@ pub mod grid;
 pub mod mcml;
 pub mod options;
 mod rng;
+mod rough;
 pub mod run;
 mod sampling;
 pub mod shard;

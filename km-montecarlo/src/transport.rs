@@ -26,6 +26,7 @@
 use std::f64::consts::PI;
 
 use km_core::fresnel;
+use km_core::microfacet::{Far, Microfacet};
 use km_core::phase::{Phase, PhaseFunction};
 use km_core::{Light, MonoScene, Substrate};
 use rand_pcg::Pcg64;
@@ -56,6 +57,8 @@ struct Slab {
     /// Henyey–Greenstein constants of eq. M5 (`None`: sample `phase` itself).
     hg: Option<HgSampler>,
     n: f64,
+    /// The roughness of the layer's top face (`None`: smooth).
+    rough: Option<Microfacet>,
 }
 
 /// Inverse-CDF sampling of Henyey–Greenstein (the formula of
@@ -100,6 +103,8 @@ enum Below {
     Transparent(f64),
     Lambertian(f64),
     Black,
+    /// A conductor `n + i k`.
+    Conductor(f64, f64),
 }
 
 /// Counts of one batch besides the weight sums.
@@ -119,6 +124,8 @@ pub(crate) struct Tracer {
     slabs: Vec<Slab>,
     ambient_n: f64,
     below: Below,
+    /// The roughness of the substrate's face (`None`: smooth).
+    sub_rough: Option<Microfacet>,
     light: Light,
     estimator: Estimator,
     layout: Layout,
@@ -174,6 +181,7 @@ impl Tracer {
                 phase: l.phase().clone(),
                 hg: HgSampler::new(l.phase()),
                 n: l.n(),
+                rough: l.roughness(),
             });
             z = bottom;
         }
@@ -181,6 +189,7 @@ impl Tracer {
             Substrate::Transparent { n } => Below::Transparent(n),
             Substrate::Lambertian { albedo } => Below::Lambertian(albedo),
             Substrate::Black => Below::Black,
+            Substrate::Conductor { n, k } => Below::Conductor(n, k),
         };
         let ring_edges = opts.ring_mu_edges.clone().unwrap_or_default();
         let layout = Layout {
@@ -194,6 +203,7 @@ impl Tracer {
             slabs,
             ambient_n: scene.ambient_n(),
             below,
+            sub_rough: scene.substrate_roughness(),
             light: scene.light(),
             estimator: opts.estimator,
             layout,
@@ -486,8 +496,29 @@ impl Tracer {
         };
         let mut w = 1.0;
         let n1 = self.slabs[0].n;
-        // The plan's `interface` rule: no Fresnel test where the indices match.
-        if n1 != n0 || self.all_effects {
+        let mut scattered = false;
+        if let (Some(mf), true) = (self.slabs[0].rough, n1 != n0) {
+            // A rough top face (docs/rough.md eq. R17): the lobe is not a mirror part.
+            match crate::rough::meet(&mf, [ux, uy, uz], n0, Far::Dielectric(n1), rng) {
+                crate::rough::Outcome::Reflected(o, g) => {
+                    // The masking loss w (1 - g) is absorbed in the face (eq. R17).
+                    sums[Layout::A] += w * (1.0 - g);
+                    self.escape_top(sums, w * g, o, true, 0.0, 0.0);
+                    return None;
+                }
+                crate::rough::Outcome::Refracted(o, g) => {
+                    (ux, uy, uz) = (o[0], o[1], o[2]);
+                    sums[Layout::A] += w * (1.0 - g);
+                    w *= g;
+                    scattered = true;
+                }
+                crate::rough::Outcome::Lost => {
+                    sums[Layout::A] += w;
+                    return None;
+                }
+            }
+        } else if n1 != n0 || self.all_effects {
+            // The plan's `interface` rule: no Fresnel test where the indices match.
             let r = fresnel::reflectance(uz, n0, n1);
             if survival {
                 let spec = w * r;
@@ -509,18 +540,7 @@ impl Tracer {
             uy *= eta;
             uz = cos_t;
         }
-        Some(Photon {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-            ux,
-            uy,
-            uz,
-            w,
-            layer: 0,
-            scattered: false,
-            s_left: 0.0,
-        })
+        Some(Photon { x: 0.0, y: 0.0, z: 0.0, ux, uy, uz, w, layer: 0, scattered, s_left: 0.0 })
     }
 
     /// Step 4: the photon at the boundary of its layer (`p.z` on it) meets
@@ -572,9 +592,37 @@ impl Tracer {
                     sums[Layout::A] += p.w;
                     return false;
                 }
+                Below::Conductor(n, k) => return self.conductor(p, (n, k), survival, rng, sums),
             },
         };
-        if n_t != n_i || self.all_effects {
+        // The face crossed: the top face of the layer below, or of this layer
+        // going up, or the substrate's.
+        let face = match other {
+            Other::Layer(j) if down => self.slabs[j].rough,
+            Other::Substrate => self.sub_rough,
+            _ => self.slabs[p.layer].rough,
+        };
+        if let (Some(mf), true) = (face, n_t != n_i) {
+            match crate::rough::meet(&mf, [p.ux, p.uy, p.uz], n_i, Far::Dielectric(n_t), rng) {
+                crate::rough::Outcome::Reflected(o, g) => {
+                    (p.ux, p.uy, p.uz) = (o[0], o[1], o[2]);
+                    sums[Layout::A] += p.w * (1.0 - g);
+                    p.w *= g;
+                    p.scattered = true;
+                    return true;
+                }
+                crate::rough::Outcome::Refracted(o, g) => {
+                    (p.ux, p.uy, p.uz) = (o[0], o[1], o[2]);
+                    sums[Layout::A] += p.w * (1.0 - g);
+                    p.w *= g;
+                    p.scattered = true;
+                }
+                crate::rough::Outcome::Lost => {
+                    sums[Layout::A] += p.w;
+                    return false;
+                }
+            }
+        } else if n_t != n_i || self.all_effects {
             let cos_i = p.uz.abs();
             let r = fresnel::reflectance(cos_i, n_i, n_t);
             if uniform(rng) < r {
@@ -609,6 +657,51 @@ impl Tracer {
                 false
             }
         }
+    }
+}
+
+impl Tracer {
+    /// A photon meets the conductor floor: the (facet's) Fresnel reflectance
+    /// keeps its share of the weight (the rest is absorbed in the metal),
+    /// then a mirror reflection (smooth) or a microfacet lobe (eq. R17).
+    fn conductor(
+        &self,
+        p: &mut Photon,
+        (n, k): (f64, f64),
+        survival: bool,
+        rng: &mut Pcg64,
+        sums: &mut [f64],
+    ) -> bool {
+        let n_i = self.slabs[p.layer].n;
+        let (r, dir) = match self.sub_rough {
+            None => {
+                let r = km_core::microfacet::conductor_reflectance(p.uz.abs(), n_i, n, k);
+                (r, [p.ux, p.uy, -p.uz])
+            }
+            Some(mf) => {
+                match crate::rough::meet(&mf, [p.ux, p.uy, p.uz], n_i, Far::Conductor(n, k), rng) {
+                    crate::rough::Outcome::Reflected(o, g) => {
+                        p.scattered = true;
+                        (g, o)
+                    }
+                    _ => (0.0, [p.ux, p.uy, -p.uz]),
+                }
+            }
+        };
+        // The metal absorbs 1 - r (the face's loss, for a rough one, too); a
+        // Beckmann sample's weight may exceed 1 (eq. R17) and only scales.
+        if r >= 1.0 {
+            sums[Layout::A_SUB] += p.w * (1.0 - r);
+            sums[Layout::A] += p.w * (1.0 - r);
+            p.w *= r;
+        } else {
+            let mut booked = 0.0;
+            if !self.absorb(survival, 1.0 - r, r, Layout::A_SUB, &mut p.w, sums, rng, &mut booked) {
+                return false;
+            }
+        }
+        (p.ux, p.uy, p.uz) = (dir[0], dir[1], dir[2]);
+        true
     }
 }
 

@@ -22,6 +22,7 @@
 mod extras;
 mod pieces;
 mod response;
+mod rough_pieces;
 
 use std::borrow::Cow;
 
@@ -66,7 +67,7 @@ impl<'s> Prepared<'s> {
         let (n_sub, grid) = media_grid(&scene, streams);
         // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
         let layers = scale_layers(&scene, opts, 2 * streams);
-        let tms_layers = corrected_layers(&layers, opts.delta_m);
+        let tms_layers = corrected_layers(&scene, &layers, opts.delta_m);
         let corr = (0..layers.len())
             .map(|l| tms_layers.contains(&l).then(|| layers[l].correction(2 * streams)))
             .collect();
@@ -94,12 +95,23 @@ impl<'s> Prepared<'s> {
 }
 
 /// Which layers carry a single-scattering correction: scattering ones whose
-/// phase function the kept moments do not represent exactly.
-fn corrected_layers(layers: &[Scaled], delta_m: bool) -> Vec<usize> {
+/// phase function the kept moments do not represent exactly, above the
+/// first rough face (below it no beam arrives collimated, and no marker
+/// passes a rough face: `rough_pieces`).
+fn corrected_layers(scene: &MonoScene, layers: &[Scaled], delta_m: bool) -> Vec<usize> {
     if !delta_m {
         return Vec::new();
     }
-    (0..layers.len())
+    let mut n_above = scene.ambient_n();
+    let first_rough = layers
+        .iter()
+        .position(|l| {
+            let rough = l.rough.is_some() && l.n != n_above;
+            n_above = l.n;
+            rough
+        })
+        .unwrap_or(layers.len());
+    (0..first_rough)
         .filter(|&l| {
             let s = &layers[l];
             s.omega > 0.0
@@ -164,6 +176,9 @@ impl Prepared<'_> {
         &self,
         req: &Request<'_>,
     ) -> Result<(ChannelBsdf, Option<DirectionValues>), MultifluxError> {
+        if !req.theta_o.is_empty() && self.scene.has_rough_face() {
+            return Err(rough_exits_refused());
+        }
         let beams: &[f64] = match req.incidence {
             Incidence::Beams(b) => b,
             Incidence::Diffuse => &[],
@@ -183,7 +198,7 @@ impl Prepared<'_> {
         for m in 0..=req.last_order {
             let order = match lone {
                 Some(l) => self.lone_order(&extras, l, m)?,
-                None => self.stack_order(&extras, m)?,
+                None => self.stack_order(&extras, m, req.last_order + 1)?,
             };
             let read = response::Readout { prep: self, order: &order, extras: &extras, ni };
             let done = acc.add_order(&read, m)?;
@@ -202,7 +217,12 @@ impl Prepared<'_> {
 
     /// The stack's operators for order `m` on nodes, beams, probes and (at
     /// `m = 0`) markers.
-    fn stack_order(&self, extras: &Extras, m: usize) -> Result<response::Order, MultifluxError> {
+    fn stack_order(
+        &self,
+        extras: &Extras,
+        m: usize,
+        orders: usize,
+    ) -> Result<response::Order, MultifluxError> {
         let count = if m == 0 { extras.ex.len() } else { extras.base_len };
         let pieces = OrderPieces {
             grid: &self.grid,
@@ -210,6 +230,7 @@ impl Prepared<'_> {
             corr: &self.corr,
             count,
             m,
+            orders,
             all_effects: self.opts.all_effects,
         };
         let ops = pieces.stack(&self.scene, &self.layers, self.n_sub, self.opts.neumann_order)?;
@@ -230,7 +251,7 @@ impl Prepared<'_> {
                         Substrate::Transparent { .. } => {
                             self.n_sub.is_none_or(|ns| ns == scene.ambient_n())
                         }
-                        Substrate::Lambertian { .. } => false,
+                        Substrate::Lambertian { .. } | Substrate::Conductor { .. } => false,
                     };
                 floor_free.then_some(0)
             }
@@ -284,6 +305,21 @@ impl Prepared<'_> {
     }
 }
 
+/// The refusal of exit directions (BRDF, BTDF, the BSDF table) through a
+/// rough face: the probes' values there are not yet right (docs/rough.md
+/// §7: a probe in the quadrature cell of the beam's mirror or refracted
+/// direction reads the beam's delta correction twice, and other directions
+/// differ from the Monte Carlo by up to 14 %), so none are given; totals are.
+fn rough_exits_refused() -> MultifluxError {
+    MultifluxError::Scene(km_core::CoreError::unsupported(
+        "multiflux",
+        "exit directions (BRDF/BTDF, the BSDF table) through a rough face or off a rough \
+         conductor are not computed: the multi-flux values there disagree with the Monte Carlo \
+         (docs/rough.md §7); the totals R, T, A are given without directions, and the Monte \
+         Carlo method (`mc`) gives BRDF/BTDF for rough faces",
+    ))
+}
+
 /// The last Fourier order of a request: 0 for totals or diffuse light; with
 /// exit directions under a beam, up to the last non-negligible moment; every
 /// order the streams resolve (`2N - 1`) with all effects; never above the
@@ -295,6 +331,11 @@ pub(crate) fn last_order(prep: &Prepared<'_>, angles: bool) -> usize {
     }
     if !angles {
         return 0;
+    }
+    if prep.scene.has_rough_face() {
+        // A rough face's lobe needs every order the streams resolve (the
+        // azimuthal convergence test ends the series early).
+        return (2 * prep.streams - 1).min(bound);
     }
     last_moment(&prep.layers).min(bound)
 }

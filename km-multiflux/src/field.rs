@@ -114,6 +114,7 @@ pub(crate) fn field_in_layer(
         corr: &[],
         count: extras.ex.len(),
         m,
+        orders: m + 1,
         all_effects: opts.all_effects,
     };
     let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), opts.neumann_order)?.core;

@@ -43,6 +43,7 @@ pub mod legendre;
 pub mod options;
 mod phase_matrix;
 pub mod quadrature;
+pub mod rough;
 pub mod slab;
 pub mod solver;
 mod stack;

@@ -243,12 +243,14 @@ fn finish(
     };
     // Exact conservation (eq. 18a): nothing absorbs when every layer scatters
     // conservatively and the floor does not absorb.
-    let lossless = layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
+    // A rough face loses its single-scattering deficit (docs/rough.md).
+    let lossless = !scene.has_rough_face()
+        && layers.iter().all(|l| l.tau_true == 0.0 || l.omega_true == 1.0)
         && (layers.last().is_some_and(|l| l.tau.is_infinite())
             || match scene.substrate() {
                 Substrate::Transparent { .. } => true,
                 Substrate::Lambertian { albedo } => albedo == 1.0,
-                Substrate::Black => false,
+                Substrate::Black | Substrate::Conductor { .. } => false,
             });
     let (r_tot, t_tot) = (table.reflectance[0], table.transmittance[0]);
     let (r_tot, t_tot, a_tot, residual) = conserve(r_tot, t_tot, lossless);
@@ -318,6 +320,7 @@ pub(crate) fn scale_layers(
                 phase: l.phase().clone(),
                 factor,
                 secondary: opts.secondary_correction,
+                rough: l.roughness(),
             }
         })
         .collect()

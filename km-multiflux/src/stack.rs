@@ -5,6 +5,7 @@
 //! engine ([`crate::engine`]) gives it its pieces for every request (solve,
 //! BSDF table, internal field).
 
+use km_core::microfacet::Microfacet;
 use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
@@ -30,8 +31,14 @@ pub(crate) fn combine(
 
 /// How to build the pieces of a stack for [`add_stack`].
 pub(crate) struct StackPieces<'a> {
-    /// The Fresnel interface from index `n_a` above to `n_b` below.
-    pub(crate) interface: &'a dyn Fn(f64, f64) -> Augmented,
+    /// The interface from index `n_a` above to `n_b` below: smooth (Fresnel)
+    /// or rough (`Some`: [`crate::rough`]).
+    pub(crate) interface:
+        &'a dyn Fn(f64, f64, Option<Microfacet>) -> Result<Augmented, MultifluxError>,
+    /// A conductor floor `n + i k` under index `n_above` (`n_above, n, k,
+    /// roughness`; nothing below it).
+    pub(crate) conductor:
+        &'a dyn Fn(f64, f64, f64, Option<Microfacet>) -> Result<Augmented, MultifluxError>,
     /// The operators of layer `i` (delta-M scaled).
     pub(crate) layer: &'a dyn Fn(usize, &Scaled) -> Result<Augmented, MultifluxError>,
     /// A Lambertian floor of `albedo` under index `n` (nothing below it).
@@ -59,14 +66,15 @@ pub(crate) fn add_stack(
         // The plan's `interface` rule: equal indices are no interface (the
         // Fresnel operator would be the identity); built anyway with all effects.
         if l.n != n_above || all_effects {
-            acc = Some(combine(acc, (pieces.interface)(n_above, l.n), neumann)?);
+            let rough = l.rough.filter(|_| l.n != n_above);
+            acc = Some(combine(acc, (pieces.interface)(n_above, l.n, rough)?, neumann)?);
         }
         acc = Some(combine(acc, (pieces.layer)(i, l)?, neumann)?);
         n_above = l.n;
     }
     let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
     let close = Closing { half_space, n_above, n_sub, all_effects, neumann };
-    close_stack(scene, acc, &close, pieces.interface, pieces.lambertian)
+    close_stack(scene, acc, &close, pieces)
 }
 
 /// How a stack of layer operators ends (see [`close_stack`]).
@@ -91,9 +99,9 @@ pub(crate) fn close_stack(
     scene: &MonoScene,
     acc: Option<Augmented>,
     close: &Closing,
-    interface: &dyn Fn(f64, f64) -> Augmented,
-    lambertian: &dyn Fn(f64, f64) -> Augmented,
+    pieces: &StackPieces<'_>,
 ) -> Result<Augmented, MultifluxError> {
+    let (interface, lambertian) = (pieces.interface, pieces.lambertian);
     let Some(mut acc) = acc else {
         return Err(MultifluxError::Scene(km_core::CoreError::scene(
             "layer",
@@ -109,13 +117,18 @@ pub(crate) fn close_stack(
         Substrate::Transparent { .. } => {
             let ns = close.n_sub.unwrap_or(n_above);
             if ns != n_above || close.all_effects {
-                acc = combine(Some(acc), interface(n_above, ns), neumann)?;
+                let rough = scene.substrate_roughness().filter(|_| ns != n_above);
+                acc = combine(Some(acc), interface(n_above, ns, rough)?, neumann)?;
             }
         }
         Substrate::Lambertian { albedo } => {
             acc = combine(Some(acc), lambertian(n_above, albedo), neumann)?;
         }
         Substrate::Black => {}
+        Substrate::Conductor { n, k } => {
+            let floor = (pieces.conductor)(n_above, n, k, scene.substrate_roughness())?;
+            acc = combine(Some(acc), floor, neumann)?;
+        }
     }
     Ok(acc)
 }
@@ -152,11 +165,13 @@ pub(crate) fn delta_parts(
             (None, None) => (0.0, 0.0, 0.0, 0.0),
         }
     };
+    // A rough face has no mirror part and passes no unscattered beam.
+    let rough_face: Op = (0.0, 0.0, 0.0, 0.0);
     let mut acc: Op = (0.0, 1.0, 0.0, 1.0);
     let mut n_above = scene.ambient_n();
     for l in layers {
         if l.n != n_above {
-            acc = star(acc, iface(n_above, l.n));
+            acc = star(acc, if l.rough.is_some() { rough_face } else { iface(n_above, l.n) });
         }
         let t = match mu_of_invariant(s, l.n) {
             Some(mu) if l.tau_true.is_finite() => (-l.tau_true / mu).exp(),
@@ -168,9 +183,19 @@ pub(crate) fn delta_parts(
     let mut transmits = false;
     if let (Substrate::Transparent { .. }, Some(ns)) = (scene.substrate(), n_sub) {
         if ns != n_above {
-            acc = star(acc, iface(n_above, ns));
+            let rough = scene.substrate_roughness().is_some();
+            acc = star(acc, if rough { rough_face } else { iface(n_above, ns) });
         }
         transmits = true;
+    }
+    // A smooth conductor floor: its mirror reflection (conductor Fresnel).
+    let last_half = layers.last().is_some_and(|l| l.tau_true.is_infinite());
+    if let (Substrate::Conductor { n, k }, None, false) =
+        (scene.substrate(), scene.substrate_roughness(), last_half)
+        && let Some(mu) = mu_of_invariant(s, n_above)
+    {
+        let r = km_core::microfacet::conductor_reflectance(mu, n_above, n, k);
+        acc = star(acc, (r, 0.0, 0.0, 0.0));
     }
     (acc.0, if transmits { acc.1 } else { 0.0 })
 }
@@ -189,6 +214,8 @@ pub(crate) struct Scaled {
     pub(crate) factor: f64,
     /// Apply the second-order (IMS) correction at exit directions.
     pub(crate) secondary: bool,
+    /// Roughness of the layer's top face (`None`: smooth).
+    pub(crate) rough: Option<Microfacet>,
 }
 
 impl Scaled {

@@ -285,6 +285,7 @@ pub fn describe(scene: &Scene) -> String {
             Substrate::Transparent { n } => format!("transparent, n = {n}"),
             Substrate::Lambertian { albedo } => format!("lambertian, albedo = {albedo}"),
             Substrate::Black => "black".into(),
+            Substrate::Conductor { n, k } => format!("conductor, n = {n}, k = {k}"),
         };
         let _ = writeln!(s, "  substrate: {sub}");
     }

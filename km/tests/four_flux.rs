@@ -72,7 +72,8 @@ fn clear_film_over_a_lambertian_ground() {
         let r_i = km_core::fresnel::diffuse_reflectance(n, 1.0);
         let exact = r + (1.0 - r) * rho * (1.0 - r_i) / (1.0 - rho * r_i);
         let four = KmOptions::default().solve_unplanned(&s).unwrap().channels[0].reflectance;
-        let multi = km::MultifluxOptions::default().solve_unplanned(&s).unwrap().channels[0].reflectance;
+        let multi =
+            km::MultifluxOptions::default().solve_unplanned(&s).unwrap().channels[0].reflectance;
         assert!((four - exact).abs() < 1e-15, "{theta}: {four} vs {exact}");
         assert!((multi - exact).abs() < 1e-6, "{theta}: multiflux {multi} vs {exact}");
     }

@@ -16,6 +16,7 @@ use crate::layer::is_refractive_index;
 mod depths;
 mod layer;
 mod phase;
+mod rough;
 mod tissue;
 
 use layer::RawSub;
@@ -62,6 +63,8 @@ struct RawLayer {
     preset: Option<Spanned<String>>,
     phase: Option<Spanned<Value>>,
     particles: Option<Spanned<Value>>,
+    roughness: Option<Spanned<Value>>,
+    distribution: Option<Spanned<String>>,
     mu_a: Option<Spanned<Value>>,
     mu_s: Option<Spanned<Value>>,
     mu_s_prime: Option<Spanned<Value>>,
@@ -73,6 +76,10 @@ struct RawSubstrate {
     kind: Option<Spanned<String>>,
     n: Option<Spanned<Value>>,
     albedo: Option<Spanned<Value>>,
+    k: Option<Spanned<Value>>,
+    metal: Option<Spanned<String>>,
+    roughness: Option<Spanned<Value>>,
+    distribution: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -176,6 +183,7 @@ impl Parser {
         let n_layers = raw_layers.len();
         let scale = tissue::length_scale(self, raw.units.as_ref())?;
         let mut layers = Vec::with_capacity(n_layers);
+        let mut faces = Vec::with_capacity(n_layers);
         for (i, l) in raw_layers.iter().enumerate() {
             if let (Some(u), Some(_)) = (&raw.units, &l.particles) {
                 return Err(CoreError::scene(
@@ -189,13 +197,26 @@ impl Parser {
                 note(c);
             }
             layers.push(lay);
+            let face = self.face(&format!("layer[{}]", i + 1), &l.roughness, &l.distribution)?;
+            if let Some(f) = &face {
+                note(&f.alpha);
+            }
+            faces.push(face);
         }
 
         // [substrate]
         let substrate = self.substrate(raw.substrate.as_ref(), &ambient_n)?;
         match &substrate {
             RawSub::Transparent(c) | RawSub::Lambertian(c) => note(c),
-            RawSub::Black => {}
+            RawSub::Conductor(n, k) => {
+                note(n);
+                note(k);
+            }
+            RawSub::Black | RawSub::Metal(..) => {}
+        }
+        let sub_face = self.substrate_face(raw.substrate.as_ref(), &substrate)?;
+        if let Some(f) = &sub_face {
+            note(&f.alpha);
         }
 
         // [output]
@@ -220,17 +241,23 @@ impl Parser {
         let mut out = Vec::with_capacity(channels);
         for ch in 0..channels {
             let mut ls = Vec::with_capacity(n_layers);
-            for lay in &layers {
-                ls.push(lay.build(ch, wavelengths_nm.as_ref().map(|w: &Vec<f64>| w[ch]))?);
+            for (lay, face) in layers.iter().zip(&faces) {
+                let wl = wavelengths_nm.as_ref().map(|w: &Vec<f64>| w[ch]);
+                ls.push(lay.build(ch, wl)?.with_roughness(face.as_ref().and_then(|f| f.at(ch))));
             }
             let sub = match &substrate {
                 RawSub::Transparent(c) => Substrate::Transparent { n: c.at(ch) },
                 RawSub::Lambertian(c) => Substrate::Lambertian { albedo: c.at(ch) },
                 RawSub::Black => Substrate::Black,
+                RawSub::Conductor(n, k) => Substrate::Conductor { n: n.at(ch), k: k.at(ch) },
+                RawSub::Metal(name, line) => {
+                    rough::metal(name, *line, wavelengths_nm.as_deref(), ch)?
+                }
             };
             // Every value was checked above with its key and line; the
             // constructor's checks cannot fail here.
-            out.push(MonoScene::new(light, ambient_n.at(ch), ls, sub, directions_deg.clone())?);
+            let mono = MonoScene::new(light, ambient_n.at(ch), ls, sub, directions_deg.clone())?;
+            out.push(mono.with_substrate_roughness(sub_face.as_ref().and_then(|f| f.at(ch)))?);
         }
         let labels = match labels {
             Some(l) => l,
@@ -421,7 +448,10 @@ fn check_substrate_values(substrate: &RawSub) -> Result<(), CoreError> {
                 }
             }
         }
-        RawSub::Black => {}
+        RawSub::Conductor(n, k) => {
+            rough::check_conductor(n, k)?;
+        }
+        RawSub::Black | RawSub::Metal(..) => {}
     }
     Ok(())
 }

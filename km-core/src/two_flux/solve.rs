@@ -65,19 +65,31 @@ pub(super) fn build(
     let mut t_direct = if mono.light().mu0().is_some() { 1.0 } else { 0.0 };
     // Saunderson's top interface (eq. K12).
     if first_n != mono.ambient_n() {
-        let top = cache.saunderson_top(mono.light(), mono.ambient_n(), first_n)?;
-        r_specular = top.r_top;
-        t_direct *= top.t_tb;
-        slabs.push(top);
+        if let Some(mf) = mono.layers()[0].roughness() {
+            // A rough top face: no mirror part, no unscattered beam (eq. R9).
+            let light = Some(mono.light()).filter(|l| l.mu0().is_some());
+            slabs.push(super::rough::rough_face(&mf, light, mono.ambient_n(), first_n));
+            t_direct = 0.0;
+        } else {
+            let top = cache.saunderson_top(mono.light(), mono.ambient_n(), first_n)?;
+            r_specular = top.r_top;
+            t_direct *= top.t_tb;
+            slabs.push(top);
+        }
     }
     let mut n_above = first_n;
     let mut open_bottom = true;
     for (i, layer) in mono.layers().iter().enumerate() {
         // Interfaces between layers of different index: diffuse flux both sides.
-        if layer.n() != n_above {
-            let iface = cache.interface(n_above, layer.n())?;
-            t_direct *= iface.t_tb;
-            slabs.push(iface);
+        if layer.n() != n_above && i > 0 {
+            if let Some(mf) = layer.roughness() {
+                slabs.push(super::rough::rough_face(&mf, None, n_above, layer.n()));
+                t_direct = 0.0;
+            } else {
+                let iface = cache.interface(n_above, layer.n())?;
+                t_direct *= iface.t_tb;
+                slabs.push(iface);
+            }
         }
         let (k, s) = layer_coefficients(mapping, layer, i)?;
         let slab = Slab::layer(k, s, layer.thickness())?;
@@ -98,10 +110,20 @@ pub(super) fn build(
     match mono.substrate() {
         Substrate::Transparent { n } => {
             if n != n_above {
-                let iface = cache.interface(n_above, n)?;
-                t_direct *= iface.t_tb;
-                slabs.push(iface);
+                if let Some(mf) = mono.substrate_roughness() {
+                    slabs.push(super::rough::rough_face(&mf, None, n_above, n));
+                    t_direct = 0.0;
+                } else {
+                    let iface = cache.interface(n_above, n)?;
+                    t_direct *= iface.t_tb;
+                    slabs.push(iface);
+                }
             }
+        }
+        Substrate::Conductor { n, k } => {
+            let mf = mono.substrate_roughness();
+            slabs.push(super::rough::conductor_ground(mf.as_ref(), n_above, n, k)?);
+            open_bottom = false;
         }
         Substrate::Lambertian { albedo } => {
             slabs.push(Slab::ground(albedo)?);
@@ -126,12 +148,20 @@ pub fn solve_mono(mono: &MonoScene, opts: &KmOptions) -> Result<ChannelResult, C
     solve_channel(mono, opts, &mut HemisphericalCache::default())
 }
 
+/// The four-flux model carries a collimated beam through smooth faces onto
+/// a transparent, Lambertian or black floor; a rough face (which spreads the
+/// beam) or a conductor floor takes the two-flux model with the faces'
+/// albedos (docs/rough.md §5), noted in the answer.
+fn four_flux_applies(mono: &MonoScene) -> bool {
+    !mono.has_rough_face() && !matches!(mono.substrate(), Substrate::Conductor { .. })
+}
+
 fn solve_channel(
     mono: &MonoScene,
     opts: &KmOptions,
     cache: &mut HemisphericalCache,
 ) -> Result<ChannelResult, CoreError> {
-    if opts.model == KmModel::FourFlux && mono.light().mu0().is_some() {
+    if opts.model == KmModel::FourFlux && mono.light().mu0().is_some() && four_flux_applies(mono) {
         return super::four_flux::solve_channel(mono, opts.mapping, cache);
     }
     let b = build(mono, opts.mapping, cache)?;
@@ -201,7 +231,15 @@ pub fn solve(scene: &Scene, opts: &KmOptions) -> Result<Solution, CoreError> {
     // The collimated-beam notes only where a beam falls on the stack.
     let collimated = scene.channels().iter().any(|m| m.light().mu0().is_some());
     let mut notes = Vec::new();
-    if collimated && opts.model == KmModel::FourFlux {
+    let four = scene.channels().iter().all(four_flux_applies);
+    if collimated && opts.model == KmModel::FourFlux && !four {
+        notes.push(
+            "four-flux does not treat rough faces or conductor floors: this scene is solved by \
+             the two-flux model with the faces' albedos (docs/rough.md)"
+                .to_string(),
+        );
+    }
+    if collimated && opts.model == KmModel::FourFlux && four {
         notes.push(
             "four-flux: the collimated beam crosses each interface with the Fresnel reflectance \
              at its own angle and decays along its refracted path; what it scatters feeds the \

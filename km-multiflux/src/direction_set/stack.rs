@@ -121,6 +121,13 @@ fn stack_operators(
     sets: &MatchedSets,
     scatter: bool,
 ) -> Result<Vec<LayerOperators>> {
+    if scene.has_rough_face() || matches!(scene.substrate(), Substrate::Conductor { .. }) {
+        return Err(MultifluxError::Scene(km_core::CoreError::unsupported(
+            "multiflux (direction set)",
+            "rough faces and conductor substrates are built in the Fourier-Gauss mode only \
+             (the default; docs/rough.md)",
+        )));
+    }
     let mut ops = Vec::new();
     let mut n_prev = scene.ambient_n();
     for layer in scene.layers() {
@@ -151,7 +158,9 @@ fn stack_operators(
             let a = if scatter { albedo } else { 0.0 };
             ops.push(lambertian_operators(sets.set(n_prev)?, a)?);
         }
-        Substrate::Black => ops.push(lambertian_operators(sets.set(n_prev)?, 0.0)?),
+        Substrate::Black | Substrate::Conductor { .. } => {
+            ops.push(lambertian_operators(sets.set(n_prev)?, 0.0)?)
+        }
     }
     Ok(ops)
 }

@@ -23,6 +23,7 @@ use crate::quadrature::AngularGrid;
 use crate::slab::{SlabOrder, slab_augmented};
 use crate::stack::{Scaled, StackPieces, add_stack};
 use km_core::MonoScene;
+use km_core::microfacet::Microfacet;
 
 /// What one order's pieces are built from.
 pub(crate) struct OrderPieces<'a> {
@@ -33,6 +34,8 @@ pub(crate) struct OrderPieces<'a> {
     /// Extras carried in this order (all of them at `m = 0`, no markers above).
     pub(crate) count: usize,
     pub(crate) m: usize,
+    /// The orders the request computes (a rough face builds them at once).
+    pub(crate) orders: usize,
     pub(crate) all_effects: bool,
 }
 
@@ -48,10 +51,19 @@ impl OrderPieces<'_> {
         n_sub: Option<f64>,
         neumann: Option<usize>,
     ) -> Result<Augmented, MultifluxError> {
-        let interface = |na: f64, nb: f64| self.interface(na, nb);
+        let interface = |na: f64, nb: f64, rough: Option<Microfacet>| match rough {
+            None => Ok(self.interface(na, nb)),
+            Some(mf) => self.rough_interface(na, nb, mf),
+        };
+        let conductor = |na: f64, n: f64, k: f64, rough| self.conductor(na, n, k, rough);
         let layer = |i: usize, l: &Scaled| self.layer(i, l);
         let floor = |n: f64, albedo: f64| self.lambertian(n, albedo);
-        let pieces = StackPieces { interface: &interface, layer: &layer, lambertian: &floor };
+        let pieces = StackPieces {
+            interface: &interface,
+            layer: &layer,
+            lambertian: &floor,
+            conductor: &conductor,
+        };
         add_stack(scene, layers, n_sub, neumann, self.all_effects, &pieces)
     }
 

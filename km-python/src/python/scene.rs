@@ -181,7 +181,7 @@ impl PyScene {
         Ok(d)
     }
 
-    /// The substrate of channel 0: `{"kind": ..., "n" or "albedo": ...}`.
+    /// The substrate of channel 0: `{"kind": ..., "n" or "albedo" or "n", "k": ...}`.
     #[getter]
     fn substrate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
@@ -195,6 +195,11 @@ impl PyScene {
                 d.set_item("albedo", albedo)?;
             }
             Substrate::Black => d.set_item("kind", "black")?,
+            Substrate::Conductor { n, k } => {
+                d.set_item("kind", "conductor")?;
+                d.set_item("n", n)?;
+                d.set_item("k", k)?;
+            }
         }
         Ok(d)
     }

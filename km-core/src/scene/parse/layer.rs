@@ -356,6 +356,17 @@ impl Parser {
             )),
             None => Ok(()),
         };
+        if !matches!(kind, Some(("conductor", _))) {
+            let kind_name = kind.map_or("transparent", |k| k.0);
+            unexpected(&s.k, "substrate.k", kind_name)?;
+            if let Some(m) = &s.metal {
+                return Err(CoreError::scene(
+                    "substrate.metal",
+                    self.line(m.span()),
+                    format!("a {kind_name} substrate takes no metal (use kind = \"conductor\")"),
+                ));
+            }
+        }
         match kind {
             None | Some(("transparent", _)) => {
                 unexpected(&s.albedo, "substrate.albedo", "transparent")?;
@@ -384,11 +395,13 @@ impl Parser {
                 unexpected(&s.albedo, "substrate.albedo", "black")?;
                 Ok(RawSub::Black)
             }
+            Some(("conductor", line)) => self.conductor(s, line),
             Some((other, line)) => Err(CoreError::scene(
                 "substrate.kind",
                 line,
                 format!(
-                    "unknown kind \"{other}\" (expected \"transparent\", \"lambertian\" or \"black\")"
+                    "unknown kind \"{other}\" (expected \"transparent\", \"lambertian\", \
+                     \"black\" or \"conductor\")"
                 ),
             )),
         }
@@ -494,4 +507,8 @@ pub(super) enum RawSub {
     Transparent(Coef),
     Lambertian(Coef),
     Black,
+    /// A conductor of complex index `n + i k` (per channel).
+    Conductor(Coef, Coef),
+    /// A named metal (docs/rough.md §5) and the line of its name.
+    Metal(String, Option<usize>),
 }

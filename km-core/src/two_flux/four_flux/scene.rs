@@ -105,7 +105,9 @@ fn build(
             slabs.push(FourSlab::ground(albedo)?);
             false
         }
-        Substrate::Black => {
+        // Not reached: a conductor floor takes the two-flux model
+        // (`solve::four_flux_applies`); absorbing is the safe reading.
+        Substrate::Black | Substrate::Conductor { .. } => {
             slabs.push(FourSlab::ground(0.0)?);
             false
         }

@@ -1,0 +1,213 @@
+#!/usr/bin/env python3
+"""Rough faces and metals: km against Mitsuba 3's volumetric path tracer.
+
+Each stack is one scattering slab (homogeneous medium, Henyey-Greenstein
+phase) between two very wide parallel rectangles: the top face is Mitsuba's
+`roughdielectric` (or `dielectric`) into the slab, the bottom face a
+`roughconductor` (named metal), `diffuse`, or a `roughdielectric` back into
+air. A `directional` emitter lights it at `theta_i`; one 1-pixel
+`orthographic` sensor per exit direction looks at the middle of the slab
+(scalar variant, `volpath`). The pixel's radiance per unit irradiance on the
+surface is the BRDF (above) or BTDF (below): `f = L / (E cos theta_i)`.
+Several seeds give Mitsuba's standard error. km's multi-flux and Monte
+Carlo answers of the same scene files come from the `km` binary.
+
+Usage (the numbers of docs/rough.md §8 came from the defaults):
+
+    python3 km-bench/scripts/rough_mitsuba.py --km target/release/km \
+        --spp 65536 --seeds 4 --out target/rough-mitsuba.json
+
+Needs `pip install mitsuba==3.9.1`. Runs for about an hour on one core
+with the defaults; `--quick` takes a few minutes (fewer samples, 2 stacks).
+"""
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+# The stacks (docs/rough.md table R3): alpha of the top face, slab index n,
+# g, tau, albedo, bottom, light angle; exit directions [theta, phi].
+STACKS = [
+    dict(name="clear-coat-ggx-0.05", alpha=0.05, n=1.5, g=0.0, tau=1.0, albedo=0.9,
+         bottom=dict(kind="diffuse", albedo=0.5), theta_i=30.0),
+    dict(name="rough-top-smooth-bottom", alpha=0.3, n=1.33, g=0.5, tau=0.5, albedo=0.95,
+         bottom=dict(kind="air"), theta_i=40.0),
+    dict(name="rough-both", alpha=0.2, n=1.5, g=0.7, tau=2.0, albedo=0.99,
+         bottom=dict(kind="air", alpha=0.2), theta_i=20.0),
+    dict(name="lacquer-over-gold", alpha=0.1, n=1.5, g=0.9, tau=0.5, albedo=0.9,
+         bottom=dict(kind="metal", metal="Au", alpha=0.2), theta_i=45.0),
+    dict(name="aluminium-base", alpha=0.5, n=1.7, g=0.3, tau=10.0, albedo=0.8,
+         bottom=dict(kind="metal", metal="Al", alpha=0.05), theta_i=60.0),
+    dict(name="smooth-top-over-al", alpha=0.0, n=1.4, g=0.0, tau=1.0, albedo=0.5,
+         bottom=dict(kind="metal", metal="Al", alpha=0.3), theta_i=10.0),
+]
+DIRS = [[0.0, 0.0], [20.0, 180.0], [35.0, 90.0], [45.0, 180.0], [60.0, 0.0], [75.0, 180.0]]
+WAVELENGTH_NM = 550.0
+
+
+def km_scene(s):
+    """The km scene file (TOML) of a stack."""
+    lines = [
+        "[light]", f"theta_deg = {s['theta_i']}",
+        "[spectrum]", f"wavelengths_nm = {WAVELENGTH_NM}",
+        "[[layer]]", f"tau = {s['tau']}", f"albedo = {s['albedo']}", f"g = {s['g']}",
+        f"n = {s['n']}",
+    ]
+    if s["alpha"] > 0:
+        lines.append(f"roughness = {s['alpha']}")
+    b = s["bottom"]
+    lines.append("[substrate]")
+    if b["kind"] == "diffuse":
+        lines += ['kind = "lambertian"', f"albedo = {b['albedo']}"]
+    elif b["kind"] == "metal":
+        lines += ['kind = "conductor"', f'metal = "{b["metal"]}"']
+        if b.get("alpha", 0) > 0:
+            lines.append(f"roughness = {b['alpha']}")
+    else:
+        lines += ['kind = "transparent"', "n = 1.0"]
+        if b.get("alpha", 0) > 0:
+            lines.append(f"roughness = {b['alpha']}")
+    lines += ["[output]", f"directions_deg = {json.dumps(DIRS)}"]
+    return "\n".join(lines) + "\n"
+
+
+def mitsuba_scene(mi, s, sensor_dir, below, seed, spp):
+    """The Mitsuba scene of a stack with one sensor along `sensor_dir`."""
+    d = 1.0  # slab thickness; sigma_t = tau / d
+    half = 1.0e4  # lateral half-width: the slab is 2e4 wide, 1 thick
+    sigma_t = s["tau"] / d
+    medium = {
+        "type": "homogeneous",
+        "sigma_t": sigma_t,
+        "albedo": s["albedo"],
+        "phase": {"type": "hg", "g": s["g"]},
+    }
+    if s["alpha"] > 0:
+        top_bsdf = {"type": "roughdielectric", "distribution": "ggx", "alpha": s["alpha"],
+                    "int_ior": s["n"], "ext_ior": 1.0, "sample_visible": True}
+    else:
+        top_bsdf = {"type": "dielectric", "int_ior": s["n"], "ext_ior": 1.0}
+    to_world = mi.ScalarTransform4f
+    top = {"type": "rectangle", "bsdf": top_bsdf, "interior": medium,
+           "to_world": to_world().scale([half, half, 1.0])}
+    b = s["bottom"]
+    if b["kind"] == "diffuse":
+        bot_bsdf = {"type": "diffuse", "reflectance": b["albedo"]}
+    elif b["kind"] == "metal":
+        bot_bsdf = {"type": "roughconductor", "material": b["metal"], "distribution": "ggx",
+                    "alpha": max(b.get("alpha", 0.0), 1e-4)}
+        if b.get("alpha", 0) == 0:
+            bot_bsdf = {"type": "conductor", "material": b["metal"]}
+    elif b.get("alpha", 0) > 0:
+        # Normal up (into the slab): the slab is outside, air inside (below).
+        bot_bsdf = {"type": "roughdielectric", "distribution": "ggx", "alpha": b["alpha"],
+                    "int_ior": 1.0, "ext_ior": s["n"], "sample_visible": True}
+    else:
+        bot_bsdf = {"type": "dielectric", "int_ior": 1.0, "ext_ior": s["n"]}
+    bottom = {"type": "rectangle", "bsdf": bot_bsdf, "exterior": medium,
+              "to_world": to_world().translate([0, 0, -d]).scale([half, half, 1.0])}
+    th, ph = math.radians(sensor_dir[0]), math.radians(sensor_dir[1])
+    # The exit direction (pointing away from the surface) in Mitsuba's frame:
+    # z up, the light arrives from azimuth 0 (it travels towards azimuth 180).
+    v = [math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)]
+    z0 = 0.0
+    if below:
+        v[2] = -v[2]
+        z0 = -d
+    origin = [5.0 * v[0], 5.0 * v[1], z0 + 5.0 * v[2]]
+    target = [0.0, 0.0, z0]
+    up = [0, 0, 1] if abs(v[2]) < 0.999 else [1, 0, 0]
+    ti = math.radians(s["theta_i"])
+    light_dir = [-math.sin(ti), 0.0, -math.cos(ti)]
+    return {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": -1, "rr_depth": 50},
+        "sensor": {
+            "type": "orthographic",
+            "to_world": to_world().look_at(origin=origin, target=target, up=up)
+            @ to_world().scale([0.5, 0.5, 1.0]),
+            "film": {"type": "hdrfilm", "width": 1, "height": 1, "rfilter": {"type": "box"}},
+            "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
+        },
+        "emitter": {"type": "directional", "direction": light_dir, "irradiance": 1.0},
+        "top": top,
+        "bottom": bottom,
+    }
+
+
+def mitsuba_values(mi, s, spp, seeds):
+    """BRDF (and BTDF when light leaves below) at DIRS: means and standard errors."""
+    out = {}
+    cos_i = math.cos(math.radians(s["theta_i"]))
+    sides = [("brdf", False)]
+    if s["bottom"]["kind"] == "air":
+        sides.append(("btdf", True))
+    for key, below in sides:
+        means, errs = [], []
+        for dvec in DIRS:
+            vals = []
+            for seed in range(seeds):
+                scene = mi.load_dict(mitsuba_scene(mi, s, dvec, below, seed, spp))
+                img = mi.render(scene, spp=spp, seed=seed)
+                vals.append(float(img.array[0]) / cos_i)
+            m = sum(vals) / len(vals)
+            var = sum((x - m) ** 2 for x in vals) / max(len(vals) - 1, 1)
+            means.append(m)
+            errs.append(math.sqrt(var / len(vals)))
+        out[key] = means
+        out[key + "_stderr"] = errs
+    return out
+
+
+def km_values(km, s, method, extra):
+    """km's answer for the stack by `method`."""
+    with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+        f.write(km_scene(s))
+        path = f.name
+    try:
+        cmd = [km, "solve", path, "--method", method, "--json"] + extra
+        r = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        return json.loads(r.stdout)
+    finally:
+        os.unlink(path)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--km", required=True, help="the km binary")
+    ap.add_argument("--spp", type=int, default=65536)
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--mc-samples", type=int, default=2_000_000)
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--out", default="rough-mitsuba.json")
+    a = ap.parse_args()
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    stacks = STACKS[:2] if a.quick else STACKS
+    spp = 4096 if a.quick else a.spp
+    results = []
+    for s in stacks:
+        mf = km_values(a.km, s, "multiflux", [])
+        mc = km_values(a.km, s, "mc", ["--samples", str(a.mc_samples), "--seed", "1"])
+        ms = mitsuba_values(mi, s, spp, a.seeds)
+        results.append(dict(stack=s, directions_deg=DIRS, multiflux=mf, mc=mc, mitsuba=ms))
+        print(f"{s['name']}: done", file=sys.stderr)
+        for key in ("brdf", "btdf"):
+            if key not in ms:
+                continue
+            for k, dv in enumerate(DIRS):
+                m, e = ms[key][k], ms[key + "_stderr"][k]
+                x = mf[key][k] if isinstance(mf[key][k], float) else mf[key][k][0]
+                ok = abs(x - m) <= max(3 * e, 0.01 * abs(m))
+                print(f"  {key} {dv}: km {x:.5g} mitsuba {m:.5g} +- {e:.2g} {'ok' if ok else 'OFF'}",
+                      file=sys.stderr)
+    with open(a.out, "w") as f:
+        json.dump(results, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,619 @@
+//! Rough dielectric faces and conductor floors as layers: the microfacet
+//! BSDF of Walter et al. (2007) ([`km_core::microfacet`]) integrated over
+//! azimuth (Fourier coefficients) and over the quadrature cells of each
+//! medium into the four operators of [`LayerOperators`] per Fourier order
+//! (docs/rough.md §3, eq. R10–R16).
+//!
+//! # Cells
+//!
+//! Snell's law keeps `s = n sin(theta)`; with `u = s^2`, `n^2 mu dmu = -du/2`
+//! on either side, so the flux weight `W_i = 2 n^2 mu_i w_i` of a node is the
+//! same in every medium it reaches (eq. Q2 of [`crate::quadrature`]). Node
+//! `i` owns the cell `c_i` of `u` of width `W_i` (the cells tile `[0, n^2]`
+//! in the order of `u`; segment boundaries, where total reflection starts,
+//! are cell boundaries). For light arriving in cell `j` of side `X` and
+//! leaving in cell `i` of side `Y` (`F^m` the azimuthal coefficients, eq. R6):
+//!
+//! ```text
+//!   O_ij = 1 / (2 n_X^2 W_i)  integral_{c_i} integral_{c_j} F^m(u <- u') du du'        (R10)
+//! ```
+//!
+//! the outgoing radiance averaged over the cell (flux-weighted) for a radiance
+//! constant over the incoming cell. With `Q_ij = integral integral F / n_Y^2`,
+//! reciprocity (`f_t / n_o^2` symmetric) makes `Q` symmetric across the whole
+//! face (both sides, both directions), and energy is the column sum
+//! `sum_i Q_ij = 2 W_j (1 - loss_j)`.
+//!
+//! # Integration
+//!
+//! The inner integral over the outgoing cells is done per incoming point on
+//! panels graded towards the lobe's peak (`u = u'` on both sides) and split
+//! at the cell edges and the total-reflection kinks
+//! ([`km_core::microfacet::graded_edges`]), so every column's sum is the
+//! directional albedo to about 1e-6 whatever the roughness; the outer
+//! integral over the incoming cell takes [`CELL_POINTS`] Gauss points. The
+//! two orders of integration of `Q` agree to the outer rule's accuracy; `Q`
+//! is made symmetric (mean with its transpose) and then scaled
+//! symmetrically, `D Q D`, until its column sums equal the albedo sums of
+//! the columns (Sinkhorn–Knopp, as the phase matrix, eq. R12): reciprocity
+//! then holds to rounding and energy to the albedo integral's accuracy.
+//!
+//! # The smooth limit
+//!
+//! As `alpha -> 0` the lobe becomes the mirror/refraction delta. The
+//! operators are written as the smooth face's node operators (eq. F1 of
+//! [`crate::interface`]) plus the cell integrals of the rough BSDF minus those
+//! of the smooth one (eq. R13): the difference vanishes with `alpha`, so the
+//! smooth operators are recovered exactly (no switch). The collimated beam
+//! keeps its delta slot the same way: the rough lobe of the beam minus the
+//! delta's share of its cell goes to the nodes, the delta to the slot. The
+//! solver reports no mirror or unscattered part through a rough face
+//! ([`crate::stack::delta_parts`]).
+
+use std::cell::RefCell;
+use std::f64::consts::PI;
+use std::hash::{Hash, Hasher};
+use std::rc::Rc;
+
+use faer::Mat;
+use km_core::fresnel::reflectance;
+use km_core::microfacet::{Far, Microfacet, conductor_reflectance, graded_edges, panel_rule_mu};
+
+use crate::adding::LayerOperators;
+use crate::quadrature::MediumNodes;
+use crate::slab::Extra;
+
+/// Gauss points per incoming cell (eq. R11): the outer rule whose
+/// disagreement with the transposed integral the symmetric scaling absorbs.
+pub const CELL_POINTS: usize = 2;
+
+/// A rough face: its microfacet statistics and what lies below it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoughFace {
+    /// The microfacet distribution and roughness.
+    pub mf: Microfacet,
+    /// Index above the face.
+    pub n_above: f64,
+    /// Below: a dielectric of index `n` or a conductor `n + i k`.
+    pub below: Far,
+}
+
+/// The cells of one side of the face (eq. R10).
+struct Side<'a> {
+    n: f64,
+    nodes: &'a MediumNodes,
+    /// Cell of each node: `(lo, hi)` in `u`.
+    cell: Vec<(f64, f64)>,
+    /// Upper edges of the cells in ascending `u`, and the node of each.
+    upper: Vec<f64>,
+    node_at: Vec<usize>,
+}
+
+impl<'a> Side<'a> {
+    fn new(nodes: &'a MediumNodes) -> Side<'a> {
+        let n2 = nodes.n * nodes.n;
+        let k = nodes.mu.len();
+        let mut order: Vec<usize> = (0..k).collect();
+        // Ascending u = n^2 (1 - mu^2), i.e. descending mu.
+        order.sort_by(|&i, &j| nodes.mu[j].total_cmp(&nodes.mu[i]));
+        let mut cell = vec![(0.0, 0.0); k];
+        let (mut upper, mut lo) = (Vec::with_capacity(k), 0.0);
+        for &i in &order {
+            let hi = lo + 2.0 * n2 * nodes.mu[i] * nodes.w[i];
+            cell[i] = (lo, hi);
+            upper.push(hi);
+            lo = hi;
+        }
+        // The last edge is n^2 up to rounding: make it exact.
+        if let (Some(last), Some(&i)) = (upper.last_mut(), order.last()) {
+            *last = n2;
+            cell[i].1 = n2;
+        }
+        Side { n: nodes.n, nodes, cell, upper, node_at: order }
+    }
+
+    fn len(&self) -> usize {
+        self.cell.len()
+    }
+
+    fn width(&self, i: usize) -> f64 {
+        self.cell[i].1 - self.cell[i].0
+    }
+
+    /// The node whose cell holds `u` (`None` beyond the side's range).
+    fn cell_of(&self, u: f64) -> Option<usize> {
+        if !(0.0..=self.n * self.n).contains(&u) || self.upper.is_empty() {
+            return None;
+        }
+        let p = self.upper.partition_point(|&x| x < u).min(self.upper.len() - 1);
+        Some(self.node_at[p])
+    }
+
+    fn mu_of(&self, u: f64) -> f64 {
+        (1.0 - u / (self.n * self.n)).max(0.0).sqrt()
+    }
+}
+
+/// Everything [`column`] needs.
+struct Ctx<'a> {
+    face: RoughFace,
+    sides: Vec<Side<'a>>,
+    orders: usize,
+}
+
+impl Ctx<'_> {
+    /// Index of the side (0 above, 1 below) and the BSDF's far medium for
+    /// light arriving from side `x`.
+    fn far(&self, x: usize) -> Far {
+        match (x, self.face.below) {
+            (0, b) => b,
+            (_, _) => Far::Dielectric(self.face.n_above),
+        }
+    }
+
+    /// Smooth reflectance of side `x` at `u` (1 where the far side lacks `u`).
+    fn r_smooth(&self, x: usize, u: f64) -> f64 {
+        let mu = self.sides[x].mu_of(u);
+        match self.far(x) {
+            Far::Dielectric(n_t) => reflectance(mu, self.sides[x].n, n_t),
+            Far::Conductor(n, k) => conductor_reflectance(mu, self.sides[x].n, n, k),
+        }
+    }
+}
+
+/// The cell integrals of one incoming point, per side (see [`column`]).
+type Column = Vec<Vec<f64>>;
+
+/// For light arriving at `u_in` from side `x`: `integral_{c_i} F^m(u <- u_in) du`
+/// for every cell `i` of every side (`out[side][i * orders + m]`, eq. R11).
+fn column(c: &Ctx<'_>, x: usize, u_in: f64) -> Column {
+    let mo = c.orders;
+    let (n_i, far) = (c.sides[x].n, c.far(x));
+    let mu_in = c.sides[x].mu_of(u_in);
+    let mut out: Vec<Vec<f64>> = c.sides.iter().map(|s| vec![0.0; s.len() * mo]).collect();
+    let mut buf = vec![0.0; mo];
+    for (y, side) in c.sides.iter().enumerate() {
+        let transmit = y != x;
+        let top = side.n * side.n;
+        // Panels: cell edges, kinks, graded towards the peak u = u_in.
+        let mut cuts = side.upper.clone();
+        cuts.extend(c.face.mf.kink_cuts(mu_in, n_i, far, transmit));
+        let width = c.face.mf.lobe_width_u(top, mu_in.min(side.mu_of(u_in)))
+            / km_core::microfacet::sharpness(n_i, far, transmit);
+        let edges = graded_edges(0.0, top, u_in, width, &cuts);
+        let (pts, wts) = panel_rule_mu(&edges, top);
+        for (&u, &wt) in pts.iter().zip(&wts) {
+            let Some(i) = side.cell_of(u) else { continue };
+            c.face.mf.fourier(side.mu_of(u), mu_in, n_i, far, transmit, &mut buf);
+            let dst = &mut out[y][i * mo..(i + 1) * mo];
+            for (d, b) in dst.iter_mut().zip(&buf) {
+                *d += wt * b;
+            }
+        }
+    }
+    out
+}
+
+/// `integral_{c_i} f du` by the incoming points' rule ([`CELL_POINTS`] Gauss
+/// points): the same rule as the rough integrals of eq. R11, so that their
+/// difference in eq. R13 vanishes exactly as `alpha -> 0`.
+fn cell_integral(cell: (f64, f64), f: impl Fn(f64) -> f64) -> f64 {
+    cell_points(cell).map(|(u, v)| v * f(u)).sum()
+}
+
+/// The incoming points of a cell and their weights (sum: the cell's width).
+fn cell_points(cell: (f64, f64)) -> impl Iterator<Item = (f64, f64)> {
+    let (gx, gw) = km_core::quadrature::gauss_legendre(CELL_POINTS);
+    let (lo, hi) = cell;
+    (0..CELL_POINTS).map(move |k| (lo + 0.5 * (gx[k] + 1.0) * (hi - lo), 0.5 * gw[k] * (hi - lo)))
+}
+
+/// The operators of a rough face for Fourier orders `0..orders` (eq.
+/// R10–R16), on the augmented spaces `[nodes, extras]` of each side; `b` is
+/// `None` for a conductor floor (reflection only: `t_down` and `t_up` have
+/// no rows/columns below, as a Lambertian floor). Also returns the
+/// single-scattering loss of each node's cell above (`1 - R - T`, flux
+/// averaged over the cell).
+pub fn rough_operators(
+    face: RoughFace,
+    a: &MediumNodes,
+    b: Option<&MediumNodes>,
+    ea: &[Extra],
+    eb: &[Extra],
+    orders: usize,
+) -> (Vec<LayerOperators>, Vec<f64>) {
+    let mut sides = vec![Side::new(a)];
+    sides.extend(b.map(Side::new));
+    let c = Ctx { face, sides, orders: orders.max(1) };
+    let q = node_blocks(&c);
+    let (mut ops, loss) = node_operators(&c, &q);
+    extras(&c, ea, eb, &mut ops);
+    (ops, loss)
+}
+
+/// The blocks `Q[y][x]` (rows: cells of side `y`, columns: cells of side
+/// `x`, per order) integrated as in eq. R11, before symmetrisation.
+fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
+    let ns = c.sides.len();
+    let mo = c.orders;
+    let mut q: Vec<Vec<Vec<f64>>> = (0..ns)
+        .map(|y| (0..ns).map(|x| vec![0.0; c.sides[y].len() * c.sides[x].len() * mo]).collect())
+        .collect();
+    for x in 0..ns {
+        let nx = c.sides[x].len();
+        for j in 0..nx {
+            for (u, vq) in cell_points(c.sides[x].cell[j]) {
+                let col = column(c, x, u);
+                for y in 0..ns {
+                    let inv = 1.0 / (c.sides[y].n * c.sides[y].n);
+                    for i in 0..c.sides[y].len() {
+                        let dst = &mut q[y][x][(i * nx + j) * mo..(i * nx + j + 1) * mo];
+                        for (d, g) in dst.iter_mut().zip(&col[y][i * mo..(i + 1) * mo]) {
+                            *d += vq * g * inv;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    q
+}
+
+/// Symmetrise the blocks, scale them to the columns' albedos (eq. R12), and
+/// form the node operators with the smooth face's correction (eq. R13).
+fn node_operators(c: &Ctx<'_>, q: &[Vec<Vec<f64>>]) -> (Vec<LayerOperators>, Vec<f64>) {
+    let ns = c.sides.len();
+    let mo = c.orders;
+    let len: Vec<usize> = c.sides.iter().map(|s| s.len()).collect();
+    let off: Vec<usize> = (0..ns).map(|s| len[..s].iter().sum()).collect();
+    let total: usize = len.iter().sum();
+    // The whole face's matrix, order by order: S[m][(I, J)] over all cells.
+    let at = |m: usize, y: usize, i: usize, x: usize, j: usize| q[y][x][(i * len[x] + j) * mo + m];
+    let mut s = vec![vec![0.0; total * total]; mo];
+    let mut target = vec![0.0; total];
+    for x in 0..ns {
+        for j in 0..len[x] {
+            for y in 0..ns {
+                for i in 0..len[y] {
+                    target[off[x] + j] += at(0, y, i, x, j);
+                    for (m, sm) in s.iter_mut().enumerate() {
+                        let v = 0.5 * (at(m, y, i, x, j) + at(m, x, j, y, i));
+                        sm[(off[y] + i) * total + off[x] + j] = v;
+                    }
+                }
+            }
+        }
+    }
+    let d = symmetric_scaling(&s[0], &target, total);
+    let mut loss = Vec::with_capacity(len[0]);
+    for j in 0..len[0] {
+        loss.push(1.0 - target[j] / (2.0 * c.sides[0].width(j)));
+    }
+    let mut ops = Vec::with_capacity(mo);
+    for sm in &s {
+        let block = |y: usize, x: usize| {
+            let mut o = Mat::<f64>::zeros(len[y], len[x]);
+            let (ny2, nx2) = (c.sides[y].n.powi(2), c.sides[x].n.powi(2));
+            for i in 0..len[y] {
+                let w = c.sides[y].width(i);
+                for j in 0..len[x] {
+                    let (gi, gj) = (off[y] + i, off[x] + j);
+                    // O = n_Y^2 Q / (2 n_X^2 W_i) (eq. R10) on the scaled Q.
+                    o[(i, j)] = ny2 * d[gi] * sm[gi * total + gj] * d[gj] / (2.0 * nx2 * w);
+                }
+            }
+            o
+        };
+        let r_top = block(0, 0);
+        let (t_down, r_bottom, t_up) = if ns == 2 {
+            (block(1, 0), block(1, 1), block(0, 1))
+        } else {
+            (Mat::zeros(0, len[0]), Mat::zeros(0, 0), Mat::zeros(len[0], 0))
+        };
+        let mut o = LayerOperators { r_top, t_down, r_bottom, t_up };
+        smooth_correction(c, &mut o);
+        ops.push(o);
+    }
+    (ops, loss)
+}
+
+/// `D` with `D S D` of column sums `target` (S symmetric, non-negative):
+/// the symmetric Sinkhorn–Knopp iteration `D_j <- D_j sqrt(t_j / (D S D)_j)`
+/// (Knight 2008), to 1e-14 relative or 500 sweeps.
+fn symmetric_scaling(s: &[f64], target: &[f64], n: usize) -> Vec<f64> {
+    let mut d = vec![1.0; n];
+    for _ in 0..500 {
+        let mut worst = 0.0f64;
+        for j in 0..n {
+            let col: f64 = (0..n).map(|i| d[i] * s[i * n + j]).sum::<f64>() * d[j];
+            if col > 0.0 && target[j] > 0.0 {
+                let r = target[j] / col;
+                worst = worst.max((r - 1.0).abs());
+                d[j] *= r.sqrt();
+            }
+        }
+        if worst < 1e-14 {
+            break;
+        }
+    }
+    d
+}
+
+/// Eq. R13 on the node diagonals: the smooth face's node value minus its
+/// cell average (the delta's share of the rough integral as `alpha -> 0`).
+fn smooth_correction(c: &Ctx<'_>, o: &mut LayerOperators) {
+    let a = &c.sides[0];
+    for i in 0..a.len() {
+        let avg = cell_integral(a.cell[i], |u| c.r_smooth(0, u)) / a.width(i);
+        o.r_top[(i, i)] += c.r_smooth(0, a.nodes.mu_u(i)) - avg;
+    }
+    let Some(b) = c.sides.get(1) else { return };
+    for k in 0..b.len() {
+        let avg = cell_integral(b.cell[k], |u| c.r_smooth(1, u)) / b.width(k);
+        o.r_bottom[(k, k)] += c.r_smooth(1, b.nodes.mu_u(k)) - avg;
+    }
+    let (na2, nb2) = (a.n * a.n, b.n * b.n);
+    for g in 0..a.len().min(b.len()) {
+        // Stokes: the transmittance is the same from both sides at one u.
+        let t = |u: f64| 1.0 - c.r_smooth(0, u);
+        let avg = cell_integral(a.cell[g], t) / a.width(g);
+        let dt = t(a.nodes.mu_u(g)) - avg;
+        o.t_down[(g, g)] += nb2 / na2 * dt;
+        o.t_up[(g, g)] += na2 / nb2 * dt;
+    }
+}
+
+/// `u = n^2 (1 - mu^2)` of a node.
+trait NodeU {
+    fn mu_u(&self, i: usize) -> f64;
+}
+
+impl NodeU for MediumNodes {
+    fn mu_u(&self, i: usize) -> f64 {
+        self.n * self.n * (1.0 - self.mu[i] * self.mu[i])
+    }
+}
+
+/// The beam and probe rows and columns (eq. R14–R16), on operators grown to
+/// `[nodes, extras]`.
+fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
+    let ne = ea.len();
+    let len: Vec<usize> = c.sides.iter().map(|s| s.len()).collect();
+    let dims: Vec<usize> = len.iter().map(|l| l + ne).collect();
+    for o in ops.iter_mut() {
+        *o = grow(o, &dims, ne);
+    }
+    let ex: [&[Extra]; 2] = [ea, eb];
+    // Per side, the u of each extra present there.
+    let u_of = |x: usize, e: usize| -> Option<f64> {
+        let mu = ex[x].get(e)?.mu?;
+        (x < c.sides.len()).then(|| c.sides[x].n.powi(2) * (1.0 - mu * mu))
+    };
+    let mut memo: Vec<(usize, u64, Rc<Column>)> = Vec::new();
+    let mut col = |x: usize, u: f64| {
+        if let Some((_, _, v)) = memo.iter().find(|(s, k, _)| *s == x && *k == u.to_bits()) {
+            return Rc::clone(v);
+        }
+        let v = Rc::new(column(c, x, u));
+        memo.push((x, u.to_bits(), Rc::clone(&v)));
+        v
+    };
+    for e in 0..ne {
+        for x in 0..c.sides.len() {
+            let Some(u) = u_of(x, e) else { continue };
+            let g = col(x, u);
+            if ex[x][e].beam {
+                beam_column(c, ops, (x, e, u), &g, &u_of, &len, ex);
+            } else {
+                probe_rows(c, ops, (x, e, u), &g, &u_of, &len);
+            }
+        }
+    }
+}
+
+/// The operator from side `x` to side `y`, mutable.
+fn op_mut(o: &mut LayerOperators, y: usize, x: usize) -> &mut Mat<f64> {
+    match (y, x) {
+        (0, 0) => &mut o.r_top,
+        (1, 0) => &mut o.t_down,
+        (1, 1) => &mut o.r_bottom,
+        _ => &mut o.t_up,
+    }
+}
+
+/// The beam arriving from side `x` at `u` (irradiance slot `len[x] + e`):
+/// its lobe into the nodes (minus the delta's cell share) and the probes, the
+/// delta into the beam slots (eq. R14).
+#[allow(clippy::too_many_arguments)]
+fn beam_column(
+    c: &Ctx<'_>,
+    ops: &mut [LayerOperators],
+    (x, e, u): (usize, usize, f64),
+    g: &[Vec<f64>],
+    u_of: &dyn Fn(usize, usize) -> Option<f64>,
+    len: &[usize],
+    ex: [&[Extra]; 2],
+) {
+    let mo = c.orders;
+    let r = c.r_smooth(x, u);
+    let mu_in = c.sides[x].mu_of(u);
+    let mut buf = vec![0.0; mo];
+    for (m, o) in ops.iter_mut().enumerate() {
+        let k = if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI);
+        for (y, side) in c.sides.iter().enumerate() {
+            let mat = op_mut(o, y, x);
+            let col = len[x] + e;
+            for i in 0..side.len() {
+                mat[(i, col)] = k * g[y][i * mo + m] / side.width(i);
+            }
+            // The delta's share of its cell, and the delta in the beam slot.
+            let delta = if y == x { r } else { 1.0 - r };
+            if let (Some(i), Some(_)) = (side.cell_of(u), u_of(y, e)) {
+                mat[(i, col)] -= k * 2.0 * side.n * side.n * delta / side.width(i);
+                mat[(len[y] + e, col)] = delta;
+            } else if let Some(i) = side.cell_of(u) {
+                mat[(i, col)] -= k * 2.0 * side.n * side.n * delta / side.width(i);
+            }
+        }
+    }
+    // Probes: the point values of the lobe.
+    for (y, side) in c.sides.iter().enumerate() {
+        for (p, xp) in ex[y].iter().enumerate() {
+            let (false, Some(up)) = (xp.beam, u_of(y, p)) else { continue };
+            let far = c.far(x);
+            c.face.mf.fourier(side.mu_of(up), mu_in, c.sides[x].n, far, y != x, &mut buf);
+            for (m, o) in ops.iter_mut().enumerate() {
+                let k = if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI);
+                op_mut(o, y, x)[(len[y] + p, len[x] + e)] = k * buf[m];
+            }
+        }
+    }
+}
+
+/// The probe `e` on side `y` at `u`: its rows from the nodes of every side
+/// (by reciprocity, from the column of light leaving along the probe), minus
+/// the delta's cell share, and the smooth face's value in its own slot (eq. R15).
+fn probe_rows(
+    c: &Ctx<'_>,
+    ops: &mut [LayerOperators],
+    (y, e, u): (usize, usize, f64),
+    g: &[Vec<f64>],
+    u_of: &dyn Fn(usize, usize) -> Option<f64>,
+    len: &[usize],
+) {
+    let mo = c.orders;
+    let r = c.r_smooth(y, u);
+    let ny2 = c.sides[y].n.powi(2);
+    for (m, o) in ops.iter_mut().enumerate() {
+        for (x, side) in c.sides.iter().enumerate() {
+            let nx2 = side.n * side.n;
+            let mat = op_mut(o, y, x);
+            let row = len[y] + e;
+            // O_xj = (n_Y^2 / n_X^2) C_j / (2 n_X^2) (reciprocity of eq. R10).
+            for j in 0..side.len() {
+                mat[(row, j)] = ny2 / nx2 * g[x][j * mo + m] / (2.0 * nx2);
+            }
+            let smooth = if x == y { r } else { ny2 / nx2 * (1.0 - r) };
+            if let Some(j) = side.cell_of(u) {
+                mat[(row, j)] -= smooth;
+            }
+            if u_of(x, e).is_some() {
+                mat[(row, len[x] + e)] = smooth;
+            }
+        }
+    }
+}
+
+/// `o` grown to `[nodes, extras]` on each side (the node blocks kept).
+fn grow(o: &LayerOperators, dims: &[usize], ne: usize) -> LayerOperators {
+    let put = |src: &Mat<f64>, rows: usize, cols: usize| {
+        let mut m = Mat::<f64>::zeros(rows, cols);
+        for i in 0..src.nrows() {
+            for j in 0..src.ncols() {
+                m[(i, j)] = src[(i, j)];
+            }
+        }
+        m
+    };
+    let da = dims[0];
+    if dims.len() == 2 {
+        let db = dims[1];
+        LayerOperators {
+            r_top: put(&o.r_top, da, da),
+            t_down: put(&o.t_down, db, da),
+            r_bottom: put(&o.r_bottom, db, db),
+            t_up: put(&o.t_up, da, db),
+        }
+    } else {
+        let _ = ne;
+        LayerOperators {
+            r_top: put(&o.r_top, da, da),
+            t_down: Mat::zeros(0, da),
+            r_bottom: Mat::zeros(0, 0),
+            t_up: Mat::zeros(da, 0),
+        }
+    }
+}
+
+/// Key of a face's operators in the per-thread cache.
+fn key(
+    face: &RoughFace,
+    a: &MediumNodes,
+    b: Option<&MediumNodes>,
+    ea: &[Extra],
+    eb: &[Extra],
+    orders: usize,
+) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let mut f = |x: f64| x.to_bits().hash(&mut h);
+    f(face.mf.alpha());
+    f(face.n_above);
+    match face.below {
+        Far::Dielectric(n) => f(n),
+        Far::Conductor(n, k) => {
+            f(-n);
+            f(k);
+        }
+    }
+    for nodes in std::iter::once(a).chain(b) {
+        nodes.mu.iter().chain(&nodes.w).for_each(|&x| f(x));
+        f(f64::NAN);
+    }
+    for e in ea.iter().chain(eb) {
+        f(e.mu.unwrap_or(-1.0));
+        f(if e.beam { 1.0 } else { 0.0 });
+    }
+    (face.mf.distribution() as u8, orders).hash(&mut h);
+    h.finish()
+}
+
+/// Faces whose operators a thread keeps (the oldest goes).
+const FACES_KEPT: usize = 4;
+
+thread_local! {
+    static CACHE: RefCell<Vec<(u64, Rc<Vec<LayerOperators>>)>> = const { RefCell::new(Vec::new()) };
+}
+
+/// The operators of `face` for order `m` (of `orders` computed at once and
+/// kept per thread: a solve asks for the orders one at a time).
+pub fn rough_operators_order(
+    face: RoughFace,
+    a: &MediumNodes,
+    b: Option<&MediumNodes>,
+    ea: &[Extra],
+    eb: &[Extra],
+    m: usize,
+    orders: usize,
+) -> LayerOperators {
+    let orders = orders.max(m + 1);
+    let k = key(&face, a, b, ea, eb, orders);
+    let hit = CACHE.with(|c| c.borrow().iter().find(|(x, _)| *x == k).map(|(_, v)| Rc::clone(v)));
+    let all = hit.unwrap_or_else(|| {
+        let v = Rc::new(rough_operators(face, a, b, ea, eb, orders).0);
+        CACHE.with(|c| {
+            let mut c = c.borrow_mut();
+            if c.len() >= FACES_KEPT {
+                c.remove(0);
+            }
+            c.push((k, Rc::clone(&v)));
+        });
+        v
+    });
+    all[m].clone()
+}
+
+/// A smooth conductor floor: the mirror reflection `R_c(mu)` of eq. R5 on
+/// the diagonal, for nodes, probes and the beam alike (every order).
+pub fn smooth_conductor(a: &MediumNodes, ea: &[Extra], n: f64, k: f64) -> Mat<f64> {
+    let na = a.mu.len();
+    let mut r = Mat::<f64>::zeros(na + ea.len(), na + ea.len());
+    for (i, &mu) in a.mu.iter().enumerate() {
+        r[(i, i)] = conductor_reflectance(mu, a.n, n, k);
+    }
+    for (e, x) in ea.iter().enumerate() {
+        if let Some(mu) = x.mu {
+            r[(na + e, na + e)] = conductor_reflectance(mu, a.n, n, k);
+        }
+    }
+    r
+}
