@@ -50,7 +50,7 @@ fn bad_depths_are_named() {
 /// bottom; A = K (i+ + i-) integrates to the absorptance (Simpson, 1e-6).
 #[test]
 fn two_flux_profile_balances() {
-    use km_core::two_flux::{KmOptions, depth_profile, solve_mono};
+    use km_core::two_flux::{KmModel, KmOptions, depth_profile, solve_mono};
     let s = Scene::from_toml_str(
         "[[layer]]\nsigma_a = 0.3\nsigma_s = 2.0\nthickness = 0.5\nn = 1.5\n\
          [[layer]]\nsigma_a = 0.1\nsigma_s = 5.0\nthickness = 1.0\nn = 1.3\n\
@@ -58,7 +58,8 @@ fn two_flux_profile_balances() {
     )
     .unwrap();
     let m = &s.channels()[0];
-    let o = KmOptions::default();
+    // The profile is the two-flux model's; the same model's totals.
+    let o = KmOptions { model: KmModel::TwoFlux, ..Default::default() };
     let c = solve_mono(m, &o).unwrap();
     let p = depth_profile(m, &o, &[0.0, 0.5, 0.5 + 1e-13, 1.5]).unwrap();
     let a = p.layer_absorptance.clone();

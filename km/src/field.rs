@@ -30,7 +30,8 @@ pub struct FieldOptions {
     pub method: FieldMethod,
     /// Multi-flux settings (streams, delta-M).
     pub multiflux: MultifluxOptions,
-    /// Two-flux settings (the K, S mapping).
+    /// Two-flux settings (the K, S mapping; the profile is always the
+    /// two-flux model's, whatever `model` says).
     pub km: KmOptions,
     /// Monte Carlo settings (photons, seed, threads).
     pub mc: McOptions,
@@ -128,7 +129,10 @@ pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Resu
         }
         Method::Km => {
             for mono in scene.channels() {
-                let p = km_core::two_flux::depth_profile(mono, &opts.km, depths)?;
+                // The two-flux model's profile (the four-flux model's beam
+                // inside the layers is not resolved in depth; docs/field.md).
+                let two = KmOptions { model: km_core::two_flux::KmModel::TwoFlux, ..opts.km };
+                let p = km_core::two_flux::depth_profile(mono, &two, depths)?;
                 f.fluence.push(p.fluence);
                 f.absorbed.push(p.absorbed);
                 f.net_flux.push(p.net_flux);

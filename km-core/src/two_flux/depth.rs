@@ -8,7 +8,7 @@ use crate::scene::MonoScene;
 
 use super::solve::build;
 use super::stack::{HemisphericalCache, stack_adding};
-use super::{KmOptions, profile_two_sided};
+use super::{KmModel, KmOptions, profile_two_sided};
 
 /// Two-flux `phi`, `A` and `F` at requested depths of one channel, per unit
 /// incident power.
@@ -32,13 +32,17 @@ pub struct KmDepthProfile {
 /// inside the stack; at an interface, the layer above it).
 ///
 /// # Errors
-/// A depth outside the stack, and those of [`super::solve_mono`].
+/// A depth outside the stack, those of [`super::solve_mono`], and the
+/// four-flux model under a collimated beam (its beam inside the layers is not
+/// resolved in depth: ask for [`KmModel::TwoFlux`]).
 ///
 /// ```
 /// use km_core::two_flux::{KmOptions, depth_profile, layer_rt};
 /// let s = km_core::Scene::from_toml_str(
 ///     "[[layer]]\nsigma_a = 0.1\nsigma_s = 0.4\nthickness = 2.0\n").unwrap();
-/// let p = depth_profile(&s.channels()[0], &KmOptions::default(), &[0.0, 2.0]).unwrap();
+/// // The seed's model: two-flux, K = sigma_a, S = sigma_s (as `layer_rt`).
+/// let p = depth_profile(&s.channels()[0], &KmOptions::SEED, &[0.0, 2.0]).unwrap();
+/// assert!(depth_profile(&s.channels()[0], &KmOptions::default(), &[0.0]).is_err());
 /// let rt = layer_rt(0.1, 0.4, 2.0).unwrap();
 /// assert!((p.net_flux[0] - (1.0 - rt.r)).abs() < 1e-15);
 /// assert!((p.net_flux[1] - rt.t).abs() < 1e-15);
@@ -48,6 +52,16 @@ pub fn depth_profile(
     opts: &KmOptions,
     depths: &[f64],
 ) -> Result<KmDepthProfile, CoreError> {
+    if opts.model == KmModel::FourFlux
+        && mono.light().mu0().is_some()
+        && super::solve::four_flux_applies(mono)
+    {
+        return Err(CoreError::unsupported(
+            "km",
+            "the depth profile is written for the two-flux model only (km_model = two-flux): \
+             the four-flux model's collimated beam inside the layers is not resolved in depth",
+        ));
+    }
     let b = build(mono, opts.mapping, &mut HemisphericalCache::default())?;
     let f = stack_adding(&b.slabs);
     let mut layers = Vec::with_capacity(b.layer_slab.len());

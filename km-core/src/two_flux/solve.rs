@@ -152,7 +152,7 @@ pub fn solve_mono(mono: &MonoScene, opts: &KmOptions) -> Result<ChannelResult, C
 /// a transparent, Lambertian or black floor; a rough face (which spreads the
 /// beam) or a conductor floor takes the two-flux model with the faces'
 /// albedos (docs/rough.md §5), noted in the answer.
-fn four_flux_applies(mono: &MonoScene) -> bool {
+pub(super) fn four_flux_applies(mono: &MonoScene) -> bool {
     !mono.has_rough_face() && !matches!(mono.substrate(), Substrate::Conductor { .. })
 }
 
