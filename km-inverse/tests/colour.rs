@@ -190,7 +190,7 @@ fn colour_of_a_solved_spectral_scene() {
     let yellow =
         Scene::from_toml_str(&scene_text(&format!("[{}]", sigma_a_blue.join(", ")))).unwrap();
     let colour_of = |scene: &Scene| {
-        let sol = two_flux::solve(scene, &Default::default()).unwrap();
+        let sol = two_flux::solve(scene, &two_flux::KmOptions::SEED).unwrap();
         let r = Spectrum::from_solution(scene, &sol, Quantity::Reflectance).unwrap();
         let t = Spectrum::from_solution(scene, &sol, Quantity::Transmittance).unwrap();
         (r, t)
