@@ -47,17 +47,23 @@ def test_monte_carlo_batches_do_not_nest_thread_pools():
         f"""
         import threading
         s = km.Scene.from_toml({SCENE!r})
+        import numpy as np
+        # Every point answered: the shape, and finite reflectances.
+        def points(b):
+            assert np.isfinite(b.reflectance).all(), b.errors
+            return b.shape[0]
         b = km.solve_many([s] * 1000, "mc", samples=200)
-        assert len(b) == 1000
+        assert points(b) == 1000
         b = km.solve_many([s] * 300, "mc", samples=200, threads=2)
+        assert points(b) == 300
         out = []
-        ts = [threading.Thread(target=lambda: out.append(len(km.solve_many([s] * 200, "mc", samples=200))))
+        ts = [threading.Thread(target=lambda: out.append(points(km.solve_many([s] * 200, "mc", samples=200))))
               for _ in range(4)]
         [t.start() for t in ts]
         [t.join() for t in ts]
         assert out == [200] * 4, out
         b = km.solve_many(s, "mc", params={{"layer[1].g": [0.1 * (i % 9) for i in range(1000)]}}, samples=200)
-        assert len(b) == 1000
+        assert points(b) == 1000
         print("ok")
         """
     )
