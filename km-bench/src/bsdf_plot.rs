@@ -128,6 +128,7 @@ pub fn heat_map(b: &Bsdf, c: usize, i: usize, transmitted: bool, phi: &[f64]) ->
         z_label: if transmitted { "BTDF (1/sr)".into() } else { "BRDF (1/sr)".into() },
         z_log: false,
         z_floor: 0.0,
+        ..Default::default()
     }
 }
 

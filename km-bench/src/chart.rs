@@ -124,8 +124,14 @@ pub struct ChartLayout {
     pub texts: Vec<PixelRect>,
     /// Tick labels of the x axis, as drawn.
     pub x_ticks: Vec<String>,
-    /// Tick labels of the y axis (or of the colour bar), as drawn.
+    /// Tick labels of the y axis, as drawn.
     pub y_ticks: Vec<String>,
+    /// Tick labels of a heat map's colour bar, as drawn.
+    pub z_ticks: Vec<String>,
+    /// Heat-map cells marked with a cross.
+    pub marked_cells: usize,
+    /// Notes drawn beside the title (what a mark means).
+    pub notes: Vec<String>,
     /// The series, in drawing order.
     pub series: Vec<SeriesLayout>,
 }
@@ -193,24 +199,60 @@ pub fn write_chart_layout(
 }
 
 /// Draw `chart` into the temporary files `tmp` (SVG, PNG) for the targets
-/// `shown` (named in the errors); the layout of the PNG.
+/// `shown` (named in the errors); the layout as drawn (SVG user units are
+/// the PNG's pixels).
+///
+/// The chart is drawn once, as SVG; the PNG is that SVG rasterised with
+/// anti-aliasing ([`rasterise`]), so both files show the same picture and
+/// no line or glyph edge is a staircase.
 fn draw_both(
     chart: &impl Chart,
     tmp: [&Path; 2],
     shown: [&Path; 2],
 ) -> anyhow::Result<ChartLayout> {
-    {
-        let root = SVGBackend::new(tmp[0], SIZE).into_drawing_area();
+    let mut svg = String::new();
+    let layout = {
+        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(|e| cannot(shown[0], e))?;
-        chart.draw_layout(&root).with_context(|| format!("drawing {}", shown[0].display()))?;
+        let layout =
+            chart.draw_layout(&root).with_context(|| format!("drawing {}", shown[0].display()))?;
         root.present().map_err(|e| cannot(shown[0], e))?;
-    }
-    let root = BitMapBackend::new(tmp[1], SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| cannot(shown[1], e))?;
-    let layout =
-        chart.draw_layout(&root).with_context(|| format!("drawing {}", shown[1].display()))?;
-    root.present().map_err(|e| cannot(shown[1], e))?;
+        layout
+    };
+    std::fs::write(tmp[0], &svg).map_err(|e| cannot(shown[0], e))?;
+    let png = rasterise(&svg, SIZE).with_context(|| format!("drawing {}", shown[1].display()))?;
+    std::fs::write(tmp[1], png).map_err(|e| cannot(shown[1], e))?;
     Ok(layout)
+}
+
+/// An SVG document rendered to PNG bytes of `size` pixels, anti-aliased,
+/// with the embedded font standing for every generic family.
+///
+/// # Errors
+/// The SVG cannot be parsed or the PNG encoded (never expected for a
+/// chart's own SVG).
+pub fn rasterise(svg: &str, size: (u32, u32)) -> anyhow::Result<Vec<u8>> {
+    use resvg::{tiny_skia, usvg};
+    let mut opt = usvg::Options::default();
+    {
+        let db = opt.fontdb_mut();
+        db.load_font_data(font::FONT.to_vec());
+        db.set_sans_serif_family(font::FAMILY);
+        db.set_serif_family(font::FAMILY);
+        db.set_monospace_family(font::FAMILY);
+    }
+    opt.font_family = font::FAMILY.into();
+    let tree = usvg::Tree::from_str(svg, &opt).map_err(|e| anyhow!("SVG: {e}"))?;
+    let mut pixmap = tiny_skia::Pixmap::new(size.0, size.1)
+        .ok_or_else(|| anyhow!("empty image {}x{}", size.0, size.1))?;
+    pixmap.fill(tiny_skia::Color::WHITE);
+    let t = tree.size();
+    let scale = tiny_skia::Transform::from_scale(
+        size.0 as f32 / t.width().max(1.0),
+        size.1 as f32 / t.height().max(1.0),
+    );
+    resvg::render(&tree, scale, &mut pixmap.as_mut());
+    pixmap.encode_png().map_err(|e| anyhow!("PNG: {e}"))
 }
 
 /// A drawing error in words, naming the file (its `Display`, not the nested

@@ -12,6 +12,12 @@ use plotters::style::{FontStyle, register_font};
 /// DejaVu Sans, embedded.
 static DEJAVU_SANS: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
+/// The embedded font's bytes (for the SVG rasteriser).
+pub(crate) static FONT: &[u8] = DEJAVU_SANS;
+
+/// The embedded font's family name.
+pub(crate) const FAMILY: &str = "DejaVu Sans";
+
 static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
 
 /// Register the embedded font under the generic family names plotters uses

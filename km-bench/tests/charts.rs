@@ -16,6 +16,7 @@ use std::path::PathBuf;
 
 use km_bench::chart::{ChartLayout, PixelRect, SIZE};
 use km_bench::{ReproduceOptions, reproduce};
+use resvg::tiny_skia::{Color, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 /// A fresh directory under the system temporary directory.
 fn temp_dir(name: &str) -> PathBuf {
@@ -47,14 +48,55 @@ fn segment_meets(r: &PixelRect, a: (f64, f64), b: (f64, f64)) -> bool {
     })
 }
 
+/// The defects of one heat-map axis's labels: repeated labels (two rows
+/// both "1"), more than 6 significant digits, and evenly spaced labels that
+/// are not multiples of their spacing (azimuth ticks at 2.5, 52.5, ...).
+fn heat_axis_defects(axis: &str, labels: &[String]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for t in labels {
+        if !seen.insert(t) {
+            out.push(format!("{axis} label {t:?} repeated"));
+        }
+        if significant_digits(t) > 6 {
+            out.push(format!("{axis} label {t:?} has more than 6 significant digits"));
+        }
+    }
+    let v: Vec<f64> = labels.iter().filter_map(|t| t.parse().ok()).collect();
+    if v.len() >= 3 {
+        let d = v[1] - v[0];
+        let even = v.windows(2).all(|w| ((w[1] - w[0]) - d).abs() <= 1e-9 * d.abs().max(1.0));
+        if even && d != 0.0 && v.iter().any(|x| ((x / d) - (x / d).round()).abs() > 1e-6) {
+            out.push(format!("{axis} labels {labels:?} are not on multiples of their step {d}"));
+        }
+    }
+    out
+}
+
 /// Every defect of one chart's layout, as text.
 fn defects(l: &ChartLayout) -> Vec<String> {
     let mut out = Vec::new();
-    for t in l.x_ticks.iter().chain(&l.y_ticks) {
+    for t in l.x_ticks.iter().chain(&l.y_ticks).chain(&l.z_ticks) {
         if t.parse::<f64>().is_err() {
             out.push(format!("tick label {t:?} is not a number"));
-        } else if significant_digits(t) > 4 {
+        } else if l.kind != "heat" && significant_digits(t) > 4 {
             out.push(format!("tick label {t:?} has more than 4 significant digits"));
+        }
+    }
+    if l.kind == "heat" {
+        out.extend(heat_axis_defects("x", &l.x_ticks));
+        out.extend(heat_axis_defects("y", &l.y_ticks));
+        out.extend(
+            l.z_ticks
+                .iter()
+                .filter(|t| significant_digits(t) > 4)
+                .map(|t| format!("colour-bar label {t:?} has more than 4 significant digits")),
+        );
+        if l.marked_cells > 0 && l.notes.is_empty() {
+            out.push(format!(
+                "{} marked cells and no note saying what a mark means",
+                l.marked_cells
+            ));
         }
     }
     if let Some(r) = &l.legend {
@@ -85,6 +127,63 @@ fn defects(l: &ChartLayout) -> Vec<String> {
         }
     }
     out
+}
+
+/// Distinct colours in the 7x7 pixel window around `(x, y)`.
+fn window_colours(img: &Pixmap, (x, y): (f64, f64)) -> usize {
+    let mut seen = std::collections::HashSet::new();
+    for dy in -3i64..=3 {
+        for dx in -3i64..=3 {
+            let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
+            if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
+                let c = img.pixel(px as u32, py as u32).expect("inside");
+                seen.insert((c.red(), c.green(), c.blue()));
+            }
+        }
+    }
+    seen.len()
+}
+
+/// Whether the slanted lines of a chart are drawn without anti-aliasing:
+/// at the middle of each slanted segment (both extents at least 8 pixels)
+/// an aliased line shows only its own colour on the background (at most 3
+/// colours with a grid line), an anti-aliased one the blends between them.
+/// Aliased when more than half of such segments show at most 3 colours.
+fn lines_aliased(img: &Pixmap, segments: &[[(f64, f64); 2]]) -> Option<String> {
+    let slanted: Vec<_> = segments
+        .iter()
+        .filter(|s| (s[1].0 - s[0].0).abs() >= 8.0 && (s[1].1 - s[0].1).abs() >= 8.0)
+        .collect();
+    let hard = slanted
+        .iter()
+        .filter(|s| window_colours(img, ((s[0].0 + s[1].0) / 2.0, (s[0].1 + s[1].1) / 2.0)) <= 3)
+        .count();
+    (!slanted.is_empty() && 2 * hard > slanted.len()).then(|| {
+        format!("{hard} of {} slanted segments drawn without anti-aliasing", slanted.len())
+    })
+}
+
+#[test]
+fn the_aliasing_check_tells_a_staircase_from_a_smooth_line() {
+    let line = [[(10.0, 10.0), (90.0, 60.0)], [(10.0, 90.0), (90.0, 20.0)]];
+    let draw = |aa: bool| {
+        let mut img = Pixmap::new(100, 100).unwrap();
+        img.fill(Color::WHITE);
+        let mut paint = Paint::default();
+        paint.set_color_rgba8(31, 119, 180, 255);
+        paint.anti_alias = aa;
+        let stroke = Stroke { width: 2.0, ..Default::default() };
+        for s in &line {
+            let mut pb = PathBuilder::new();
+            pb.move_to(s[0].0 as f32, s[0].1 as f32);
+            pb.line_to(s[1].0 as f32, s[1].1 as f32);
+            img.stroke_path(&pb.finish().unwrap(), &paint, &stroke, Transform::identity(), None);
+        }
+        // Through PNG, as the charts are read back.
+        Pixmap::decode_png(&img.encode_png().unwrap()).unwrap()
+    };
+    assert!(lines_aliased(&draw(false), &line).is_some(), "a staircase passes");
+    assert!(lines_aliased(&draw(true), &line).is_none(), "a smooth line is flagged");
 }
 
 #[test]
@@ -126,6 +225,28 @@ fn the_checks_catch_planted_defects() {
         error_bars: 9,
     });
     assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    // Heat maps: a repeated row label, ticks between round values, and
+    // marked cells without a note, each caught alone.
+    let heat = ChartLayout {
+        kind: "heat".into(),
+        plot: clean.plot,
+        x_ticks: vec!["0".into(), "45".into(), "90".into(), "135".into()],
+        y_ticks: vec!["0.99".into(), "0.9999".into(), "0.99999".into(), "1".into()],
+        z_ticks: vec!["1e-2".into()],
+        ..Default::default()
+    };
+    assert!(defects(&heat).is_empty(), "{:?}", defects(&heat));
+    let mut l = heat.clone();
+    l.y_ticks = vec!["0.99".into(), "0.9999".into(), "1".into(), "1".into()];
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    let mut l = heat.clone();
+    l.x_ticks = vec!["2.5".into(), "52.5".into(), "102.5".into()];
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    let mut l = heat.clone();
+    l.marked_cells = 3;
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    l.notes.push("x: capped".into());
+    assert!(defects(&l).is_empty(), "{:?}", defects(&l));
 }
 
 #[test]
@@ -147,6 +268,24 @@ fn every_chart_of_a_tiny_run_is_drawn_without_defects() {
         assert!(!l.y_ticks.is_empty() || l.kind == "polar", "{}: no tick labels recorded", l.stem);
         for d in defects(l) {
             all.push(format!("{}: {d}", l.stem));
+        }
+        if l.kind == "line" {
+            let img = Pixmap::load_png(dir.join(format!("{}.png", l.stem))).unwrap();
+            if let Some(d) = lines_aliased(&img, &l.segments) {
+                all.push(format!("{}: {d}", l.stem));
+            }
+        }
+        // Monte Carlo maps: one cross per cell whose photons met the step cap.
+        if l.stem.starts_with("stability-montecarlo") && l.stem.ends_with("-balance") {
+            let grid = l.stem.trim_end_matches("-balance");
+            let csv = std::fs::read_to_string(dir.join(format!("{grid}.csv"))).unwrap();
+            let mut rows = csv.lines().filter(|r| !r.starts_with('#'));
+            let head: Vec<&str> = rows.next().unwrap().split(',').collect();
+            let k = head.iter().position(|h| *h == "capped_photons").expect("capped column");
+            let capped = rows.filter(|r| r.split(',').nth(k).is_some_and(|v| v != "0")).count();
+            if capped != l.marked_cells {
+                all.push(format!("{}: {capped} capped cells, {} marked", l.stem, l.marked_cells));
+            }
         }
     }
     assert!(all.is_empty(), "{} chart defects:\n{}", all.len(), all.join("\n"));

@@ -29,6 +29,11 @@ pub struct HeatMap {
     pub z_log: bool,
     /// Lower clip of `z` on a log scale (e.g. 1e-16).
     pub z_floor: f64,
+    /// Cells marked with a cross, `marked[iy][ix]` (empty: none), e.g. the
+    /// Monte Carlo cells whose photons met the step cap.
+    pub marked: Vec<Vec<bool>>,
+    /// What a cross means, drawn under the title when any cell is marked.
+    pub mark_note: String,
 }
 
 /// A perceptually ordered colour map (viridis, 5 anchors interpolated linearly) at `t` in `[0, 1]`.
@@ -60,6 +65,11 @@ impl HeatMap {
         self.z.iter().flatten().filter(|v| matches!(v, Some(x) if !x.is_finite())).count()
     }
 
+    /// Number of cells marked with a cross.
+    pub fn marked_cells(&self) -> usize {
+        self.marked.iter().flatten().filter(|m| **m).count()
+    }
+
     /// Number of refused cells (`None`).
     pub fn refused_cells(&self) -> usize {
         self.z.iter().flatten().filter(|v| v.is_none()).count()
@@ -76,62 +86,46 @@ impl Chart for HeatMap {
         let nx = self.x.len().max(1);
         let ny = self.y.len().max(1);
         let (lo, hi) = self.colour_range();
-        let title = self.full_title();
+        let marked = self.marked_cells();
+        let main = main.titled(&self.full_title(), ("sans-serif", 18)).map_err(pe)?;
+        let mut notes = Vec::new();
+        let main = if marked > 0 && !self.mark_note.is_empty() {
+            let (strip, rest) = main.split_vertically(22);
+            let (sw, _) = strip.dim_in_pixel();
+            let note = format!("\u{d7} ({marked} cells): {}", self.mark_note);
+            let style =
+                TextStyle::from(("sans-serif", 13)).pos(plotters::style::text_anchor::Pos::new(
+                    plotters::style::text_anchor::HPos::Center,
+                    plotters::style::text_anchor::VPos::Top,
+                ));
+            strip.draw_text(&note, &style, (sw as i32 / 2, 2)).map_err(pe)?;
+            notes.push(note);
+            rest
+        } else {
+            main
+        };
+        let x_axis = CellAxis::new(&self.x, self.x_log);
+        let y_axis = CellAxis::new(&self.y, false);
         let mut chart = ChartBuilder::on(&main)
-            .caption(title, ("sans-serif", 18))
             .margin(10)
             .x_label_area_size(45)
             .y_label_area_size(60)
             .build_cartesian_2d(-0.5..nx as f64 - 0.5, -0.5..ny as f64 - 0.5)
             .map_err(pe)?;
-        let xs = self.x.clone();
-        let ys = self.y.clone();
-        let xlog = self.x_log;
-        // Cell i is centred on the integer i; only integer ticks are labelled.
-        let at = |v: f64| -> Option<usize> {
-            ((v - v.round()).abs() < 1e-6 && v > -0.5).then(|| v.round() as usize)
-        };
-        let x_ticks = RefCell::new(Vec::new());
-        let y_ticks = RefCell::new(Vec::new());
-        let fx = |v: &f64| {
-            let s = at(*v)
-                .and_then(|i| xs.get(i))
-                .map(|&x| {
-                    if xlog && x > 0.0 {
-                        format_tick(x.log10(), -30.0, 30.0, true)
-                    } else {
-                        format_sig(x, 4, false)
-                    }
-                })
-                .unwrap_or_default();
-            if !s.is_empty() {
-                x_ticks.borrow_mut().push(s.clone());
-            }
-            s
-        };
-        let fy = |v: &f64| {
-            let s = at(*v)
-                .and_then(|i| ys.get(i))
-                .map(|&y| format_sig(y, 4, false))
-                .unwrap_or_default();
-            if !s.is_empty() {
-                y_ticks.borrow_mut().push(s.clone());
-            }
-            s
-        };
+        // The axes and their descriptions by plotters; the ticks by
+        // `CellAxis` (cell centres or round cell edges), drawn below.
         chart
             .configure_mesh()
             .disable_mesh()
             .x_desc(&self.x_label)
             .y_desc(&self.y_label)
-            .x_labels(nx.min(13))
-            .y_labels(ny.min(14))
-            .label_style(("sans-serif", 13))
+            .x_labels(0)
+            .y_labels(0)
             .axis_desc_style(("sans-serif", 15))
-            .x_label_formatter(&fx)
-            .y_label_formatter(&fy)
             .draw()
             .map_err(pe)?;
+        let x_ticks = draw_ticks(&main, &chart, &x_axis, 13, true)?;
+        let y_ticks = draw_ticks(&main, &chart, &y_axis, 14, false)?;
         let mut cells = Vec::with_capacity(nx * ny);
         for (iy, row) in self.z.iter().enumerate() {
             for (ix, &v) in row.iter().enumerate() {
@@ -145,16 +139,181 @@ impl Chart for HeatMap {
             }
         }
         chart.draw_series(cells).map_err(pe)?;
-        self.draw_colour_bar(&bar, (lo, hi), &y_ticks)?;
+        let cross = ShapeStyle::from(&WHITE).stroke_width(2);
+        for (iy, row) in self.marked.iter().enumerate() {
+            for (ix, _) in row.iter().enumerate().filter(|c| *c.1) {
+                let (x, y) = (ix as f64, iy as f64);
+                for (a, b) in [((-0.3, -0.3), (0.3, 0.3)), ((-0.3, 0.3), (0.3, -0.3))] {
+                    let line = vec![(x + a.0, y + a.1), (x + b.0, y + b.1)];
+                    chart
+                        .draw_series(std::iter::once(PathElement::new(line, cross)))
+                        .map_err(pe)?;
+                }
+            }
+        }
+        let z_ticks = RefCell::new(Vec::new());
+        self.draw_colour_bar(&bar, (lo, hi), &z_ticks)?;
         let (xs, ys) = chart.plotting_area().get_pixel_range();
         Ok(ChartLayout {
             kind: "heat".into(),
             plot: prect((xs.start, ys.start), (xs.end, ys.end)),
-            x_ticks: x_ticks.into_inner(),
-            y_ticks: y_ticks.into_inner(),
+            x_ticks,
+            y_ticks,
+            z_ticks: z_ticks.into_inner(),
+            marked_cells: marked,
+            notes,
             ..Default::default()
         })
     }
+}
+
+/// Draw the ticks of one axis (`x`: the bottom one, else the left one)
+/// with their labels on `area`, outside the plot; the labels drawn.
+fn draw_ticks<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    axis: &CellAxis,
+    max: usize,
+    x: bool,
+) -> anyhow::Result<Vec<String>> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let (bx, by) = area.get_base_pixel();
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let pos =
+        if x { Pos::new(HPos::Center, VPos::Top) } else { Pos::new(HPos::Right, VPos::Center) };
+    let style = TextStyle::from(("sans-serif", 13)).pos(pos);
+    let mut labels = Vec::new();
+    for v in axis.positions(max) {
+        let label = axis.label(v);
+        if label.is_empty() {
+            continue;
+        }
+        let (px, py) = if x {
+            (chart.backend_coord(&(v, 0.0)).0 - bx, ys.end - by)
+        } else {
+            (xs.start - bx, chart.backend_coord(&(0.0, v)).1 - by)
+        };
+        let tick = if x { [(px, py), (px, py + 5)] } else { [(px - 5, py), (px, py)] };
+        area.draw(&PathElement::new(tick.to_vec(), BLACK)).map_err(pe)?;
+        let at = if x { (px, py + 7) } else { (px - 8, py) };
+        area.draw_text(&label, &style, at).map_err(pe)?;
+        labels.push(label);
+    }
+    Ok(labels)
+}
+
+/// Push a non-empty tick label into `ticks`; the label back.
+fn record(ticks: &RefCell<Vec<String>>, s: String) -> String {
+    if !s.is_empty() {
+        ticks.borrow_mut().push(s.clone());
+    }
+    s
+}
+
+/// One axis of cells: where its ticks go (in index space, cell `i`
+/// centred on `i`) and what they say.
+///
+/// * Cells of equal width on a linear axis whose edges are rounder
+///   numbers than their centres (azimuth cells 0-5, 5-10, ... centred on
+///   2.5, 7.5, ...) are labelled at their edges, every `k`-th edge with
+///   `k` the smallest giving at most `max` labels on a round step
+///   (1, 1.5, 2, 2.5, 3, 4.5, 5, 6, 7.5 or 9 times a power of ten).
+/// * Otherwise every `k`-th cell is labelled at its centre, with the
+///   fewest significant digits (4 to 6) that keep the labels distinct.
+struct CellAxis {
+    /// Centre values.
+    centres: Vec<f64>,
+    /// Logarithmic axis (labels as powers of ten).
+    log: bool,
+    /// Edge labelling: (first edge value, cell width).
+    edges: Option<(f64, f64)>,
+    /// Significant digits of the centre labels.
+    digits: usize,
+}
+
+impl CellAxis {
+    fn new(centres: &[f64], log: bool) -> Self {
+        let centres = centres.to_vec();
+        let edges = if log { None } else { uniform_edges(&centres) };
+        let digits = (4..=6)
+            .find(|&d| {
+                let mut l: Vec<String> = centres.iter().map(|&v| format_sig(v, d, false)).collect();
+                l.sort();
+                l.dedup();
+                l.len() == centres.len()
+            })
+            .unwrap_or(6);
+        CellAxis { centres, log, edges, digits }
+    }
+
+    /// Tick positions (index space), at most about `max`.
+    fn positions(&self, max: usize) -> Vec<f64> {
+        let n = self.centres.len().max(1);
+        if let Some((first, width)) = self.edges {
+            let k = (1..=n)
+                .find(|&k| (n / k + 1) <= max && nice_step(k as f64 * width))
+                .unwrap_or_else(|| n.div_ceil(max.max(1)).max(1));
+            let step = k as f64 * width;
+            // Start at the first edge on a multiple of the step.
+            let start = (0..=n).find(|&e| {
+                let v = (first + e as f64 * width) / step;
+                (v - v.round()).abs() < 1e-6
+            });
+            let start = start.unwrap_or(0);
+            return (start..=n).step_by(k).map(|e| e as f64 - 0.5).collect();
+        }
+        let k = n.div_ceil(max.max(1)).max(1);
+        (0..n).step_by(k).map(|i| i as f64).collect()
+    }
+
+    /// The label of the tick at index-space position `v`.
+    fn label(&self, v: f64) -> String {
+        if let Some((first, width)) = self.edges {
+            let e = v + 0.5;
+            if (e - e.round()).abs() > 1e-6 || e < -1e-6 || e > self.centres.len() as f64 + 1e-6 {
+                return String::new();
+            }
+            return format_sig(first + e.round() * width, 6, false);
+        }
+        if (v - v.round()).abs() > 1e-6 || v < -0.5 {
+            return String::new();
+        }
+        match self.centres.get(v.round() as usize) {
+            Some(&x) if self.log && x > 0.0 => format_tick(x.log10(), -30.0, 30.0, true),
+            Some(&x) => format_sig(x, self.digits, false),
+            None => String::new(),
+        }
+    }
+}
+
+/// `(first edge, width)` when the centres are equally spaced and their
+/// edges need fewer significant digits than the centres themselves.
+fn uniform_edges(c: &[f64]) -> Option<(f64, f64)> {
+    if c.len() < 2 {
+        return None;
+    }
+    let w = c[1] - c[0];
+    let scale = c.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(w.abs());
+    if w.is_nan() || w <= 0.0 || c.windows(2).any(|p| ((p[1] - p[0]) - w).abs() > 1e-9 * scale) {
+        return None;
+    }
+    let digits = |v: f64| -> usize {
+        let s = format_sig(v, 6, false);
+        s.trim_start_matches('-').trim_start_matches(['0', '.']).replace('.', "").len()
+    };
+    let first = c[0] - 0.5 * w;
+    let edge_digits = (0..=c.len()).map(|e| digits(first + e as f64 * w)).max().unwrap_or(0);
+    let centre_digits = c.iter().map(|&v| digits(v)).max().unwrap_or(0);
+    (edge_digits < centre_digits).then_some((first, w))
+}
+
+/// Whether `step` is 1, 1.5, 2, 2.5, 3, 4.5, 5, 6, 7.5 or 9 times a power of ten.
+fn nice_step(step: f64) -> bool {
+    if step.is_nan() || step <= 0.0 || !step.is_finite() {
+        return false;
+    }
+    let m = step / 10f64.powf(step.log10().floor());
+    [1.0, 1.5, 2.0, 2.5, 3.0, 4.5, 5.0, 6.0, 7.5, 9.0, 10.0].iter().any(|n| (m - n).abs() < 1e-6)
 }
 
 impl HeatMap {
@@ -200,7 +359,7 @@ impl HeatMap {
         &self,
         bar: &DrawingArea<DB, Shift>,
         (lo, hi): (f64, f64),
-        y_ticks: &RefCell<Vec<String>>,
+        z_ticks: &RefCell<Vec<String>>,
     ) -> anyhow::Result<()> {
         // Colour bar.
         let mut cb = ChartBuilder::on(bar)
@@ -211,13 +370,7 @@ impl HeatMap {
             .build_cartesian_2d(0.0..1.0, lo..hi)
             .map_err(pe)?;
         let zlog = self.z_log;
-        let fz = |v: &f64| {
-            let s = format_tick(*v, lo, hi, zlog);
-            if !s.is_empty() {
-                y_ticks.borrow_mut().push(s.clone());
-            }
-            s
-        };
+        let fz = |v: &f64| record(z_ticks, format_tick(*v, lo, hi, zlog));
         cb.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
@@ -235,5 +388,36 @@ impl HeatMap {
         }))
         .map_err(pe)?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn labels(axis: &CellAxis, max: usize) -> Vec<String> {
+        axis.positions(max).into_iter().map(|v| axis.label(v)).collect()
+    }
+
+    #[test]
+    fn azimuth_cells_are_labelled_at_round_edges() {
+        // 72 cells of 5 degrees centred on 2.5 ... 357.5.
+        let centres: Vec<f64> = (0..72).map(|i| 2.5 + 5.0 * i as f64).collect();
+        let l = labels(&CellAxis::new(&centres, false), 13);
+        let want: Vec<String> = (0..=12).map(|k| (30 * k).to_string()).collect();
+        assert_eq!(l, want);
+        // Fewer labels allowed: a coarser round step.
+        let l = labels(&CellAxis::new(&centres, false), 9);
+        assert_eq!(l, ["0", "45", "90", "135", "180", "225", "270", "315", "360"]);
+    }
+
+    #[test]
+    fn close_rows_get_distinct_labels() {
+        let rows = [0.0, 0.5, 0.99, 0.9999, 0.999999, 1.0];
+        let l = labels(&CellAxis::new(&rows, false), 14);
+        assert_eq!(l, ["0", "0.5", "0.99", "0.9999", "0.999999", "1"]);
+        // Uneven rows are labelled at their centres, all of them.
+        let thetas = [1.5, 8.0, 19.7];
+        assert_eq!(labels(&CellAxis::new(&thetas, false), 14), ["1.5", "8", "19.7"]);
     }
 }

@@ -19,6 +19,9 @@ use crate::scenes::slab;
 /// noise. Cells at or below it share the darkest colour.
 pub const BALANCE_FLOOR: f64 = 1e-15;
 
+/// Monte Carlo's cap of steps per photon in the maps.
+const STEP_CAP: u64 = 10_000;
+
 /// The outcome of one cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cell {
@@ -35,6 +38,9 @@ pub struct Cell {
     pub negative: bool,
     /// `R + T` exceeds `1 + 1e-12`.
     pub above_one: bool,
+    /// Monte Carlo photons stopped by the step cap (0 for other methods):
+    /// their weight is lost, so it shows as an energy-balance error.
+    pub capped: u64,
 }
 
 /// Check a solution's first channel (energy balance, docs/benchmarks.md).
@@ -51,7 +57,13 @@ pub fn check(sol: &Solution) -> Option<Cell> {
         + (-t).max(0.0)
         + (-a).max(0.0)
         + (r + t - 1.0).max(0.0);
-    Some(Cell { r, t, balance, non_finite, negative, above_one })
+    let capped = match &sol.diagnostics.method {
+        km_core::solution::MethodDiagnostics::MonteCarlo(mc) => {
+            mc.capped_photons.first().copied().unwrap_or(0)
+        }
+        _ => 0,
+    };
+    Some(Cell { r, t, balance, non_finite, negative, above_one, capped })
 }
 
 /// A two-parameter family of scenes.
@@ -209,6 +221,7 @@ pub fn map(
     let mut counts = Counts { max_deviation: f64::NAN, ..Default::default() };
     let mut balance = vec![vec![None; grid.x.len()]; grid.y.len()];
     let mut deviation = vec![vec![None; grid.x.len()]; grid.y.len()];
+    let mut capped = vec![vec![false; grid.x.len()]; grid.y.len()];
     let mut csv = Csv::new(&[
         grid.x_label,
         grid.y_label,
@@ -217,6 +230,7 @@ pub fn map(
         "balance_error",
         "R_reference",
         "deviation",
+        "capped_photons",
         "status",
     ]);
     csv.comment(format!("stability map of {method} over {}", grid.name));
@@ -229,7 +243,7 @@ pub fn map(
             counts.cells += 1;
             let scene = (grid.scene)(x, y)?;
             // Monte Carlo: 10^4 steps per photon and 2 10^7 per cell at most (refusal beyond).
-            let cell = methods::solve_bounded(method, &scene, 10_000, 20_000_000)
+            let cell = methods::solve_bounded(method, &scene, STEP_CAP, 20_000_000)
                 .ok()
                 .and_then(|s| check(&s));
             let r_ref = reference
@@ -246,6 +260,8 @@ pub fn map(
                 }
             };
             let dev = deviation[iy][ix].unwrap_or(f64::NAN);
+            let n_capped = cell.map_or(0, |c| c.capped);
+            capped[iy][ix] = n_capped > 0;
             csv.push(vec![
                 num(x),
                 num(y),
@@ -254,6 +270,7 @@ pub fn map(
                 num(balance[iy][ix].unwrap_or(f64::NAN)),
                 num(r_ref.unwrap_or(f64::NAN)),
                 num(dev),
+                n_capped.to_string(),
                 status.into(),
             ]);
         }
@@ -272,6 +289,10 @@ pub fn map(
         z_label: format!("|R+T+A-1| + violations (floor {BALANCE_FLOOR:.0e})"),
         z_log: true,
         z_floor: BALANCE_FLOOR,
+        marked: capped,
+        mark_note: format!(
+            "photons stopped at the cap of {STEP_CAP:.0e} steps; their lost weight is the error"
+        ),
     };
     ctx.chart(&format!("{stem}-balance"), &hm)?;
     stems.push(format!("{stem}-balance"));
