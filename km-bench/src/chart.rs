@@ -103,6 +103,10 @@ pub struct SeriesLayout {
     pub points: usize,
     /// Error bars drawn.
     pub error_bars: usize,
+    /// Error bars whose lower end was cut at the bottom of the plot.
+    pub bars_cut_at_floor: usize,
+    /// Points drawn with their own label.
+    pub labelled: usize,
 }
 
 /// Where a chart's parts were drawn, in pixels of the backend (y down).
@@ -122,6 +126,8 @@ pub struct ChartLayout {
     pub markers: Vec<PixelRect>,
     /// Boxes of text drawn inside the plotting area (annotations).
     pub texts: Vec<PixelRect>,
+    /// Description of the x axis.
+    pub x_label: String,
     /// Tick labels of the x axis, as drawn.
     pub x_ticks: Vec<String>,
     /// Tick labels of the y axis, as drawn.
@@ -326,9 +332,14 @@ pub struct Series {
     pub mark: Mark,
     /// Palette index of its colour.
     pub colour: usize,
-    /// Half-widths of vertical error bars, one per point (empty: none). A
-    /// bar's lower end below zero on a log axis is cut at the axis.
+    /// Half-widths of vertical error bars, one per point (empty: none). On
+    /// a log axis a bar whose lower end would lie below a tenth of its
+    /// value (or reach zero) is drawn one decade down and ends in an open
+    /// arrow: "reaches down to zero or near it".
     pub y_err: Vec<f64>,
+    /// A short label beside each point (the setting it was run at), one
+    /// per point (empty: none).
+    pub point_labels: Vec<String>,
 }
 
 impl Series {
@@ -339,7 +350,20 @@ impl Series {
         mark: Mark,
         colour: usize,
     ) -> Self {
-        Series { label: label.into(), points, mark, colour, y_err: Vec::new() }
+        Series {
+            label: label.into(),
+            points,
+            mark,
+            colour,
+            y_err: Vec::new(),
+            point_labels: Vec::new(),
+        }
+    }
+
+    /// The same series with `labels[i]` beside point `i`.
+    pub fn with_point_labels(mut self, labels: Vec<String>) -> Self {
+        self.point_labels = labels;
+        self
     }
 
     /// The same series with error bars of half-width `y_err[i]` at point `i`.

@@ -119,6 +119,20 @@ fn defects(l: &ChartLayout) -> Vec<String> {
         let mc = lower.contains("monte carlo")
             || lower.contains("montecarlo")
             || s.label.split(' ').any(|w| w == "MC");
+        if s.bars_cut_at_floor > 0 {
+            out.push(format!(
+                "series {:?}: {} error bars run into the bottom of the plot",
+                s.label, s.bars_cut_at_floor
+            ));
+        }
+        // Accuracy-against-time charts: every point of a multi-point series
+        // says which setting it is.
+        if l.stem.starts_with("pareto-") && s.points > 1 && s.labelled < s.points {
+            out.push(format!(
+                "series {:?}: {} of {} points labelled with their setting",
+                s.label, s.labelled, s.points
+            ));
+        }
         if mc && s.error_bars < s.points {
             out.push(format!(
                 "Monte Carlo series {:?}: {} of {} points have error bars",
@@ -186,6 +200,46 @@ fn the_aliasing_check_tells_a_staircase_from_a_smooth_line() {
     assert!(lines_aliased(&draw(true), &line).is_none(), "a smooth line is flagged");
 }
 
+/// Companion line charts of one study (same stem up to the second `-`)
+/// that plot against the albedo must share one x axis: `1 - albedo` on
+/// one and `1 / (1 - albedo)` on the other reads as a contradiction.
+fn companion_defects(layouts: &[ChartLayout]) -> Vec<String> {
+    let mut by_study: std::collections::BTreeMap<String, Vec<&ChartLayout>> = Default::default();
+    for l in layouts.iter().filter(|l| l.kind == "line" && l.x_label.contains("albedo")) {
+        let study: String = l.stem.splitn(3, '-').take(2).collect::<Vec<_>>().join("-");
+        by_study.entry(study).or_default().push(l);
+    }
+    let mut out = Vec::new();
+    for (study, ls) in by_study {
+        if ls.iter().any(|l| l.x_label != ls[0].x_label) {
+            let labels: Vec<String> =
+                ls.iter().map(|l| format!("{}: {}", l.stem, l.x_label)).collect();
+            out.push(format!("{study}: companion charts on different x axes ({labels:?})"));
+        }
+    }
+    out
+}
+
+#[test]
+fn companion_charts_on_different_axes_are_caught() {
+    let chart = |stem: &str, x: &str| ChartLayout {
+        stem: stem.into(),
+        kind: "line".into(),
+        x_label: x.into(),
+        ..Default::default()
+    };
+    let same = [
+        chart("diffusion-limits-total", "1 - albedo"),
+        chart("diffusion-limits-error", "1 - albedo"),
+    ];
+    assert!(companion_defects(&same).is_empty());
+    let mixed = [
+        chart("diffusion-limits-total", "1 - albedo"),
+        chart("diffusion-limits-error", "1 / (1 - albedo)"),
+    ];
+    assert_eq!(companion_defects(&mixed).len(), 1);
+}
+
 #[test]
 fn significant_digits_are_counted_as_written() {
     assert_eq!(significant_digits("0"), 1);
@@ -223,8 +277,23 @@ fn the_checks_catch_planted_defects() {
         label: "Monte Carlo 1e5".into(),
         points: 10,
         error_bars: 9,
+        ..Default::default()
     });
     assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    let mut l = clean.clone();
+    l.series.push(km_bench::chart::SeriesLayout {
+        label: "Monte Carlo".into(),
+        points: 2,
+        error_bars: 2,
+        bars_cut_at_floor: 1,
+        labelled: 0,
+    });
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    l.stem = "pareto-x-R".into();
+    l.series[0].bars_cut_at_floor = 0;
+    assert_eq!(defects(&l).len(), 1, "{:?}", defects(&l));
+    l.series[0].labelled = 2;
+    assert!(defects(&l).is_empty(), "{:?}", defects(&l));
     // Heat maps: a repeated row label, ticks between round values, and
     // marked cells without a note, each caught alone.
     let heat = ChartLayout {
@@ -288,6 +357,7 @@ fn every_chart_of_a_tiny_run_is_drawn_without_defects() {
             }
         }
     }
+    all.extend(companion_defects(&summary.charts));
     assert!(all.is_empty(), "{} chart defects:\n{}", all.len(), all.join("\n"));
     let _ = std::fs::remove_dir_all(&dir);
 }

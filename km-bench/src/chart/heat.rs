@@ -213,11 +213,12 @@ fn record(ticks: &RefCell<Vec<String>>, s: String) -> String {
 /// One axis of cells: where its ticks go (in index space, cell `i`
 /// centred on `i`) and what they say.
 ///
-/// * Cells of equal width on a linear axis whose edges are rounder
+/// * Cells of equal width on a linear axis are labelled on a round step;
+///   those whose edges are rounder
 ///   numbers than their centres (azimuth cells 0-5, 5-10, ... centred on
 ///   2.5, 7.5, ...) are labelled at their edges, every `k`-th edge with
 ///   `k` the smallest giving at most `max` labels on a round step
-///   (1, 1.5, 2, 2.5, 3, 4.5, 5, 6, 7.5 or 9 times a power of ten).
+///   (1, 1.5, 2, 2.5, 3, 4.5 or 5 times a power of ten).
 /// * Otherwise every `k`-th cell is labelled at its centre, with the
 ///   fewest significant digits (4 to 6) that keep the labels distinct.
 struct CellAxis {
@@ -225,8 +226,9 @@ struct CellAxis {
     centres: Vec<f64>,
     /// Logarithmic axis (labels as powers of ten).
     log: bool,
-    /// Edge labelling: (first edge value, cell width).
-    edges: Option<(f64, f64)>,
+    /// Equally spaced cells: (first labelled value, cell width, labelled
+    /// at the edges rather than the centres).
+    uniform: Option<(f64, f64, bool)>,
     /// Significant digits of the centre labels.
     digits: usize,
 }
@@ -234,7 +236,7 @@ struct CellAxis {
 impl CellAxis {
     fn new(centres: &[f64], log: bool) -> Self {
         let centres = centres.to_vec();
-        let edges = if log { None } else { uniform_edges(&centres) };
+        let uniform = if log { None } else { uniform_cells(&centres) };
         let digits = (4..=6)
             .find(|&d| {
                 let mut l: Vec<String> = centres.iter().map(|&v| format_sig(v, d, false)).collect();
@@ -243,24 +245,28 @@ impl CellAxis {
                 l.len() == centres.len()
             })
             .unwrap_or(6);
-        CellAxis { centres, log, edges, digits }
+        CellAxis { centres, log, uniform, digits }
     }
 
     /// Tick positions (index space), at most about `max`.
     fn positions(&self, max: usize) -> Vec<f64> {
         let n = self.centres.len().max(1);
-        if let Some((first, width)) = self.edges {
-            let k = (1..=n)
-                .find(|&k| (n / k + 1) <= max && nice_step(k as f64 * width))
-                .unwrap_or_else(|| n.div_ceil(max.max(1)).max(1));
+        if let Some((first, width, edges)) = self.uniform {
+            // Labelled places: the n + 1 edges or the n centres.
+            let places = if edges { n + 1 } else { n };
+            let offset = if edges { -0.5 } else { 0.0 };
+            let k = (1..=places)
+                .find(|&k| places.div_ceil(k) <= max && nice_step(k as f64 * width))
+                .unwrap_or_else(|| places.div_ceil(max.max(1)).max(1));
             let step = k as f64 * width;
-            // Start at the first edge on a multiple of the step.
-            let start = (0..=n).find(|&e| {
-                let v = (first + e as f64 * width) / step;
-                (v - v.round()).abs() < 1e-6
-            });
-            let start = start.unwrap_or(0);
-            return (start..=n).step_by(k).map(|e| e as f64 - 0.5).collect();
+            // Start at the first place on a multiple of the step.
+            let start = (0..places)
+                .find(|&j| {
+                    let v = (first + j as f64 * width) / step;
+                    (v - v.round()).abs() < 1e-6
+                })
+                .unwrap_or(0);
+            return (start..places).step_by(k).map(|j| j as f64 + offset).collect();
         }
         let k = n.div_ceil(max.max(1)).max(1);
         (0..n).step_by(k).map(|i| i as f64).collect()
@@ -268,7 +274,7 @@ impl CellAxis {
 
     /// The label of the tick at index-space position `v`.
     fn label(&self, v: f64) -> String {
-        if let Some((first, width)) = self.edges {
+        if let Some((first, width, true)) = self.uniform {
             let e = v + 0.5;
             if (e - e.round()).abs() > 1e-6 || e < -1e-6 || e > self.centres.len() as f64 + 1e-6 {
                 return String::new();
@@ -286,9 +292,10 @@ impl CellAxis {
     }
 }
 
-/// `(first edge, width)` when the centres are equally spaced and their
-/// edges need fewer significant digits than the centres themselves.
-fn uniform_edges(c: &[f64]) -> Option<(f64, f64)> {
+/// For equally spaced centres: `(first value, width, edges)`, labelled at
+/// the edges (`first` the first edge) when they need fewer significant
+/// digits than the centres, else at the centres (`first` the first centre).
+fn uniform_cells(c: &[f64]) -> Option<(f64, f64, bool)> {
     if c.len() < 2 {
         return None;
     }
@@ -304,16 +311,17 @@ fn uniform_edges(c: &[f64]) -> Option<(f64, f64)> {
     let first = c[0] - 0.5 * w;
     let edge_digits = (0..=c.len()).map(|e| digits(first + e as f64 * w)).max().unwrap_or(0);
     let centre_digits = c.iter().map(|&v| digits(v)).max().unwrap_or(0);
-    (edge_digits < centre_digits).then_some((first, w))
+    Some(if edge_digits < centre_digits { (first, w, true) } else { (c[0], w, false) })
 }
 
-/// Whether `step` is 1, 1.5, 2, 2.5, 3, 4.5, 5, 6, 7.5 or 9 times a power of ten.
+/// Whether `step` is 1, 1.5, 2, 2.5, 3, 4.5 or 5 times a power of ten
+/// (15, 30 and 45 for angles in degrees; 9 or 6 would label 0, 9, 18, ...).
 fn nice_step(step: f64) -> bool {
     if step.is_nan() || step <= 0.0 || !step.is_finite() {
         return false;
     }
     let m = step / 10f64.powf(step.log10().floor());
-    [1.0, 1.5, 2.0, 2.5, 3.0, 4.5, 5.0, 6.0, 7.5, 9.0, 10.0].iter().any(|n| (m - n).abs() < 1e-6)
+    [1.0, 1.5, 2.0, 2.5, 3.0, 4.5, 5.0, 10.0].iter().any(|n| (m - n).abs() < 1e-6)
 }
 
 impl HeatMap {
@@ -416,6 +424,10 @@ mod tests {
         let rows = [0.0, 0.5, 0.99, 0.9999, 0.999999, 1.0];
         let l = labels(&CellAxis::new(&rows, false), 14);
         assert_eq!(l, ["0", "0.5", "0.99", "0.9999", "0.999999", "1"]);
+        // Rows 0, 1, ..., 89: every tenth, on round values.
+        let rows: Vec<f64> = (0..90).map(f64::from).collect();
+        let want: Vec<String> = (0..9).map(|k| (10 * k).to_string()).collect();
+        assert_eq!(labels(&CellAxis::new(&rows, false), 14), want);
         // Uneven rows are labelled at their centres, all of them.
         let thetas = [1.5, 8.0, 19.7];
         assert_eq!(labels(&CellAxis::new(&thetas, false), 14), ["1.5", "8", "19.7"]);

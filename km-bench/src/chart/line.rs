@@ -39,10 +39,15 @@ impl LineChart {
                 .iter()
                 .flat_map(|s| {
                     // Error bars count towards the range on a linear axis only
-                    // (on a log axis a bar's lower end may reach zero).
+                    // (on a log axis a bar's lower end is drawn one decade
+                    // down at most, see `error_bar`).
                     s.points.iter().enumerate().flat_map(move |(i, p)| {
                         let e = s.y_err.get(i).copied().filter(|e| e.is_finite()).unwrap_or(0.0);
-                        if self.y_log { [p.1, p.1 + e, p.1] } else { [p.1 - e, p.1 + e, p.1] }
+                        if self.y_log {
+                            [p.1, p.1 + e, (p.1 - e).max(0.1 * p.1)]
+                        } else {
+                            [p.1 - e, p.1 + e, p.1]
+                        }
                     })
                 })
                 .chain(self.h_lines.iter().map(|h| h.0)),
@@ -90,12 +95,18 @@ impl LineChart {
                 if let Some(bar) = error_bar(s, i, p, yl, yr) {
                     let (a, b) = (bc(bar.0), bc(bar.1));
                     lay.segments.push([a, b]);
-                    for (end, clipped) in [(a, bar.2), (b, bar.3)] {
+                    for (end, clipped, open) in [(a, bar.2, bar.4), (b, bar.3, false)] {
                         if !clipped {
-                            lay.segments.push([(end.0 - 3.0, end.1), (end.0 + 3.0, end.1)]);
+                            lay.segments.extend(bar_end(end, open));
                         }
                     }
                     sl.error_bars += 1;
+                    sl.bars_cut_at_floor += usize::from(yl && bar.2);
+                }
+                if let Some(text) = s.point_labels.get(i).filter(|t| !t.is_empty()) {
+                    let wh = estimate(text);
+                    lay.texts.push(label_box(bc(p), wh));
+                    sl.labelled += 1;
                 }
             }
             lay.series.push(sl);
@@ -123,21 +134,49 @@ fn inside(p: (f64, f64), xr: (f64, f64), yr: (f64, f64)) -> bool {
     p.0 >= xr.0 && p.0 <= xr.1 && p.1 >= yr.0 && p.1 <= yr.1
 }
 
-/// An error bar in axis space: low end, high end, whether each end was cut.
-type Bar = ((f64, f64), (f64, f64), bool, bool);
+/// An error bar in axis space: low end, high end, whether each end was
+/// cut at the axis, whether the low end is open (an arrow: on a log axis,
+/// the bar reaches below a tenth of the value, or zero).
+type Bar = ((f64, f64), (f64, f64), bool, bool, bool);
 
 /// A text drawn in the plot: its box (pixels), anchor (axis space) and text.
 type Annotation = (PixelRect, (f64, f64), String);
 
-/// The error bar of point `i` (axis space, clipped to the y range):
-/// `(low end, high end, low clipped, high clipped)`.
+/// The error bar of point `i` (axis space, clipped to the y range).
 fn error_bar(s: &Series, i: usize, p: (f64, f64), yl: bool, yr: (f64, f64)) -> Option<Bar> {
     let e = s.y_err.get(i).copied().filter(|e| e.is_finite() && *e >= 0.0)?;
     let y = if yl { 10f64.powf(p.1) } else { p.1 };
-    let lo = to_axis(y - e, yl).unwrap_or(f64::NEG_INFINITY);
+    let open = yl && y - e < 0.1 * y;
+    let lo = if open { p.1 - 1.0 } else { to_axis(y - e, yl).unwrap_or(f64::NEG_INFINITY) };
     let hi = to_axis(y + e, yl)?;
     let (lo_c, hi_c) = (lo < yr.0, hi > yr.1);
-    Some(((p.0, lo.max(yr.0)), (p.0, hi.min(yr.1)), lo_c, hi_c))
+    Some(((p.0, lo.max(yr.0)), (p.0, hi.min(yr.1)), lo_c, hi_c, open))
+}
+
+/// The pixel segments of an error bar's end at `q` (pixels): a cap, or
+/// for an open end an arrowhead pointing down.
+fn bar_end(q: (f64, f64), open: bool) -> Vec<[(f64, f64); 2]> {
+    if open {
+        vec![[(q.0 - 3.0, q.1 - 5.0), q], [(q.0 + 3.0, q.1 - 5.0), q]]
+    } else {
+        vec![[(q.0 - 3.0, q.1), (q.0 + 3.0, q.1)]]
+    }
+}
+
+/// Font size of the points' labels.
+const POINT_LABEL_SIZE: u32 = 11;
+
+/// Pixel size of a point label's text (zero when the font cannot tell).
+fn estimate(text: &str) -> (u32, u32) {
+    let font: FontDesc<'_> = ("sans-serif", POINT_LABEL_SIZE as f64).into_font();
+    font.box_size(text).unwrap_or((0, 0))
+}
+
+/// Where a point's label goes (pixels of the text's top-left corner) for
+/// a point drawn at `c` (pixels), and its box for `text` of size `wh`.
+fn label_box(c: (f64, f64), wh: (u32, u32)) -> PixelRect {
+    let (x0, y0) = (c.0 + 5.0, c.1 - 5.0 - wh.1 as f64);
+    PixelRect { x0, y0, x1: x0 + wh.0 as f64, y1: y0 + wh.1 as f64 }
 }
 
 impl Chart for LineChart {
@@ -233,6 +272,7 @@ impl Chart for LineChart {
             layout.legend = Some(r);
         }
         layout.kind = "line".into();
+        layout.x_label = self.x_label.clone();
         layout.x_ticks = x_ticks;
         layout.y_ticks = y_ticks;
         Ok(layout)
@@ -301,21 +341,28 @@ fn draw_one_series<DB: DrawingBackend>(
         if !inside(p, xr, yr) {
             continue;
         }
-        if let Some((a, b, a_clip, b_clip)) = error_bar(s, i, p, yl, yr) {
+        if let Some((a, b, a_clip, b_clip, open)) = error_bar(s, i, p, yl, yr) {
             chart.draw_series(std::iter::once(PathElement::new(vec![a, b], thin))).map_err(pe)?;
-            // Caps: 3 pixels either side, drawn in pixels on the root.
-            for (end, clipped) in [(a, a_clip), (b, b_clip)] {
+            // Caps (or the open end's arrowhead), in pixels on the root.
+            let (rx, ry) = root.get_base_pixel();
+            for (end, clipped, open) in [(a, a_clip, open), (b, b_clip, false)] {
                 if clipped {
                     continue;
                 }
                 let q = chart.backend_coord(&end);
-                let (rx, ry) = root.get_base_pixel();
-                root.draw(&PathElement::new(
-                    vec![(q.0 - 3 - rx, q.1 - ry), (q.0 + 3 - rx, q.1 - ry)],
-                    thin,
-                ))
-                .map_err(pe)?;
+                for seg in bar_end((q.0 as f64, q.1 as f64), open) {
+                    let px = |p: (f64, f64)| (p.0.round() as i32 - rx, p.1.round() as i32 - ry);
+                    root.draw(&PathElement::new(vec![px(seg[0]), px(seg[1])], thin)).map_err(pe)?;
+                }
             }
+        }
+        if let Some(text) = s.point_labels.get(i).filter(|t| !t.is_empty()) {
+            let q = chart.backend_coord(&p);
+            let r = label_box((q.0 as f64, q.1 as f64), estimate(text));
+            let (rx, ry) = root.get_base_pixel();
+            let at = (r.x0.round() as i32 - rx, r.y0.round() as i32 - ry);
+            let style = TextStyle::from(("sans-serif", POINT_LABEL_SIZE as f64)).color(&c);
+            root.draw_text(text, &style, at).map_err(pe)?;
         }
         if matches!(s.mark, Mark::Points | Mark::LinePoints) {
             chart.draw_series(std::iter::once(Circle::new(p, 3, c.filled()))).map_err(pe)?;

@@ -290,7 +290,12 @@ fn draw_curve<DB: DrawingBackend>(
     for w in pts.windows(2) {
         layout.segments.push([fpx(bc(w[0])), fpx(bc(w[1]))]);
     }
-    layout.series.push(SeriesLayout { label: c.label.clone(), points: pts.len(), error_bars: 0 });
+    layout.series.push(SeriesLayout {
+        label: c.label.clone(),
+        points: pts.len(),
+        error_bars: 0,
+        ..Default::default()
+    });
     let style = ShapeStyle::from(&col).stroke_width(2);
     if c.dashed {
         chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)).map_err(pe)?;

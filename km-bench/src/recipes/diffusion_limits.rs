@@ -370,7 +370,7 @@ fn totals_charts(ctx: &Ctx, pts: &[Point], grid: &Grid) -> anyhow::Result<()> {
         for (gi, &g) in gs.iter().enumerate() {
             let c = 2 * ei + gi;
             let xy = |f: &dyn Fn(&Point) -> f64| -> Vec<(f64, f64)> {
-                case_pts(pts, eta, g).map(|p| (1.0 / (1.0 - p.albedo), f(p).abs())).collect()
+                case_pts(pts, eta, g).map(|p| (1.0 - p.albedo, f(p).abs())).collect()
             };
             series.push(Series::new(
                 format!("vs total, g {g}, eta {eta}"),
@@ -388,7 +388,8 @@ fn totals_charts(ctx: &Ctx, pts: &[Point], grid: &Grid) -> anyhow::Result<()> {
     }
     let chart = LineChart {
         title: "Dipole: |relative error| against multi-flux".into(),
-        x_label: "1 / (1 - albedo)".into(),
+        // The same axis as the reflectance charts it accompanies.
+        x_label: "1 - albedo".into(),
         y_label: "|dipole / reference - 1|".into(),
         x_log: true,
         y_log: true,

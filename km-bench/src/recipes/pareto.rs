@@ -243,25 +243,26 @@ fn pareto_charts(
             ..Default::default()
         };
         for (k, fam) in FAMILIES.iter().enumerate() {
-            let mut pts: Vec<(f64, f64, f64)> = points
+            let mut pts: Vec<(f64, f64, f64, String)> = points
                 .iter()
                 .filter(|p| p.method.family() == *fam && get(p).is_finite())
-                .map(|p| (p.seconds.max(1e-9), get(p).max(ERR_FLOOR), get_se(p)))
+                .map(|p| (p.seconds.max(1e-9), get(p).max(ERR_FLOOR), get_se(p), setting(p)))
                 .collect();
             if pts.is_empty() {
                 continue;
             }
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1)).collect();
+            let labels: Vec<String> = pts.iter().map(|p| p.3.clone()).collect();
             // Monte Carlo: points with their ± 1 standard error (a line
             // through noisy errors would suggest a trend that is noise).
             let series = if *fam == "montecarlo" {
-                Series::new("Monte Carlo (± 1 s.e.)", xy, Mark::Points, k)
+                Series::new(legend_name(fam), xy, Mark::Points, k)
                     .with_y_err(pts.iter().map(|p| p.2).collect())
             } else {
-                Series::new(*fam, xy, Mark::LinePoints, k)
+                Series::new(legend_name(fam), xy, Mark::LinePoints, k)
             };
-            chart.series.push(series);
+            chart.series.push(series.with_point_labels(labels));
         }
         ctx.chart(&format!("{stem}-{suffix}"), &chart)?;
         sec.figure_data(
@@ -271,6 +272,29 @@ fn pareto_charts(
         );
     }
     Ok(())
+}
+
+/// The legend's name of a method family, saying what its points' labels are.
+fn legend_name(family: &str) -> String {
+    match family {
+        "km" => "two-flux Kubelka-Munk".into(),
+        "multiflux" => "multi-flux (label: streams)".into(),
+        "neumann" => "adding by the Neumann series, truncated (label: order)".into(),
+        "direction-set" => "seed's direction-set (label: directions)".into(),
+        "montecarlo" => "Monte Carlo ± 1 s.e. (label: photons; arrow: to 0)".into(),
+        "dipole" => "diffusion dipole".into(),
+        other => other.into(),
+    }
+}
+
+/// A point's label: its setting (streams, order, directions, photons), or
+/// nothing for the methods without one.
+fn setting(p: &Point) -> String {
+    match p.method {
+        Method::TwoFlux | Method::Dipole => String::new(),
+        Method::MonteCarlo { samples, .. } => format!("{:.0e}", samples as f64),
+        _ => format!("{}", p.method.setting()),
+    }
 }
 
 /// Rows of the table: per family, the time to reach each threshold.

@@ -346,9 +346,9 @@ pub fn speedup(ctx: &mut Ctx) -> anyhow::Result<Section> {
         ratio_text((t_mc / one.median, t_mc / one.max, t_mc / one.min))
     );
     ctx.extrapolated = format!(
-        "equal accuracy {:.1e}x at {} streams, {:.0}x at MC-1e5 accuracy (MC photons from \
+        "{} at {} streams, {:.0}x at MC-1e5 accuracy (MC photons from \
          N (noise/error)^2); paper settings {:.0}x ({})",
-        headline_ratio,
+        headline_ratio.text(),
         km_multiflux::DEFAULT_STREAMS,
         paper_acc_ratio,
         mc_full / t_full_ds,
@@ -395,12 +395,46 @@ struct Probe {
 /// reach the same BRDF error (`N_eq = N (noise / error)^2`): the table, the
 /// rows `(streams, seconds, error)`, and the ratio at the default streams.
 #[allow(clippy::type_complexity)]
+/// The equal-accuracy study: its table, per stream count (streams,
+/// multi-flux seconds, BRDF error), the comparison at the default streams
+/// and the CSV.
+type EqualAccuracyRun = (Table, Vec<(usize, f64, f64)>, EqualAccuracy, Csv);
+
+/// The extrapolated equal-accuracy comparison at the default streams.
+#[derive(Debug, Clone, Copy)]
+struct EqualAccuracy {
+    /// Monte Carlo time over multi-flux time.
+    ratio: f64,
+    /// Photons Monte Carlo would need.
+    photons: f64,
+    /// Seconds Monte Carlo would need.
+    seconds: f64,
+    /// Multi-flux's BRDF error (rel. RMS) being matched.
+    error: f64,
+}
+
+impl EqualAccuracy {
+    /// In words: a ratio while it means something (up to 1e6), else what
+    /// Monte Carlo would need, so that no 1e18x stands in a summary.
+    fn text(&self) -> String {
+        if self.ratio.is_finite() && self.ratio <= 1e6 {
+            format!("equal accuracy {:.1e}x", self.ratio)
+        } else {
+            format!(
+                "equal accuracy out of Monte Carlo's reach (BRDF error {:.1e} needs {:.0e} photons, \
+                 about {:.0e} s)",
+                self.error, self.photons, self.seconds
+            )
+        }
+    }
+}
+
 fn equal_accuracy(
     scene: &Scene,
     b_ref: &[f64],
     probe: &Probe,
     ref_streams: usize,
-) -> anyhow::Result<(Table, Vec<(usize, f64, f64)>, f64, Csv)> {
+) -> anyhow::Result<EqualAccuracyRun> {
     let mut t = Table::new(&[
         "multi-flux streams",
         "multi-flux time: median (min to max)",
@@ -409,7 +443,8 @@ fn equal_accuracy(
         "extrapolated: MC time for that error (s)",
         "extrapolated: speed-up at equal accuracy",
     ]);
-    let mut headline_ratio = f64::NAN;
+    let mut headline_ratio =
+        EqualAccuracy { ratio: f64::NAN, photons: f64::NAN, seconds: f64::NAN, error: f64::NAN };
     let Probe { samples, seconds: t_mc, noise } = *probe;
     let mut csv = Csv::new(&[
         "streams",
@@ -434,7 +469,7 @@ fn equal_accuracy(
         let t_eq = t_mc * n_eq / samples as f64;
         let ratio = t_eq / t_mf;
         if streams == km_multiflux::DEFAULT_STREAMS {
-            headline_ratio = ratio;
+            headline_ratio = EqualAccuracy { ratio, photons: n_eq, seconds: t_eq, error: e };
         }
         rows.push((streams, t_mf, e));
         csv.push_nums(&[streams as f64, t_mf, e, n_eq, t_eq, ratio]);

@@ -74,8 +74,9 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
             );
             let band = Band { name, ch, c, entering, dip_total: dip_tot[c], dr: bins.dr };
             let (cells, median) = profile_row(&band, &preset, &mc, &dip);
-            if let Some(m) = median {
-                worst.push((m, format!("{name} {ch}")));
+            // The headline quotes medians over enough annuli to mean one.
+            if let Some((m, n)) = median.filter(|m| m.1 >= MIN_ANNULI) {
+                worst.push((m, format!("{name} {ch}, {n} annuli")));
             }
             table.push(cells);
         }
@@ -84,7 +85,7 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
             &stem,
             format!(
                 "Rd(r) of {name}: dipole (lines) against Monte Carlo ({samples:.1e} photons per \
-                 channel, points with ± 1 standard error, a bar reaching zero cut at the axis; the axis spans the Monte Carlo points, the dipole lines are cut at its bottom); MC \
+                 channel, points with ± 1 standard error, a bar reaching below a tenth of its point drawn one decade down to an arrow; the axis spans the Monte Carlo points, the dipole lines are cut at its bottom); MC \
                  {t_mc:.1} s"
             ),
         );
@@ -105,11 +106,17 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
     worst.sort_by(|a, b| b.0.total_cmp(&a.0));
     Ok(match worst.first() {
         Some((m, w)) if m.is_finite() => {
-            format!("Rd(r) worst median error {:.0} % ({w})", 100.0 * m)
+            format!(
+                "Rd(r) beyond 1/sigma_t': median |dipole/MC - 1| at most {:.0} % ({w})",
+                100.0 * m
+            )
         }
-        _ => "Rd(r) computed".into(),
+        _ => format!("Rd(r) computed (no channel has {MIN_ANNULI} annuli with MC s.e. < 10 %)"),
     })
 }
+
+/// Fewest annuli a median must rest on to reach the headline.
+const MIN_ANNULI: usize = 10;
 
 /// One channel of one preset in the `Rd(r)` table.
 struct Band<'a> {
@@ -132,7 +139,7 @@ fn profile_row(
     preset: &km_core::presets::Preset,
     mc: &km_montecarlo::RadialProfile,
     dip: &[Vec<f64>],
-) -> (Vec<String>, Option<f64>) {
+) -> (Vec<String>, Option<(f64, usize)>) {
     let c = b.c;
     let sp = preset.sigma_s_prime[c];
     let st = sp + preset.sigma_a[c];
@@ -176,7 +183,7 @@ fn profile_row(
         },
         format!("{:.3}", b.entering * b.dip_total / mc_tot),
     ];
-    (cells, median.is_finite().then_some(median))
+    (cells, median.is_finite().then_some((median, rel.len())))
 }
 
 /// `diffusion-limits-rd-NAME.csv`: per radius, per channel, the Monte Carlo
@@ -229,8 +236,9 @@ fn profile_chart(
     dip: &[Vec<f64>],
     series: Vec<Series>,
 ) -> LineChart {
-    // The y axis spans the Monte Carlo points (down to a third of the
-    // smallest): the dipole goes on decaying far below what the tracer
+    // The y axis spans the Monte Carlo points and their error bars (an
+    // open bar ends one decade below its point, so down to a twelfth of
+    // the smallest point): the dipole goes on decaying far below what the tracer
     // resolves, and its lines are cut at the axis.
     let mc_pos = mc.rd.iter().flatten().copied().filter(|v| v.is_finite() && *v > 0.0);
     let (lo, hi) = mc_pos.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
@@ -240,7 +248,7 @@ fn profile_chart(
         x_label: "r (mm)".into(),
         y_label: "Rd(r) (1/mm^2)".into(),
         y_log: true,
-        y_range: (lo.is_finite() && top > lo).then_some((lo / 3.0, 2.0 * top)),
+        y_range: (lo.is_finite() && top > lo).then_some((lo / 12.0, 2.0 * top)),
         series,
         ..Default::default()
     }
