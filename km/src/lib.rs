@@ -81,7 +81,9 @@ pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
 pub use run::{METHOD_SETTINGS, MethodSetting, mc_shard, solve_repeated};
 pub use solver::{MethodOptions, Options, Solver};
-pub use sweep::{SweepAxis, SweepFormat, SweepPoint, sweep, sweep_text};
+pub use sweep::{
+    MAX_POINTS as SWEEP_MAX_POINTS, SweepAxis, SweepFormat, SweepPoint, sweep, sweep_text,
+};
 
 /// The README's examples, compiled and run as doctests.
 #[doc = include_str!("../../README.md")]
