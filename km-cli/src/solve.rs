@@ -262,6 +262,7 @@ fn options(args: &SolveArgs) -> Result<km::Options> {
         tolerance: args.tolerance,
         all_effects: args.all_effects,
         cone_deg: args.cone,
+        budget: 1.0,
     };
     opts.with_budget(args.budget).map_err(option_flag)
 }

@@ -134,6 +134,7 @@ impl Options {
             tolerance: self.tolerance,
             all_effects: self.all_effects,
             cone_deg: self.cone,
+            budget: 1.0,
         })
     }
 }

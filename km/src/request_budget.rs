@@ -14,13 +14,34 @@ use crate::{KmError, MethodOptions, Options};
 /// 10^5 points of a two-layer scene took about 60 s, 0.6 ms a point).
 pub const SWEEP_POINT_OVERHEAD: f64 = 2e5;
 
+/// Work of one two-flux point of a sweep, everything included (the edited
+/// scene, the four-flux solve and its 2-4-stream model error estimate, the
+/// row), in multi-flux work units of 1.5 ns: 0.69 ms of CPU per point
+/// (measured: a 10^5-point `km sweep --method km` of one layer took 34.7 s
+/// on 2 cores).
+pub const KM_POINT_WORK: f64 = 4.6e5;
+
+/// The same for a dipole point: 76 us of CPU (a 10^5-point sweep 3.8 s on
+/// 2 cores).
+pub const DIPOLE_POINT_WORK: f64 = 5e4;
+
+/// Work of one direction-set solve at the paper's 303 directions: 0.57 s
+/// (measured on one layer; 50 / 100 / 303 / 1000 directions took 0.012 /
+/// 0.064 / 0.57 / 5.1 s, close to the square of the count above 100, the
+/// scaling used for other counts).
+pub const DIRECTION_SET_303_WORK: f64 = 3.8e8;
+
 /// Work of one point of a request, in the units of the method's budget, and
 /// that budget: multi-flux work units (eq. W1 of `km-multiflux/src/budget.rs`)
-/// against `max_work`; Monte Carlo photon steps
-/// projected by the pilot of eq. L2 against `max_events`.
-/// `None` for the methods without a work budget (two-flux, direction set,
-/// dipole: closed forms or small dense solves).
+/// against `max_work`; Monte Carlo photon steps projected by the pilot of
+/// eq. L2 against `max_events`. The methods without a budget of their own
+/// (two-flux, dipole, direction set) are charged their measured cost per
+/// point ([`KM_POINT_WORK`], [`DIPOLE_POINT_WORK`],
+/// [`DIRECTION_SET_303_WORK`]) in multi-flux work units against the default
+/// multi-flux budget times [`Options::budget`]. `None` for a Monte Carlo
+/// run without a step budget.
 pub fn point_work(scene: &Scene, options: &Options) -> Option<(f64, f64, &'static str)> {
+    let shared = crate::multiflux_budget::DEFAULT_MAX_WORK * options.budget;
     match &options.method {
         MethodOptions::Multiflux(o) => {
             let w = km_multiflux::budget::estimate(scene, o).units;
@@ -36,7 +57,12 @@ pub fn point_work(scene: &Scene, options: &Options) -> Option<(f64, f64, &'stati
             let steps = km_montecarlo::projected_steps(scene, o).unwrap_or(floor);
             Some((steps, budget, "photon steps"))
         }
-        MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_) => None,
+        MethodOptions::Km(_) => Some((KM_POINT_WORK, shared, "multi-flux work units")),
+        MethodOptions::Dipole(_) => Some((DIPOLE_POINT_WORK, shared, "multi-flux work units")),
+        MethodOptions::DirectionSet(o) => {
+            let d = o.directions as f64 / 303.0;
+            Some((DIRECTION_SET_303_WORK * d * d, shared, "multi-flux work units"))
+        }
     }
 }
 
@@ -60,8 +86,11 @@ pub fn check_points(
     let Some((work, budget, unit)) = point_work(scene, options) else {
         return Ok(());
     };
-    let multiflux = matches!(options.method, MethodOptions::Multiflux(_));
-    let per_point = if multiflux { work + overhead } else { work };
+    // The overhead is the multi-flux and direction-set points' (the
+    // closed forms' measured costs include it; Monte Carlo's steps dwarf it).
+    let dense =
+        matches!(options.method, MethodOptions::Multiflux(_) | MethodOptions::DirectionSet(_));
+    let per_point = if dense { work + overhead } else { work };
     let total = per_point * points as f64;
     if points > 1 && total > budget {
         return Err(KmError::RequestTooLarge { points, per_point, total, budget, unit });

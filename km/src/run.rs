@@ -11,7 +11,8 @@ impl Options {
     /// multi-flux work (eq. W1 of docs/limits.md), the Monte Carlo photon
     /// steps and tally memory. The two-flux and dipole closed forms and the
     /// direction set (bounded by its own limits, [`crate::direction_set`])
-    /// have no budget (and no check of `factor`).
+    /// have no budget for one solve; `factor` scales what a request of many
+    /// of their points may cost ([`Options::budget`]).
     ///
     /// # Errors
     /// [`KmError::Option`] named `budget` when `factor` is not finite and > 0.
@@ -23,12 +24,6 @@ impl Options {
     /// assert!(km::Options::new(km::Method::Mc).with_budget(0.0).is_err());
     /// ```
     pub fn with_budget(mut self, factor: f64) -> Result<Options, KmError> {
-        if matches!(
-            self.method,
-            MethodOptions::Km(_) | MethodOptions::DirectionSet(_) | MethodOptions::Dipole(_)
-        ) {
-            return Ok(self);
-        }
         if !(factor.is_finite() && factor > 0.0) {
             return Err(KmError::Option {
                 name: "budget",
@@ -36,6 +31,7 @@ impl Options {
                 reason: "must be a finite factor > 0",
             });
         }
+        self.budget = factor;
         let scale = |x: u64| (x as f64 * factor).min(u64::MAX as f64) as u64;
         match &mut self.method {
             MethodOptions::Multiflux(o) => {

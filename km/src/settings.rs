@@ -519,6 +519,7 @@ impl Settings {
             tolerance: self.real("tolerance"),
             all_effects,
             cone_deg: self.real("cone"),
+            budget: 1.0,
         };
         match self.get("budget") {
             Some(Value::Real(f)) => options.with_budget(*f),

@@ -233,6 +233,12 @@ pub struct Options {
     /// ([`crate::cone`]); `None`: Monte Carlo's default bins, multi-flux
     /// values at the directions themselves.
     pub cone_deg: Option<f64>,
+    /// Factor on the default budgets (`--budget`; 1 by default), set by
+    /// [`Options::with_budget`]: the methods with a work budget have theirs
+    /// scaled there; a request of many points of the methods without one
+    /// (two-flux, dipole, direction set) is held to the default multi-flux
+    /// budget times this factor ([`crate::request_budget`]).
+    pub budget: f64,
 }
 
 impl Options {
@@ -268,7 +274,7 @@ impl Options {
 
 impl From<MethodOptions> for Options {
     fn from(method: MethodOptions) -> Options {
-        Options { method, tolerance: None, all_effects: false, cone_deg: None }
+        Options { method, tolerance: None, all_effects: false, cone_deg: None, budget: 1.0 }
     }
 }
 

@@ -164,27 +164,28 @@ pub fn sweep(
             axes.iter().zip(point).map(|(a, v)| format!("{}={v}", a.key)).collect();
         KmError::SweepPoint { point: at.join(" "), source: Box::new(e) }
     };
-    let results: Vec<Result<SweepPoint, KmError>> = (0..total)
-        .into_par_iter()
-        .map(|index| {
-            // Mixed-radix digits of `index`, the last axis fastest.
-            let mut rest = index;
-            let mut point = vec![0.0; axes.len()];
-            for (k, a) in axes.iter().enumerate().rev() {
-                point[k] = values[k][rest % a.n];
-                rest /= a.n;
-            }
-            let solve = || {
-                let scene = Scene::from_toml_str_edited(text, &edits_at(&point))?;
-                crate::solve(&scene, options)
-            };
-            match solve() {
-                Ok(solution) => Ok(SweepPoint { values: point, solution }),
-                Err(e) => Err(named(&point, e)),
-            }
-        })
-        .collect();
-    results.into_iter().collect()
+    let solve_at = |index: usize| {
+        // Mixed-radix digits of `index`, the last axis fastest.
+        let mut rest = index;
+        let mut point = vec![0.0; axes.len()];
+        for (k, a) in axes.iter().enumerate().rev() {
+            point[k] = values[k][rest % a.n];
+            rest /= a.n;
+        }
+        let solve = || {
+            let scene = Scene::from_toml_str_edited(text, &edits_at(&point))?;
+            crate::solve(&scene, options)
+        };
+        match solve() {
+            Ok(solution) => Ok(SweepPoint { values: point, solution }),
+            Err(e) => Err(named(&point, e)),
+        }
+    };
+    // The first point alone first: a scene the method cannot treat at all
+    // is refused at once, not after every point has failed in parallel.
+    let first = solve_at(0)?;
+    let rest: Vec<Result<SweepPoint, KmError>> = (1..total).into_par_iter().map(solve_at).collect();
+    std::iter::once(Ok(first)).chain(rest).collect()
 }
 
 /// How [`sweep_text`] lays out the rows.
