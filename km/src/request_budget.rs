@@ -18,12 +18,13 @@ pub const SWEEP_POINT_OVERHEAD: f64 = 2e5;
 /// scene, the four-flux solve and its 2-4-stream model error estimate, the
 /// row), in multi-flux work units of 1.5 ns: 0.69 ms of CPU per point
 /// (measured: a 10^5-point `km sweep --method km` of one layer took 34.7 s
-/// on 2 cores).
+/// on 2 cores at load 8).
 pub const KM_POINT_WORK: f64 = 4.6e5;
 
-/// The same for a dipole point: 76 us of CPU (a 10^5-point sweep 3.8 s on
-/// 2 cores).
-pub const DIPOLE_POINT_WORK: f64 = 5e4;
+/// The same for a dipole point (its model error estimate included): 1.2 ms
+/// of CPU (a 10^5-point sweep of `examples/marble-half-space.toml` over `g`
+/// took 60.6 s on 2 cores).
+pub const DIPOLE_POINT_WORK: f64 = 8e5;
 
 /// Work of one direction-set solve at the paper's 303 directions: 0.57 s
 /// (measured on one layer; 50 / 100 / 303 / 1000 directions took 0.012 /
