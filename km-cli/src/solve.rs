@@ -216,6 +216,7 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
             (
                 KmError::NoAccuracySetting { .. }
                 | KmError::TargetUnreachable { .. }
+                | KmError::TargetOverBudget { .. }
                 | KmError::Option { name: "accuracy target", .. },
                 Some(t),
             ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
