@@ -16,6 +16,7 @@ mod bsdf;
 mod field;
 mod fit;
 mod mc;
+mod progress;
 #[cfg(test)]
 mod settings_parity;
 mod solve;
