@@ -283,3 +283,97 @@ fn write_plot(fit: &DrawdownFit, dir: &Path) -> Result<[PathBuf; 2]> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     write_chart(dir, "km-fit-km", &chart)
 }
+
+/// The modes of `km fit`, decided by `--km` and the measurement file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// `--km`: the Kubelka–Munk inverse of drawdowns.
+    Km,
+    /// `--m-r`/`--m-t` on the command line: the slab inverse.
+    Slab,
+    /// An `.rxt` file: its header gives the sample and the spheres.
+    Rxt,
+    /// A `.csv` spectrum: the flags give the sample.
+    Csv,
+}
+
+impl Mode {
+    fn words(self) -> &'static str {
+        match self {
+            Mode::Km => "--km (the Kubelka–Munk inverse of drawdowns: the readings are --r-*)",
+            Mode::Slab => "the slab inverse of --m-r/--m-t",
+            Mode::Rxt => "an .rxt file (its header gives the sample, the slides and the spheres)",
+            Mode::Csv => "a .csv spectrum (its columns give the measurements)",
+        }
+    }
+}
+
+use Mode::{Csv, Km, Rxt, Slab};
+
+/// Every flag of `km fit` (clap id) and the modes it applies to.
+const FIT_FLAGS: &[(&str, &[Mode])] = &[
+    ("file", &[Rxt, Csv]),
+    ("m_r", &[Slab]),
+    ("m_t", &[Slab]),
+    ("m_u", &[Slab]),
+    ("sigma_r", &[Slab, Rxt, Csv]),
+    ("sigma_t", &[Slab, Rxt, Csv]),
+    ("sigma_u", &[Slab, Rxt, Csv]),
+    ("thickness", &[Km, Slab, Csv]),
+    ("n_sample", &[Km, Slab, Csv]),
+    ("n_slide", &[Slab, Csv]),
+    ("g", &[Slab, Rxt, Csv]),
+    ("specular_in_m_r", &[Slab, Rxt, Csv]),
+    ("unscattered_in_m_t", &[Slab, Rxt, Csv]),
+    ("exclude_specular", &[Slab, Rxt, Csv]),
+    ("exclude_unscattered", &[Slab, Rxt, Csv]),
+    ("incidence", &[Slab, Csv]),
+    ("streams", &[Slab, Rxt, Csv]),
+    ("r_black", &[Km]),
+    ("r_white", &[Km]),
+    ("r_white_ground", &[Km]),
+    ("r_black_ground", &[Km]),
+    ("plot", &[Km]),
+    ("r_inf", &[Km]),
+    ("r_zero", &[Km]),
+    ("k2", &[Km]),
+];
+
+/// Refuse a flag of `km fit` that does not apply to its mode (`--km`, the
+/// slab inverse of `--m-r`/`--m-t`, an `.rxt` or a `.csv` file), naming
+/// the mode: a flag that would be silently ignored is an error.
+pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
+    let Some(("fit", m)) = matches.subcommand() else { return Ok(()) };
+    let given = |id: &str| {
+        matches!(m.try_get_raw(id), Ok(Some(_)))
+            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+    };
+    let file = m.try_get_one::<PathBuf>("file").ok().flatten();
+    let mode = if given("km") {
+        Km
+    } else if let Some(f) = file {
+        let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+        if ext == "rxt" { Rxt } else { Csv }
+    } else {
+        Slab
+    };
+    for (id, modes) in FIT_FLAGS {
+        if given(id) && !modes.contains(&mode) {
+            let flag = if *id == "file" {
+                "a measurement file".to_string()
+            } else {
+                format!("--{}", id.replace('_', "-"))
+            };
+            if *id == "file" {
+                bail!("{flag} does not apply to {}", mode.words());
+            }
+            let applies: Vec<_> = modes.iter().map(|x| x.words()).collect();
+            bail!(
+                "{flag} does not apply to {}; it applies to {}",
+                mode.words(),
+                applies.join(", to ")
+            );
+        }
+    }
+    Ok(())
+}

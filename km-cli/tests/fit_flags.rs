@@ -1,0 +1,148 @@
+//! `km fit` refuses every flag that does not apply to its mode (`--km`,
+//! the slab inverse of `--m-r`/`--m-t`, an `.rxt` file, a `.csv` file),
+//! naming the flag and the mode, before any fit: one test per flag.
+
+use std::process::Command;
+
+fn km(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_km")).args(args).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+const RXT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/fit-synthetic.rxt");
+const CSV: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/fit-spectrum.csv");
+
+/// The base command of each mode (valid on its own).
+fn base(mode: &str) -> Vec<&'static str> {
+    match mode {
+        "km" => vec!["fit", "--km", "--r-inf", "0.6"],
+        "slab" => vec!["fit", "--m-r", "0.2726", "--m-t", "0.2991", "--thickness", "1"],
+        "rxt" => vec!["fit", RXT],
+        "csv" => vec!["fit", CSV, "--thickness", "1"],
+        _ => unreachable!(),
+    }
+}
+
+fn assert_refused(mode: &str, extra: &[&str], flag: &str, mode_words: &str) {
+    let mut args = base(mode);
+    args.extend_from_slice(extra);
+    let (ok, err) = km(&args);
+    assert!(!ok, "{args:?} was accepted");
+    assert!(err.contains(flag) && err.contains("does not apply to"), "{args:?}: {err}");
+    assert!(err.contains(mode_words), "{args:?}: {err}");
+}
+
+macro_rules! refused {
+    ($($name:ident: $mode:literal, [$($extra:literal),*], $flag:literal, $words:literal;)*) => {
+        $(
+            #[test]
+            fn $name() {
+                assert_refused($mode, &[$($extra),*], $flag, $words);
+            }
+        )*
+    };
+}
+
+refused! {
+    km_refuses_m_r: "km", ["--m-r", "0.2"], "--m-r", "--km";
+    km_refuses_m_t: "km", ["--m-t", "0.2"], "--m-t", "--km";
+    km_refuses_m_u: "km", ["--m-u", "0.1"], "--m-u", "--km";
+    km_refuses_sigma_r: "km", ["--sigma-r", "0.01"], "--sigma-r", "--km";
+    km_refuses_sigma_t: "km", ["--sigma-t", "0.01"], "--sigma-t", "--km";
+    km_refuses_sigma_u: "km", ["--sigma-u", "0.01"], "--sigma-u", "--km";
+    km_refuses_n_slide: "km", ["--n-slide", "1.5"], "--n-slide", "--km";
+    km_refuses_g: "km", ["--g", "0.5"], "--g", "--km";
+    km_refuses_specular_in_m_r: "km", ["--specular-in-m-r", "0.5"], "--specular-in-m-r", "--km";
+    km_refuses_unscattered_in_m_t: "km", ["--unscattered-in-m-t", "0.5"], "--unscattered-in-m-t", "--km";
+    km_refuses_exclude_specular: "km", ["--exclude-specular"], "--exclude-specular", "--km";
+    km_refuses_exclude_unscattered: "km", ["--exclude-unscattered"], "--exclude-unscattered", "--km";
+    km_refuses_incidence: "km", ["--incidence", "8"], "--incidence", "--km";
+    km_refuses_streams: "km", ["--streams", "16"], "--streams", "--km";
+    km_refuses_a_file: "km", ["examples/fit-synthetic.rxt"], "a measurement file", "--km";
+    slab_refuses_r_black: "slab", ["--r-black", "0.3"], "--r-black", "slab inverse";
+    slab_refuses_r_white: "slab", ["--r-white", "0.5"], "--r-white", "slab inverse";
+    slab_refuses_r_white_ground: "slab", ["--r-white-ground", "0.8"], "--r-white-ground", "slab inverse";
+    slab_refuses_r_black_ground: "slab", ["--r-black-ground", "0.01"], "--r-black-ground", "slab inverse";
+    slab_refuses_plot: "slab", ["--plot", "out"], "--plot", "slab inverse";
+    slab_refuses_r_inf: "slab", ["--r-inf", "0.6"], "--r-inf", "slab inverse";
+    slab_refuses_r_zero: "slab", ["--r-zero", "0.3"], "--r-zero", "slab inverse";
+    slab_refuses_k2: "slab", ["--k2", "0.6"], "--k2", "slab inverse";
+    rxt_refuses_thickness: "rxt", ["--thickness", "2"], "--thickness", ".rxt file";
+    rxt_refuses_n_sample: "rxt", ["--n-sample", "1.33"], "--n-sample", ".rxt file";
+    rxt_refuses_n_slide: "rxt", ["--n-slide", "1.5"], "--n-slide", ".rxt file";
+    rxt_refuses_incidence: "rxt", ["--incidence", "8"], "--incidence", ".rxt file";
+    rxt_refuses_m_r: "rxt", ["--m-r", "0.2"], "--m-r", ".rxt file";
+    rxt_refuses_k2: "rxt", ["--k2", "0.6"], "--k2", ".rxt file";
+    csv_refuses_m_t: "csv", ["--m-t", "0.3"], "--m-t", ".csv spectrum";
+    csv_refuses_r_inf: "csv", ["--r-inf", "0.6"], "--r-inf", ".csv spectrum";
+}
+
+#[test]
+fn flags_of_the_mode_are_accepted() {
+    // The same flags in the mode they belong to run (exit 0).
+    let mut slab = base("slab");
+    slab.extend(["--sigma-r", "0.001", "--exclude-specular", "--streams", "16", "--g", "0.1"]);
+    let (ok, err) = km(&slab);
+    assert!(ok, "{err}");
+    let (ok, err) = km(&[&base("km")[..], &["--thickness", "0.05", "--r-zero", "0.3"]].concat());
+    assert!(ok, "{err}");
+    let (ok, err) = km(&[&base("rxt")[..], &["--sigma-r", "0.001", "--streams", "8"]].concat());
+    assert!(ok, "{err}");
+}
+
+#[test]
+fn every_example_of_km_fit_help_exists_and_runs() {
+    // The examples of `km fit --help` (km-cli/help/fit.txt), run from the
+    // workspace root as written: every file they name exists, every one exits 0.
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    let help = include_str!("../help/fit.txt");
+    let examples: Vec<&str> = help.lines().filter_map(|l| l.trim().strip_prefix("km ")).collect();
+    assert!(examples.len() >= 5, "{help}");
+    for ex in examples {
+        let args: Vec<&str> = ex.split_whitespace().collect();
+        for a in args.iter().filter(|a| a.starts_with("examples/")) {
+            assert!(std::path::Path::new(root).join(a).is_file(), "{a} of `km {ex}` is missing");
+        }
+        let out = Command::new(env!("CARGO_BIN_EXE_km")).args(&args).current_dir(root).output();
+        let out = out.unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "`km {ex}` failed: {err}");
+        assert!(!out.stdout.is_empty(), "`km {ex}` printed nothing");
+    }
+}
+
+#[test]
+fn a_one_sphere_file_says_what_it_does_not_model_and_where_u_comes_from() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    let out = Command::new(env!("CARGO_BIN_EXE_km"))
+        .args(["fit", "examples/fit-phantom.rxt"])
+        .current_dir(root)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let table = String::from_utf8_lossy(&out.stdout);
+    for words in [
+        "lost light is not modelled",
+        "beam diameter of the file is not used",
+        "u(mu_s')",
+        "1/length",
+        "default measurement uncertainty 1e-4",
+    ] {
+        assert!(table.contains(words), "{words:?} missing from\n{table}");
+    }
+    // The file's rows were made by the measurement model at the albedos of
+    // its comments (0.9, 0.95, 0.99; b = 2): the fit recovers them to the
+    // stream rule's accuracy (docs/inverse.md eq. I7; 1e-4 is ample).
+    let out = Command::new(env!("CARGO_BIN_EXE_km"))
+        .args(["fit", "examples/fit-phantom.rxt", "--json", "--sigma-r", "0.002"])
+        .current_dir(root)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for (row, a) in v.as_array().unwrap().iter().zip([0.9, 0.95, 0.99]) {
+        assert!((row["albedo"].as_f64().unwrap() - a).abs() < 1e-4, "{row}");
+        assert_eq!(row["uncertainty"]["sigma_given"], true, "{row}");
+        let notes = row["notes"].to_string();
+        assert!(notes.contains("lost light"), "{notes}");
+    }
+}
