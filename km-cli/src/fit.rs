@@ -14,6 +14,7 @@ use km_inverse::forward::Sample;
 use km_inverse::rxt::{parse_csv, parse_rxt};
 use km_inverse::slab::{FitOptions, Measurement, Setup};
 use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
+use km_inverse::sphere::{Sphere, SphereSetup};
 use km_inverse::text::{drawdown_report, fits_table};
 
 use crate::stdout;
@@ -70,6 +71,23 @@ pub struct FitArgs {
     /// Polar angle of the incident beam in degrees (default 0).
     #[arg(long, default_value_t = 0.0)]
     pub incidence: f64,
+    /// Integrating spheres used at a time (iad -S): 0 (the totals themselves, the default),
+    /// 1 (substitution) or 2 (double sphere); 1 and 2 need --r-sphere.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=2))]
+    pub spheres: Option<u8>,
+    /// The reflection sphere (iad -1): sphere, sample port, entrance port and detector port
+    /// diameters (one length unit), and the wall reflectance.
+    #[arg(long = "r-sphere", num_args = 5, allow_negative_numbers = true,
+          value_names = ["D_SPHERE", "D_SAMPLE", "D_ENTRANCE", "D_DETECTOR", "R_WALL"])]
+    pub r_sphere: Option<Vec<f64>>,
+    /// The transmission sphere (iad -2): sphere, sample port, exit port and detector port
+    /// diameters, and the wall reflectance (default: the same as --r-sphere).
+    #[arg(long = "t-sphere", num_args = 5, allow_negative_numbers = true,
+          value_names = ["D_SPHERE", "D_SAMPLE", "D_EXIT", "D_DETECTOR", "R_WALL"])]
+    pub t_sphere: Option<Vec<f64>>,
+    /// Reflectance of the reflection standard with spheres (the .rxt header's; default 1).
+    #[arg(long = "r-std")]
+    pub r_std: Option<f64>,
     /// Fixed stream count of the forward model (default: the rule of docs/inverse.md eq. I7).
     #[arg(long)]
     pub streams: Option<usize>,
@@ -123,7 +141,44 @@ impl FitArgs {
         let sample = Sample::new(d, self.n_sample.unwrap_or(1.0), self.n_slide)?
             .with_incidence(self.incidence)?;
         let (c, c_t) = self.fractions();
-        Ok(Setup { specular_in_m_r: c, unscattered_in_m_t: c_t, ..Setup::new(sample) })
+        let spheres = self.spheres()?;
+        Ok(Setup { specular_in_m_r: c, unscattered_in_m_t: c_t, spheres, ..Setup::new(sample) })
+    }
+
+    /// The spheres of `--spheres`, `--r-sphere`, `--t-sphere`, `--r-std` (iad's -S, -1, -2).
+    fn spheres(&self) -> Result<Option<SphereSetup>> {
+        let count = self.spheres.unwrap_or(0);
+        if count == 0 {
+            if self.r_sphere.is_some() || self.t_sphere.is_some() || self.r_std.is_some() {
+                bail!("--r-sphere, --t-sphere and --r-std describe spheres: give --spheres 1 or 2");
+            }
+            return Ok(None);
+        }
+        let Some(r) = &self.r_sphere else {
+            bail!(
+                "--spheres {count} needs --r-sphere D_SPHERE D_SAMPLE D_ENTRANCE D_DETECTOR R_WALL"
+            );
+        };
+        let sphere = |v: &[f64]| Sphere {
+            d_sphere: v[0],
+            d_sample: v[1],
+            d_third: v[2],
+            d_detector: v[3],
+            r_wall: v[4],
+            r_detector: 0.0,
+        };
+        let r_sphere = sphere(r);
+        let t_sphere = self.t_sphere.as_deref().map_or(r_sphere, sphere);
+        let set = SphereSetup {
+            count: count.into(),
+            r_sphere,
+            t_sphere,
+            r_std: self.r_std.unwrap_or(1.0),
+            t_std: 1.0,
+            baffle: true,
+        };
+        set.validate()?;
+        Ok(Some(set))
     }
 
     /// The Kubelka–Munk inputs of `--km` (`--n-sample` is the binder's index).
@@ -329,6 +384,10 @@ const FIT_FLAGS: &[(&str, &[Mode])] = &[
     ("exclude_unscattered", &[Slab, Rxt, Csv]),
     ("incidence", &[Slab, Csv]),
     ("streams", &[Slab, Rxt, Csv]),
+    ("spheres", &[Slab, Csv]),
+    ("r_sphere", &[Slab, Csv]),
+    ("t_sphere", &[Slab, Csv]),
+    ("r_std", &[Slab, Csv]),
     ("r_black", &[Km]),
     ("r_white", &[Km]),
     ("r_white_ground", &[Km]),

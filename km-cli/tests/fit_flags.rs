@@ -75,6 +75,11 @@ refused! {
     rxt_refuses_k2: "rxt", ["--k2", "0.6"], "--k2", ".rxt file";
     csv_refuses_m_t: "csv", ["--m-t", "0.3"], "--m-t", ".csv spectrum";
     csv_refuses_r_inf: "csv", ["--r-inf", "0.6"], "--r-inf", ".csv spectrum";
+    rxt_refuses_spheres: "rxt", ["--spheres", "1"], "--spheres", ".rxt file";
+    rxt_refuses_r_sphere: "rxt", ["--r-sphere", "200", "25", "12", "1", "0.98"], "--r-sphere", ".rxt file";
+    rxt_refuses_t_sphere: "rxt", ["--t-sphere", "200", "25", "12", "1", "0.98"], "--t-sphere", ".rxt file";
+    rxt_refuses_r_std: "rxt", ["--r-std", "0.98"], "--r-std", ".rxt file";
+    km_refuses_spheres: "km", ["--spheres", "1"], "--spheres", "--km";
 }
 
 #[test]
@@ -145,4 +150,61 @@ fn a_one_sphere_file_says_what_it_does_not_model_and_where_u_comes_from() {
         let notes = row["notes"].to_string();
         assert!(notes.contains("lost light"), "{notes}");
     }
+}
+
+#[test]
+fn spheres_on_the_command_line_fit_like_the_rxt_header() {
+    // Row 1 of examples/fit-phantom.rxt, its header's spheres given as iad's
+    // -1 on the command line: the same answer as the file (a = 0.9, b = 2).
+    let args = [
+        "fit",
+        "--m-r",
+        "0.23847235",
+        "--m-t",
+        "0.31190634",
+        "--thickness",
+        "1",
+        "--n-sample",
+        "1.4",
+        "--n-slide",
+        "1.5",
+        "--spheres",
+        "1",
+        "--r-sphere",
+        "200",
+        "25",
+        "12",
+        "1",
+        "0.98",
+        "--r-std",
+        "0.98",
+        "--json",
+    ];
+    let out = Command::new(env!("CARGO_BIN_EXE_km")).args(args).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // The measurement model made the row at 64 streams: recovered to 1e-4.
+    assert!((v["albedo"].as_f64().unwrap() - 0.9).abs() < 1e-4, "{v}");
+    assert!((v["tau"].as_f64().unwrap() - 2.0).abs() < 1e-3, "{v}");
+    assert!(v["notes"].to_string().contains("lost light is not modelled"), "{v}");
+    // Without the spheres the same numbers mean another sample.
+    let bare = Command::new(env!("CARGO_BIN_EXE_km")).args(&args[..11]).arg("--json").output();
+    let w: serde_json::Value = serde_json::from_slice(&bare.unwrap().stdout).unwrap();
+    assert!((w["albedo"].as_f64().unwrap() - 0.9).abs() > 1e-3, "{w}");
+}
+
+#[test]
+fn sphere_flags_need_each_other() {
+    let slab = base("slab");
+    let (ok, err) = km(&[&slab[..], &["--spheres", "1"]].concat());
+    assert!(!ok && err.contains("--r-sphere"), "{err}");
+    let (ok, err) = km(&[&slab[..], &["--r-sphere", "200", "25", "12", "1", "0.98"]].concat());
+    assert!(!ok && err.contains("--spheres 1 or 2"), "{err}");
+    let (ok, err) = km(&[&slab[..], &["--spheres", "3"]].concat());
+    assert!(!ok && err.contains("--spheres"), "{err}");
+    // A port larger than the sphere is refused by the sphere's own check.
+    let (ok, err) =
+        km(&[&slab[..], &["--spheres", "1", "--r-sphere", "200", "500", "12", "1", "0.98"]]
+            .concat());
+    assert!(!ok && (err.contains("d_sample") || err.contains("port")), "{err}");
 }

@@ -135,7 +135,7 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
             setup,
             measurement: Measurement { m_r, m_t, m_u, sigma_r: None, sigma_t: None, sigma_u: None },
             g,
-            notes: unmodelled(h[4], &labels, &setup),
+            notes: unmodelled(h[4], &labels),
         });
     }
     if rows.is_empty() {
@@ -145,11 +145,10 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
 }
 
 /// Notes for what an `.rxt` file gives and the fit does not model: the
-/// beam diameter (header or column `B`) and, with spheres, the light lost
-/// at the sample's edges and past the port's rim (iad estimates it with its
-/// Monte Carlo, `-M`); the fit compares the measurements with a slab of
-/// infinite extent lit by a beam wider than the light's lateral spread.
-fn unmodelled(beam: f64, labels: &[char], setup: &Setup) -> Vec<String> {
+/// beam diameter (header or column `B`); the fit compares the measurements
+/// with a slab of infinite extent lit by a beam wider than the light's
+/// lateral spread. (Lost light, with spheres, is noted by the fit itself.)
+fn unmodelled(beam: f64, labels: &[char]) -> Vec<String> {
     let mut notes = Vec::new();
     if beam > 0.0 || labels.contains(&'B') {
         notes.push(
@@ -157,14 +156,6 @@ fn unmodelled(beam: f64, labels: &[char], setup: &Setup) -> Vec<String> {
              under a beam wider than the light's lateral spread"
                 .to_string(),
         );
-    }
-    if let Some(s) = &setup.spheres {
-        notes.push(format!(
-            "lost light is not modelled: the {} sphere(s) are taken to collect all the light \
-             leaving the sample's faces (none lost at its edges or past the port's rim, which iad \
-             estimates by Monte Carlo, -M)",
-            s.count
-        ));
     }
     notes
 }
