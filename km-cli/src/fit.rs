@@ -11,6 +11,7 @@ use clap::Args;
 use km_bench::chart::{LineChart, Mark, Series, write_chart};
 use km_inverse::drawdown::{DrawdownFit, DrawdownInputs, Input, InputError, hiding_curves};
 use km_inverse::forward::Sample;
+use km_inverse::reflectance::{Fixed, fit_reflectance};
 use km_inverse::rxt::{parse_csv, parse_rxt};
 use km_inverse::slab::{FitOptions, Measurement, Setup};
 use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
@@ -88,6 +89,18 @@ pub struct FitArgs {
     /// Reflectance of the reflection standard with spheres (the .rxt header's; default 1).
     #[arg(long = "r-std")]
     pub r_std: Option<f64>,
+    /// Reflectance only (--m-r without --m-t): the scattering coefficient is fixed at this
+    /// value (1/length, iad -F) and mu_a is fitted.
+    #[arg(long = "fix-mu-s", value_name = "MU_S")]
+    pub fix_mu_s: Option<f64>,
+    /// Reflectance only: the absorption coefficient is fixed at this value (1/length) and
+    /// mu_s is fitted.
+    #[arg(long = "fix-mu-a", value_name = "MU_A")]
+    pub fix_mu_a: Option<f64>,
+    /// Reflectance only: the sample is semi-infinite (nothing returns from its far face) and
+    /// the albedo is fitted.
+    #[arg(long = "semi-infinite")]
+    pub semi_infinite: bool,
     /// Fixed stream count of the forward model (default: the rule of docs/inverse.md eq. I7).
     #[arg(long)]
     pub streams: Option<usize>,
@@ -230,9 +243,24 @@ pub fn run(args: &FitArgs) -> Result<()> {
         bail!("--plot applies to --km only");
     }
     let opts = FitOptions { g: args.g, streams: args.streams };
+    let fixed = reflectance_only_fixed(args)?;
     let Some(path) = &args.file else {
+        if let (Some(m_r), None, Some(fixed)) = (args.m_r, args.m_t, fixed) {
+            if args.m_u.is_some() {
+                bail!("--m-u needs --m-t: a reflectance-only fit takes --m-r alone");
+            }
+            let g = args.g.unwrap_or(0.0);
+            let r = fit_reflectance(&args.setup()?, m_r, args.sigma_r, fixed, g, args.streams)?;
+            if args.json {
+                return stdout::print_json(&r.to_json());
+            }
+            return stdout::print(&fits_table(&[RowFit { wavelength_nm: None, result: Ok(r) }]));
+        }
         let (Some(m_r), Some(m_t)) = (args.m_r, args.m_t) else {
-            bail!("give --m-r and --m-t (or a measurement file)");
+            bail!(
+                "give --m-r and --m-t (or a measurement file), or --m-r alone with one fixed \
+                 quantity: --fix-mu-s MU_S, --fix-mu-a MU_A or --semi-infinite"
+            );
         };
         let (sigma_r, sigma_t, sigma_u) = (args.sigma_r, args.sigma_t, args.sigma_u);
         let meas = Measurement { m_r, m_t, m_u: args.m_u, sigma_r, sigma_t, sigma_u };
@@ -252,6 +280,29 @@ pub fn run(args: &FitArgs) -> Result<()> {
         bail!("no row of {} could be fitted", path.display());
     }
     Ok(())
+}
+
+/// The fixed quantity of a reflectance-only fit (`--fix-mu-s`, `--fix-mu-a`,
+/// `--semi-infinite`): at most one, and only with `--m-r` alone.
+fn reflectance_only_fixed(args: &FitArgs) -> Result<Option<Fixed>> {
+    let given: Vec<Fixed> = [
+        args.fix_mu_s.map(Fixed::MuS),
+        args.fix_mu_a.map(Fixed::MuA),
+        args.semi_infinite.then_some(Fixed::SemiInfinite),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if given.len() > 1 {
+        bail!("give one of --fix-mu-s, --fix-mu-a and --semi-infinite: M_R determines one unknown");
+    }
+    if !given.is_empty() && args.m_t.is_some() {
+        bail!(
+            "--fix-mu-s, --fix-mu-a and --semi-infinite are for a reflectance-only fit (--m-r \
+             alone); with --m-t both mu_a and mu_s are fitted"
+        );
+    }
+    Ok(given.first().copied())
 }
 
 /// A spectrum file (`.rxt`, or `.csv` with the set-up of the flags), every
@@ -384,6 +435,9 @@ const FIT_FLAGS: &[(&str, &[Mode])] = &[
     ("exclude_unscattered", &[Slab, Rxt, Csv]),
     ("incidence", &[Slab, Csv]),
     ("streams", &[Slab, Rxt, Csv]),
+    ("fix_mu_s", &[Slab]),
+    ("fix_mu_a", &[Slab]),
+    ("semi_infinite", &[Slab]),
     ("spheres", &[Slab, Csv]),
     ("r_sphere", &[Slab, Csv]),
     ("t_sphere", &[Slab, Csv]),

@@ -80,6 +80,9 @@ refused! {
     rxt_refuses_t_sphere: "rxt", ["--t-sphere", "200", "25", "12", "1", "0.98"], "--t-sphere", ".rxt file";
     rxt_refuses_r_std: "rxt", ["--r-std", "0.98"], "--r-std", ".rxt file";
     km_refuses_spheres: "km", ["--spheres", "1"], "--spheres", "--km";
+    rxt_refuses_fix_mu_s: "rxt", ["--fix-mu-s", "1.8"], "--fix-mu-s", ".rxt file";
+    csv_refuses_fix_mu_a: "csv", ["--fix-mu-a", "0.2"], "--fix-mu-a", ".csv spectrum";
+    km_refuses_semi_infinite: "km", ["--semi-infinite"], "--semi-infinite", "--km";
 }
 
 #[test]
@@ -207,4 +210,43 @@ fn sphere_flags_need_each_other() {
         km(&[&slab[..], &["--spheres", "1", "--r-sphere", "200", "500", "12", "1", "0.98"]]
             .concat());
     assert!(!ok && (err.contains("d_sample") || err.contains("port")), "{err}");
+}
+
+fn json_of(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_km")).args(args).output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn a_reflectance_only_fit_with_a_fixed_quantity_agrees_with_the_two_measurement_fit() {
+    // The R + T fit of the help example gives mu_a and mu_s (Marquardt in
+    // (a, b)); holding either at that value, M_R alone must give the other
+    // back (bisection in one unknown, eq. R1): two different searches of
+    // the same model, agreeing to the R + T fit's own convergence (its
+    // residual within 1e-4 of M_R, M_T: about 1e-4 relative here).
+    let sample = ["--thickness", "1", "--n-sample", "1.4", "--n-slide", "1.5", "--json"];
+    let both = json_of(&[&["fit", "--m-r", "0.2726", "--m-t", "0.2991"][..], &sample].concat());
+    let (mu_a, mu_s) = (both["mu_a"].as_f64().unwrap(), both["mu_s"].as_f64().unwrap());
+    let (a, s) = (format!("{mu_a}"), format!("{mu_s}"));
+    let r = json_of(&[&["fit", "--m-r", "0.2726", "--fix-mu-s", &s][..], &sample].concat());
+    assert!((r["mu_a"].as_f64().unwrap() - mu_a).abs() < 1e-3 * mu_a, "{r} vs {both}");
+    assert!(r["uncertainty"]["mu_a"].as_f64().unwrap() > 0.0, "{r}");
+    let r = json_of(&[&["fit", "--m-r", "0.2726", "--fix-mu-a", &a][..], &sample].concat());
+    assert!((r["mu_s"].as_f64().unwrap() - mu_s).abs() < 1e-3 * mu_s, "{r} vs {both}");
+    assert!(r["notes"].to_string().contains("reflectance only"), "{r}");
+}
+
+#[test]
+fn a_reflectance_only_fit_is_refused_where_m_r_does_not_determine_it() {
+    let slab = ["fit", "--m-r", "0.2726", "--thickness", "1"];
+    let (ok, err) = km(&slab);
+    assert!(!ok && err.contains("--fix-mu-s"), "{err}");
+    let (ok, err) = km(&[&slab[..], &["--fix-mu-s", "1.8", "--fix-mu-a", "0.2"]].concat());
+    assert!(!ok && err.contains("one of"), "{err}");
+    let (ok, err) = km(&[&slab[..], &["--m-t", "0.3", "--semi-infinite"]].concat());
+    assert!(!ok && err.contains("reflectance-only"), "{err}");
+    // With mu_s = 1.8 over d = 1 no mu_a gives M_R = 0.9 (the range is named).
+    let (ok, err) = km(&["fit", "--m-r", "0.9", "--thickness", "1", "--fix-mu-s", "1.8"]);
+    assert!(!ok && err.contains("does not determine mu_a") && err.contains('['), "{err}");
 }
