@@ -11,9 +11,11 @@ use clap::Args;
 use km_bench::chart::{LineChart, Mark, Series, write_chart};
 use km_inverse::drawdown::{DrawdownFit, DrawdownInputs, Input, InputError, hiding_curves};
 use km_inverse::forward::Sample;
+use km_inverse::reflectance::{Fixed, fit_reflectance};
 use km_inverse::rxt::{parse_csv, parse_rxt};
 use km_inverse::slab::{FitOptions, Measurement, Setup};
 use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
+use km_inverse::sphere::{Sphere, SphereSetup};
 use km_inverse::text::{drawdown_report, fits_table};
 
 use crate::stdout;
@@ -70,6 +72,35 @@ pub struct FitArgs {
     /// Polar angle of the incident beam in degrees (default 0).
     #[arg(long, default_value_t = 0.0)]
     pub incidence: f64,
+    /// Integrating spheres used at a time (iad -S): 0 (the totals themselves, the default),
+    /// 1 (substitution) or 2 (double sphere); 1 and 2 need --r-sphere.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=2))]
+    pub spheres: Option<u8>,
+    /// The reflection sphere (iad -1): sphere, sample port, entrance port and detector port
+    /// diameters (one length unit), and the wall reflectance.
+    #[arg(long = "r-sphere", num_args = 5, allow_negative_numbers = true,
+          value_names = ["D_SPHERE", "D_SAMPLE", "D_ENTRANCE", "D_DETECTOR", "R_WALL"])]
+    pub r_sphere: Option<Vec<f64>>,
+    /// The transmission sphere (iad -2): sphere, sample port, exit port and detector port
+    /// diameters, and the wall reflectance (default: the same as --r-sphere).
+    #[arg(long = "t-sphere", num_args = 5, allow_negative_numbers = true,
+          value_names = ["D_SPHERE", "D_SAMPLE", "D_EXIT", "D_DETECTOR", "R_WALL"])]
+    pub t_sphere: Option<Vec<f64>>,
+    /// Reflectance of the reflection standard with spheres (the .rxt header's; default 1).
+    #[arg(long = "r-std")]
+    pub r_std: Option<f64>,
+    /// Reflectance only (--m-r without --m-t): the scattering coefficient is fixed at this
+    /// value (1/length, iad -F) and mu_a is fitted.
+    #[arg(long = "fix-mu-s", value_name = "MU_S")]
+    pub fix_mu_s: Option<f64>,
+    /// Reflectance only: the absorption coefficient is fixed at this value (1/length) and
+    /// mu_s is fitted.
+    #[arg(long = "fix-mu-a", value_name = "MU_A")]
+    pub fix_mu_a: Option<f64>,
+    /// Reflectance only: the sample is semi-infinite (nothing returns from its far face) and
+    /// the albedo is fitted.
+    #[arg(long = "semi-infinite")]
+    pub semi_infinite: bool,
     /// Fixed stream count of the forward model (default: the rule of docs/inverse.md eq. I7).
     #[arg(long)]
     pub streams: Option<usize>,
@@ -123,7 +154,44 @@ impl FitArgs {
         let sample = Sample::new(d, self.n_sample.unwrap_or(1.0), self.n_slide)?
             .with_incidence(self.incidence)?;
         let (c, c_t) = self.fractions();
-        Ok(Setup { specular_in_m_r: c, unscattered_in_m_t: c_t, ..Setup::new(sample) })
+        let spheres = self.spheres()?;
+        Ok(Setup { specular_in_m_r: c, unscattered_in_m_t: c_t, spheres, ..Setup::new(sample) })
+    }
+
+    /// The spheres of `--spheres`, `--r-sphere`, `--t-sphere`, `--r-std` (iad's -S, -1, -2).
+    fn spheres(&self) -> Result<Option<SphereSetup>> {
+        let count = self.spheres.unwrap_or(0);
+        if count == 0 {
+            if self.r_sphere.is_some() || self.t_sphere.is_some() || self.r_std.is_some() {
+                bail!("--r-sphere, --t-sphere and --r-std describe spheres: give --spheres 1 or 2");
+            }
+            return Ok(None);
+        }
+        let Some(r) = &self.r_sphere else {
+            bail!(
+                "--spheres {count} needs --r-sphere D_SPHERE D_SAMPLE D_ENTRANCE D_DETECTOR R_WALL"
+            );
+        };
+        let sphere = |v: &[f64]| Sphere {
+            d_sphere: v[0],
+            d_sample: v[1],
+            d_third: v[2],
+            d_detector: v[3],
+            r_wall: v[4],
+            r_detector: 0.0,
+        };
+        let r_sphere = sphere(r);
+        let t_sphere = self.t_sphere.as_deref().map_or(r_sphere, sphere);
+        let set = SphereSetup {
+            count: count.into(),
+            r_sphere,
+            t_sphere,
+            r_std: self.r_std.unwrap_or(1.0),
+            t_std: 1.0,
+            baffle: true,
+        };
+        set.validate()?;
+        Ok(Some(set))
     }
 
     /// The Kubelka–Munk inputs of `--km` (`--n-sample` is the binder's index).
@@ -175,9 +243,24 @@ pub fn run(args: &FitArgs) -> Result<()> {
         bail!("--plot applies to --km only");
     }
     let opts = FitOptions { g: args.g, streams: args.streams };
+    let fixed = reflectance_only_fixed(args)?;
     let Some(path) = &args.file else {
+        if let (Some(m_r), None, Some(fixed)) = (args.m_r, args.m_t, fixed) {
+            if args.m_u.is_some() {
+                bail!("--m-u needs --m-t: a reflectance-only fit takes --m-r alone");
+            }
+            let g = args.g.unwrap_or(0.0);
+            let r = fit_reflectance(&args.setup()?, m_r, args.sigma_r, fixed, g, args.streams)?;
+            if args.json {
+                return stdout::print_json(&r.to_json());
+            }
+            return stdout::print(&fits_table(&[RowFit { wavelength_nm: None, result: Ok(r) }]));
+        }
         let (Some(m_r), Some(m_t)) = (args.m_r, args.m_t) else {
-            bail!("give --m-r and --m-t (or a measurement file)");
+            bail!(
+                "give --m-r and --m-t (or a measurement file), or --m-r alone with one fixed \
+                 quantity: --fix-mu-s MU_S, --fix-mu-a MU_A or --semi-infinite"
+            );
         };
         let (sigma_r, sigma_t, sigma_u) = (args.sigma_r, args.sigma_t, args.sigma_u);
         let meas = Measurement { m_r, m_t, m_u: args.m_u, sigma_r, sigma_t, sigma_u };
@@ -197,6 +280,29 @@ pub fn run(args: &FitArgs) -> Result<()> {
         bail!("no row of {} could be fitted", path.display());
     }
     Ok(())
+}
+
+/// The fixed quantity of a reflectance-only fit (`--fix-mu-s`, `--fix-mu-a`,
+/// `--semi-infinite`): at most one, and only with `--m-r` alone.
+fn reflectance_only_fixed(args: &FitArgs) -> Result<Option<Fixed>> {
+    let given: Vec<Fixed> = [
+        args.fix_mu_s.map(Fixed::MuS),
+        args.fix_mu_a.map(Fixed::MuA),
+        args.semi_infinite.then_some(Fixed::SemiInfinite),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if given.len() > 1 {
+        bail!("give one of --fix-mu-s, --fix-mu-a and --semi-infinite: M_R determines one unknown");
+    }
+    if !given.is_empty() && args.m_t.is_some() {
+        bail!(
+            "--fix-mu-s, --fix-mu-a and --semi-infinite are for a reflectance-only fit (--m-r \
+             alone); with --m-t both mu_a and mu_s are fitted"
+        );
+    }
+    Ok(given.first().copied())
 }
 
 /// A spectrum file (`.rxt`, or `.csv` with the set-up of the flags), every
@@ -282,4 +388,105 @@ fn write_plot(fit: &DrawdownFit, dir: &Path) -> Result<[PathBuf; 2]> {
     };
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     write_chart(dir, "km-fit-km", &chart)
+}
+
+/// The modes of `km fit`, decided by `--km` and the measurement file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// `--km`: the Kubelka–Munk inverse of drawdowns.
+    Km,
+    /// `--m-r`/`--m-t` on the command line: the slab inverse.
+    Slab,
+    /// An `.rxt` file: its header gives the sample and the spheres.
+    Rxt,
+    /// A `.csv` spectrum: the flags give the sample.
+    Csv,
+}
+
+impl Mode {
+    fn words(self) -> &'static str {
+        match self {
+            Mode::Km => "--km (the Kubelka–Munk inverse of drawdowns: the readings are --r-*)",
+            Mode::Slab => "the slab inverse of --m-r/--m-t",
+            Mode::Rxt => "an .rxt file (its header gives the sample, the slides and the spheres)",
+            Mode::Csv => "a .csv spectrum (its columns give the measurements)",
+        }
+    }
+}
+
+use Mode::{Csv, Km, Rxt, Slab};
+
+/// Every flag of `km fit` (clap id) and the modes it applies to.
+const FIT_FLAGS: &[(&str, &[Mode])] = &[
+    ("file", &[Rxt, Csv]),
+    ("m_r", &[Slab]),
+    ("m_t", &[Slab]),
+    ("m_u", &[Slab]),
+    ("sigma_r", &[Slab, Rxt, Csv]),
+    ("sigma_t", &[Slab, Rxt, Csv]),
+    ("sigma_u", &[Slab, Rxt, Csv]),
+    ("thickness", &[Km, Slab, Csv]),
+    ("n_sample", &[Km, Slab, Csv]),
+    ("n_slide", &[Slab, Csv]),
+    ("g", &[Slab, Rxt, Csv]),
+    ("specular_in_m_r", &[Slab, Rxt, Csv]),
+    ("unscattered_in_m_t", &[Slab, Rxt, Csv]),
+    ("exclude_specular", &[Slab, Rxt, Csv]),
+    ("exclude_unscattered", &[Slab, Rxt, Csv]),
+    ("incidence", &[Slab, Csv]),
+    ("streams", &[Slab, Rxt, Csv]),
+    ("fix_mu_s", &[Slab]),
+    ("fix_mu_a", &[Slab]),
+    ("semi_infinite", &[Slab]),
+    ("spheres", &[Slab, Csv]),
+    ("r_sphere", &[Slab, Csv]),
+    ("t_sphere", &[Slab, Csv]),
+    ("r_std", &[Slab, Csv]),
+    ("r_black", &[Km]),
+    ("r_white", &[Km]),
+    ("r_white_ground", &[Km]),
+    ("r_black_ground", &[Km]),
+    ("plot", &[Km]),
+    ("r_inf", &[Km]),
+    ("r_zero", &[Km]),
+    ("k2", &[Km]),
+];
+
+/// Refuse a flag of `km fit` that does not apply to its mode (`--km`, the
+/// slab inverse of `--m-r`/`--m-t`, an `.rxt` or a `.csv` file), naming
+/// the mode: a flag that would be silently ignored is an error.
+pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
+    let Some(("fit", m)) = matches.subcommand() else { return Ok(()) };
+    let given = |id: &str| {
+        matches!(m.try_get_raw(id), Ok(Some(_)))
+            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+    };
+    let file = m.try_get_one::<PathBuf>("file").ok().flatten();
+    let mode = if given("km") {
+        Km
+    } else if let Some(f) = file {
+        let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+        if ext == "rxt" { Rxt } else { Csv }
+    } else {
+        Slab
+    };
+    for (id, modes) in FIT_FLAGS {
+        if given(id) && !modes.contains(&mode) {
+            let flag = if *id == "file" {
+                "a measurement file".to_string()
+            } else {
+                format!("--{}", id.replace('_', "-"))
+            };
+            if *id == "file" {
+                bail!("{flag} does not apply to {}", mode.words());
+            }
+            let applies: Vec<_> = modes.iter().map(|x| x.words()).collect();
+            bail!(
+                "{flag} does not apply to {}; it applies to {}",
+                mode.words(),
+                applies.join(", to ")
+            );
+        }
+    }
+    Ok(())
 }

@@ -16,6 +16,7 @@ mod bsdf;
 mod field;
 mod fit;
 mod mc;
+mod progress;
 #[cfg(test)]
 mod settings_parity;
 mod solve;
@@ -191,7 +192,8 @@ fn main() -> ExitCode {
     let matches = Cli::command().get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let command = cli.command.unwrap_or_else(|| Command::Reproduce(parse_args(&["reproduce"])));
-    match solve::check_flags(&matches).and_then(|()| run(command)) {
+    let checked = solve::check_flags(&matches).and_then(|()| fit::check_flags(&matches));
+    match checked.and_then(|()| run(command)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             stdout::report_error(&e);

@@ -11,7 +11,7 @@ use crate::solve::SolveArgs;
 
 /// Flags of `km solve` that are not settings of the solve: the scene and its
 /// edits, the method, and where and how the answer is written.
-const NOT_SETTINGS: &[&str] = &["scene", "set", "method", "json", "format", "out", "help"];
+const NOT_SETTINGS: &[&str] = &["scene", "set", "method", "json", "format", "out", "quiet", "help"];
 
 #[test]
 fn every_setting_is_a_flag_with_its_default_and_choices() {

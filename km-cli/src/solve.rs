@@ -3,13 +3,10 @@
 //! added to the library's refusals, and the output in the chosen format.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use clap::builder::TypedValueParser;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use km::{KmError, Method, Scene, Solution};
 
 use crate::stdout;
@@ -109,6 +106,10 @@ pub struct SolveArgs {
     #[arg(long, value_name = "K", default_value_t = 1,
           value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub repeat: u32,
+    /// No progress bar on stderr (it is drawn only for a solve expected to last more than
+    /// 2 s, and never when stderr is not a terminal).
+    #[arg(long)]
+    pub quiet: bool,
     /// How F_dr is computed [dipole].
     #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
     pub fdr: km::FdrModel,
@@ -151,13 +152,6 @@ impl SolveArgs {
     /// `km solve - --method METHOD`, every other flag at its default (`km demo`, `km sweep`).
     pub fn defaults(method: Method) -> SolveArgs {
         crate::parse_args(&["solve", "-", "--method", method.name()])
-    }
-
-    /// Whether a progress bar may be shown (text output, stderr is a terminal).
-    fn progress(&self) -> bool {
-        use std::io::IsTerminal;
-        OutputFormat::of(self.json, self.format) == OutputFormat::Table
-            && std::io::stderr().is_terminal()
     }
 }
 
@@ -211,20 +205,26 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     if args.tolerance.is_some() && args.streams.is_some() {
         bail!("give either --streams or --tolerance, not both");
     }
-    km::solve_repeated(scene, &options(args)?, args.repeat).map_err(|e| {
-        match (&e, args.tolerance) {
-            (
-                KmError::NoAccuracySetting { .. }
-                | KmError::TargetUnreachable { .. }
-                | KmError::Option { name: "accuracy target", .. },
-                Some(t),
-            ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
-            (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
-            (KmError::Unsupported(_), _) => {
-                anyhow::Error::new(e).context(format!("--method {}", args.method.name()))
-            }
-            _ => e.into(),
+    let opts = options(args)?;
+    let _bar = match &opts.method {
+        km::MethodOptions::Multiflux(o) if crate::progress::wanted(args.quiet) => {
+            crate::progress::Ticker::multiflux(scene, o, args.tolerance.is_some())
         }
+        _ => None,
+    };
+    km::solve_repeated(scene, &opts, args.repeat).map_err(|e| match (&e, args.tolerance) {
+        (
+            KmError::NoAccuracySetting { .. }
+            | KmError::TargetUnreachable { .. }
+            | KmError::TargetOverBudget { .. }
+            | KmError::Option { name: "accuracy target", .. },
+            Some(t),
+        ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
+        (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
+        (KmError::Unsupported(_), _) => {
+            anyhow::Error::new(e).context(format!("--method {}", args.method.name()))
+        }
+        _ => e.into(),
     })
 }
 
@@ -249,7 +249,7 @@ fn options(args: &SolveArgs) -> Result<km::Options> {
             seed: args.seed,
             threads: args.threads,
             estimator: args.estimator,
-            progress: args.progress().then(progress_bar),
+            progress: crate::progress::wanted(args.quiet).then(crate::progress::photons),
             all_effects: args.all_effects,
             ..Default::default()
         }),
@@ -275,29 +275,6 @@ fn option_flag(e: KmError) -> anyhow::Error {
         }
         e => e.into(),
     }
-}
-
-/// A progress bar on stderr, shown once the run has lasted a second.
-fn progress_bar() -> km::Progress {
-    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
-    let start = Instant::now();
-    let shown = Mutex::new(false);
-    km::Progress::new(move |done, total| {
-        let mut shown = shown.lock().unwrap_or_else(|e| e.into_inner());
-        if !*shown && start.elapsed().as_secs_f64() > 1.0 {
-            *shown = true;
-            bar.set_length(total);
-            bar.set_style(
-                ProgressStyle::with_template("mc {bar:40} {pos}/{len} batches, eta {eta}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
-            bar.set_draw_target(ProgressDrawTarget::stderr());
-        }
-        bar.set_position(done);
-        if done >= total {
-            bar.finish_and_clear();
-        }
-    })
 }
 
 /// `I/N` with `0 <= I < N`.

@@ -45,6 +45,7 @@ pub mod forward;
 pub mod kubelka;
 pub mod linalg;
 mod measurement;
+pub mod reflectance;
 pub mod rxt;
 mod search;
 pub mod slab;

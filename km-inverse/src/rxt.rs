@@ -34,6 +34,9 @@ pub struct Row {
     pub measurement: Measurement,
     /// A fixed `g` given by the row (`None`: the caller's choice).
     pub g: Option<f64>,
+    /// What the file gives that the fit does not model (beam diameter, lost
+    /// light), in words; added to the row's fit notes.
+    pub notes: Vec<String>,
 }
 
 /// Strip `#` comments; return the lines with their 1-based numbers.
@@ -132,12 +135,29 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
             setup,
             measurement: Measurement { m_r, m_t, m_u, sigma_r: None, sigma_t: None, sigma_u: None },
             g,
+            notes: unmodelled(h[4], &labels),
         });
     }
     if rows.is_empty() {
         return Err(InverseError::parse(None, "no measurement rows"));
     }
     Ok(rows)
+}
+
+/// Notes for what an `.rxt` file gives and the fit does not model: the
+/// beam diameter (header or column `B`); the fit compares the measurements
+/// with a slab of infinite extent lit by a beam wider than the light's
+/// lateral spread. (Lost light, with spheres, is noted by the fit itself.)
+fn unmodelled(beam: f64, labels: &[char]) -> Vec<String> {
+    let mut notes = Vec::new();
+    if beam > 0.0 || labels.contains(&'B') {
+        notes.push(
+            "the beam diameter of the file is not used: the model is a slab of infinite extent \
+             under a beam wider than the light's lateral spread"
+                .to_string(),
+        );
+    }
+    notes
 }
 
 /// The header's 17 numbers, the legend (its line and text), the tokens that
@@ -411,6 +431,7 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
                 sigma_u: get("sigma_u"),
             },
             g: get("g"),
+            notes: Vec::new(),
         });
     }
     if rows.is_empty() {

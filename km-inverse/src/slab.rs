@@ -225,6 +225,14 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
             "no slab reproduces the measurements: the result is the nearest feasible point".into(),
         );
     }
+    if let Some(s) = &set.spheres {
+        notes.push(format!(
+            "lost light is not modelled: the {} sphere(s) are taken to collect all the light \
+             leaving the sample's faces (none lost at its edges or past the port's rim, which iad \
+             estimates by Monte Carlo, -M)",
+            s.count
+        ));
+    }
     let d = set.sample.thickness;
     let mut fitted = [fitted_m[0], fitted_m[1], f64::NAN];
     if meas.m_u.is_some() {

@@ -60,7 +60,11 @@ pub fn fit_rows(rows: &[Row], over: &RowOverrides, opts: &FitOptions) -> Vec<Row
             meas.sigma_t = meas.sigma_t.or(over.sigma_t);
             meas.sigma_u = meas.sigma_u.or(over.sigma_u);
             let o = FitOptions { g: row.g.or(opts.g), ..*opts };
-            RowFit { wavelength_nm: row.wavelength_nm, result: fit(&setup, &meas, &o) }
+            let result = fit(&setup, &meas, &o).map(|mut r| {
+                r.notes.extend(row.notes.iter().cloned());
+                r
+            });
+            RowFit { wavelength_nm: row.wavelength_nm, result }
         })
         .collect()
 }

@@ -4,12 +4,16 @@
 
 use crate::drawdown::{DrawdownFit, READING_U};
 use crate::kubelka::Film;
+use crate::slab::DEFAULT_SIGMA;
 use crate::spectrum::RowFit;
 
 /// The slab fits as a table, one row per fitted measurement (its wavelength,
-/// or `-`; `albedo`, `tau`, `g`, `mu_a`, `mu_s'`, `u(mu_a)`, the model's
-/// `M_R` and `M_T` at the answer, the status, and its notes below the row),
-/// then one line per row that could not be fitted, with its reason.
+/// or `-`; `albedo`, `tau`, `g`, `mu_a`, `mu_s'`, `u(mu_a)`, `u(mu_s')`, the
+/// model's `M_R` and `M_T` at the answer, the status, and its notes below
+/// the row), a line giving the units, a line saying whether the
+/// measurement uncertainties behind `u(...)` were given or the default
+/// [`DEFAULT_SIGMA`] was assumed, then one line per row that could not be
+/// fitted, with its reason.
 ///
 /// ```
 /// use km_inverse::spectrum::RowFit;
@@ -18,18 +22,38 @@ use crate::spectrum::RowFit;
 /// let bad = RowFit { wavelength_nm: Some(500.0), result: Err(e) };
 /// let t = km_inverse::text::fits_table(&[bad]);
 /// assert!(t.starts_with("   lambda     albedo") && t.contains("    500.0 invalid: "));
+/// assert!(t.contains("u(mu_s')") && t.contains("1/length"));
 /// ```
 pub fn fits_table(fits: &[RowFit]) -> String {
     let mut s = format!(
-        "{:>9} {:>10} {:>11} {:>7} {:>11} {:>11} {:>11} {:>9} {:>9} {}\n",
-        "lambda", "albedo", "tau", "g", "mu_a", "mu_s'", "u(mu_a)", "M_R fit", "M_T fit", "status"
+        "{:>9} {:>10} {:>11} {:>7} {:>11} {:>11} {:>11} {:>11} {:>9} {:>9} {}\n",
+        "lambda",
+        "albedo",
+        "tau",
+        "g",
+        "mu_a",
+        "mu_s'",
+        "u(mu_a)",
+        "u(mu_s')",
+        "M_R fit",
+        "M_T fit",
+        "status"
     );
     let lambda = |f: &RowFit| f.wavelength_nm.map_or("-".to_string(), |w| format!("{w:.1}"));
+    let ok: Vec<_> = fits.iter().filter_map(|f| f.result.as_ref().ok()).collect();
+    // Notes every row shares (a file's header) are printed once, after the rows.
+    let common: Vec<&String> = match ok.as_slice() {
+        [first, _, ..] => {
+            first.notes.iter().filter(|n| ok.iter().all(|r| r.notes.contains(n))).collect()
+        }
+        _ => Vec::new(),
+    };
     for f in fits {
         let Ok(r) = &f.result else { continue };
         let flag = if r.uncertainty.ill_conditioned { " (ill-conditioned)" } else { "" };
         s += &format!(
-            "{:>9} {:>10.6} {:>11.5e} {:>7.4} {:>11.5e} {:>11.5e} {:>11.3e} {:>9.5} {:>9.5} {:?}{flag}\n",
+            "{:>9} {:>10.6} {:>11.5e} {:>7.4} {:>11.5e} {:>11.5e} {:>11.3e} {:>11.3e} {:>9.5} \
+             {:>9.5} {:?}{flag}\n",
             lambda(f),
             r.albedo,
             r.tau,
@@ -37,13 +61,34 @@ pub fn fits_table(fits: &[RowFit]) -> String {
             r.mu_a,
             r.mu_s_prime,
             r.uncertainty.mu_a,
+            r.uncertainty.mu_s_prime,
             r.fitted[0],
             r.fitted[1],
             r.status
         );
-        for n in &r.notes {
+        for n in r.notes.iter().filter(|n| !common.contains(n)) {
             s += &format!("          note: {n}\n");
         }
+    }
+    for n in common {
+        s += &format!("note (every row): {n}\n");
+    }
+    s += "units: lambda nm; albedo, tau, g, M_R, M_T dimensionless; mu_a, mu_s' and their \
+          u(...) in 1/length, the inverse of the thickness's unit\n";
+    let given = ok.iter().filter(|r| r.uncertainty.sigma_given).count();
+    if !ok.is_empty() {
+        s += &match given {
+            g if g == ok.len() => "u(...): from the given measurement uncertainties\n".to_string(),
+            0 => format!(
+                "u(...): from the default measurement uncertainty {DEFAULT_SIGMA:e} (none was \
+                 given: --sigma-r, --sigma-t, --sigma-u or the file's columns)\n"
+            ),
+            g => format!(
+                "u(...): {g} of {} rows from given measurement uncertainties, the others from \
+                 the default {DEFAULT_SIGMA:e}\n",
+                ok.len()
+            ),
+        };
     }
     for f in fits {
         if let Err(e) = &f.result {

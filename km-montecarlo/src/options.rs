@@ -89,8 +89,9 @@ pub struct McOptions {
     pub ring_mu_edges: Option<Vec<f64>>,
     /// Optional radial bins for `Rd(r)`.
     pub radial: Option<RadialBins>,
-    /// Called after each batch with the batches done and the batches of
-    /// the run (from the worker threads, in any order); never changes the
+    /// Called after each batch with the photons done and the photons of
+    /// the run (each traced in every channel; from the worker threads, in
+    /// any order); never changes the
     /// result. The library draws nothing itself: a command-line tool turns
     /// this into a progress bar.
     #[serde(skip)]
@@ -275,20 +276,24 @@ impl McOptions {
     }
 }
 
-/// A progress callback of a run: `(batches done, batches of the run)`.
+/// A progress callback of a run: `(photons done, photons of the run)`.
 ///
 /// ```
 /// use std::sync::atomic::{AtomicU64, Ordering};
 /// use std::sync::Arc;
-/// let seen = Arc::new(AtomicU64::new(0));
-/// let s = seen.clone();
-/// let p = km_montecarlo::Progress::new(move |_done, _total| {
+/// let (seen, last) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+/// let (s, l) = (seen.clone(), last.clone());
+/// let p = km_montecarlo::Progress::new(move |done, total| {
+///     assert_eq!(total, 1000);
 ///     s.fetch_add(1, Ordering::Relaxed);
+///     l.fetch_max(done, Ordering::Relaxed);
 /// });
 /// let opts = km_montecarlo::McOptions { samples: 1000, progress: Some(p), ..Default::default() };
 /// let scene = km_core::Scene::from_toml_str("[[layer]]\ntau = 1\nalbedo = 0.5\n").unwrap();
 /// km_montecarlo::solve(&scene, &opts).unwrap();
 /// assert!(seen.load(Ordering::Relaxed) >= 1);
+/// // Every photon is counted once.
+/// assert_eq!(last.load(Ordering::Relaxed), 1000);
 /// ```
 #[derive(Clone)]
 pub struct Progress(std::sync::Arc<dyn Fn(u64, u64) + Send + Sync>);
@@ -299,7 +304,7 @@ impl Progress {
         Progress(std::sync::Arc::new(f))
     }
 
-    /// Report `done` of `total` batches.
+    /// Report `done` of `total` photons.
     pub fn report(&self, done: u64, total: u64) {
         (self.0)(done, total);
     }

@@ -332,6 +332,9 @@ fn trace_batches_on(
     parallel: bool,
 ) -> Result<Vec<BatchRecord>, McError> {
     let total = mine.len() as u64;
+    // Progress is reported in photons (each traced in every channel).
+    let photons_total: u64 = mine.iter().map(|&b| batch_photons(opts.samples, batch_size, b)).sum();
+    let photons_done = AtomicU64::new(0);
     let steps_done = AtomicU64::new(0);
     let batches_done = AtomicU64::new(0);
     let abort = AtomicBool::new(false);
@@ -386,7 +389,7 @@ fn trace_batches_on(
             }
         }
         if let Some(p) = &opts.progress {
-            p.report(d, total);
+            p.report(photons_done.fetch_add(photons, Ordering::Relaxed) + photons, photons_total);
         }
         Some(BatchRecord { index: b, photons, channels })
     };

@@ -71,7 +71,9 @@ impl From<km::KmError> for Error {
             km::KmError::Option { name: "accuracy target", .. } => {
                 Error::Option { name: "tolerance".into(), reason: e.to_string() }
             }
-            km::KmError::NoAccuracySetting { .. } | km::KmError::TargetUnreachable { .. } => {
+            km::KmError::NoAccuracySetting { .. }
+            | km::KmError::TargetUnreachable { .. }
+            | km::KmError::TargetOverBudget { .. } => {
                 Error::Option { name: "tolerance".into(), reason: e.to_string() }
             }
             other => Error::Solver(other.to_string()),

@@ -49,6 +49,8 @@ use km_multiflux::MultifluxOptions;
 
 use crate::KmError;
 
+mod forecast;
+
 /// Largest stream count tried by [`multiflux`] (the check run's).
 pub const MAX_STREAMS: usize = 256;
 
@@ -128,6 +130,42 @@ fn to_uncertainty(c: &ChannelResult, e: &[f64]) -> Uncertainty {
     }
 }
 
+/// The estimates of eq. E1, number by number, channel by channel.
+fn e1(coarse: &Solution, fine: &Solution) -> Vec<Vec<f64>> {
+    coarse
+        .channels
+        .iter()
+        .zip(&fine.channels)
+        .map(|(c, f)| {
+            bounded(c)
+                .iter()
+                .zip(bounded(f))
+                .map(|((_, x), (_, y))| 2.0 * (x - y).abs() + 1e-12)
+                .collect()
+        })
+        .collect()
+}
+
+/// The worst number against the target (eq. E3), and every number as
+/// `(name, estimate, allowed, max(1, |x|))` for the forecast (eq. E5).
+#[allow(clippy::type_complexity)]
+fn judge(
+    sol: &Solution,
+    estimates: &[Vec<f64>],
+    tol: f64,
+) -> (Worst, Vec<(String, f64, f64, f64)>) {
+    let mut worst = Worst::default();
+    let mut all = Vec::new();
+    for (ch, (c, e)) in sol.channels.iter().zip(estimates).enumerate() {
+        for ((name, x), &ei) in bounded(c).into_iter().zip(e) {
+            let name = with_channel(&name, &sol.labels, ch);
+            worst.consider(name.clone(), ei, allowed(tol, x));
+            all.push((name, ei, allowed(tol, x), x.abs().max(1.0)));
+        }
+    }
+    (worst, all)
+}
+
 /// Multi-flux to an accuracy target (eq. E1, E3).
 ///
 /// # Errors
@@ -165,6 +203,9 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
         spent.set(spent.get() + km_multiflux::budget::estimate(scene, &opts).units);
         Ok::<_, km_multiflux::MultifluxError>(sol)
     };
+    // The search's work level by level (eq. E4), known before any solve.
+    let schedule = forecast::Schedule::new(scene, base, budget, MAX_STREAMS / 2);
+    let mut tracked: Vec<forecast::Tracked> = Vec::new();
     let mut seconds = 0.0;
     let mut n = 4;
     let mut coarse = at(n, base.neumann_order)?;
@@ -190,19 +231,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
             (r, _) => r?,
         };
         seconds += fine.seconds;
-        // Eq. E1, number by number.
-        let mut estimates: Vec<Vec<f64>> = coarse
-            .channels
-            .iter()
-            .zip(&fine.channels)
-            .map(|(c, f)| {
-                bounded(c)
-                    .iter()
-                    .zip(bounded(f))
-                    .map(|((_, x), (_, y))| 2.0 * (x - y).abs() + 1e-12)
-                    .collect()
-            })
-            .collect();
+        let mut estimates = e1(&coarse, &fine);
         // Truncated adding: add its own difference from the exact adding.
         if base.neumann_order.is_some() {
             let exact = at(n, None)?;
@@ -214,12 +243,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
                 }
             }
         }
-        let mut worst = Worst::default();
-        for (ch, (c, e)) in coarse.channels.iter().zip(&estimates).enumerate() {
-            for ((name, x), &ei) in bounded(c).into_iter().zip(e) {
-                worst.consider(with_channel(&name, &coarse.labels, ch), ei, allowed(tol, x));
-            }
-        }
+        let (worst, now) = judge(&coarse, &estimates, tol);
         if worst.ratio <= 1.0 {
             for (c, e) in coarse.channels.iter_mut().zip(&estimates) {
                 c.error_estimate = Some(to_uncertainty(c, e));
@@ -243,6 +267,12 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
                 allowed: worst.allowed,
                 work: format!("{n} streams (checked at {})", 2 * n),
             });
+        }
+        // Eq. E5: refuse before the expensive solves when no stream count
+        // within the budget is forecast to meet the target.
+        tracked = forecast::track(tracked, now);
+        if tracked.iter().all(|t| t.before.is_finite()) {
+            forecast::check(scene, &schedule, tol, n, &tracked)?;
         }
         last = Some((worst, n));
         n *= 2;
@@ -322,6 +352,8 @@ pub fn monte_carlo(scene: &Scene, base: &McOptions, tol: f64) -> Result<Solution
     // (the pilot's variance is itself noisy), rerun with the projection from
     // the larger run, at most three times.
     let mut n = ((needed * 1.25) as u64).max(PILOT_PHOTONS);
+    // Eq. E6: refused before the run when its photon steps exceed the budget.
+    photons_within_budget(scene, base, tol, n, &limited)?;
     let mut seconds = pilot.seconds;
     let mut attempt = 0;
     loop {
@@ -344,6 +376,9 @@ pub fn monte_carlo(scene: &Scene, base: &McOptions, tol: f64) -> Result<Solution
         }
         if worst.ratio <= 1.0 {
             sol.seconds = seconds;
+            sol.notes.push(format!(
+                "{n} photons chosen for tolerance {tol:e} (a pilot of {PILOT_PHOTONS}, eq. E2)"
+            ));
             sol.accuracy = Some(AccuracyReport {
                 target: tol,
                 reached: true,
@@ -371,4 +406,37 @@ pub fn monte_carlo(scene: &Scene, base: &McOptions, tol: f64) -> Result<Solution
         }
         n = next as u64;
     }
+}
+
+/// Refuse a Monte Carlo run of `n` photons whose projected photon steps
+/// (eq. L2 of docs/limits.md) exceed the budget `max_events`, before it is
+/// traced (eq. E6): the photons the budget affords are `n_b = n B / S` for
+/// `S` projected steps and budget `B`, and since the standard error falls
+/// like `n^-1/2` the best target they reach is `tol sqrt(n / n_b)`.
+fn photons_within_budget(
+    scene: &Scene,
+    base: &McOptions,
+    tol: f64,
+    n: u64,
+    limited: &str,
+) -> Result<(), KmError> {
+    let Some(budget) = base.max_events else { return Ok(()) };
+    let opts = McOptions { samples: n, progress: None, ..base.clone() };
+    let steps = km_montecarlo::projected_steps(scene, &opts)?;
+    if steps <= budget as f64 {
+        return Ok(());
+    }
+    let afford = n as f64 * budget as f64 / steps;
+    Err(KmError::TargetOverBudget {
+        target: tol,
+        limited_by: limited.to_string(),
+        needed: format!("about {n:.2e} photons ({steps:.2e} photon steps)"),
+        reachable: format!("about {afford:.2e} photons"),
+        best: tol * (n as f64 / afford).sqrt(),
+        basis: format!(
+            "the photons come from a pilot of {PILOT_PHOTONS} (eq. E2), the steps from the \
+             budget check's pilot (eq. L2 of docs/limits.md); the budget is {budget:.2e} photon \
+             steps (--budget FACTOR or max_events)"
+        ),
+    })
 }

@@ -191,6 +191,28 @@ pub enum KmError {
         /// The largest work, in words (e.g. `256 streams`).
         work: String,
     },
+    /// The accuracy target cannot be met within the work budget, known
+    /// before the long solves (docs/planner.md, eq. E4–E6).
+    #[error(
+        "accuracy target {target:e} cannot be met within the work budget: {limited_by} would \
+         need {needed}, the budget allows {reachable}, where the best accuracy reachable is \
+         about {best:.1e}; {basis}"
+    )]
+    TargetOverBudget {
+        /// The target `tol`.
+        target: f64,
+        /// The number that limits it (e.g. `brdf[3]`, `reflectance`).
+        limited_by: String,
+        /// The work it would need, in words (`about 512 streams`, `about 4.0e10 photons`).
+        needed: String,
+        /// The most the budget allows, in words (`64 streams`, `2.0e9 photons`).
+        reachable: String,
+        /// The best accuracy reachable within the budget (the target it would meet).
+        best: f64,
+        /// What the forecast rests on and the budget (its value, unit and how
+        /// to raise it), in words.
+        basis: String,
+    },
 }
 
 /// `name = value: reason`, or `name: reason` without a value.
