@@ -34,7 +34,7 @@ fn cell(x: f64, se: Option<f64>) -> String {
 
 /// Whether the BTDF is meaningless: every value 0 and nothing transmitted
 /// (an opaque substrate or a half-space).
-fn btdf_is_empty(sol: &Solution) -> bool {
+pub(crate) fn btdf_is_empty(sol: &Solution) -> bool {
     sol.channels.iter().all(|c| c.btdf.iter().all(|&v| v == 0.0) && c.transmittance == 0.0)
 }
 
@@ -239,6 +239,25 @@ pub fn csv(sol: &Solution, scene: Option<&Scene>) -> String {
         s.push('\n');
     }
     s
+}
+
+/// A number for CSV and the sweep's rows: the shortest decimal that reads
+/// back as `x` (every digit of the JSON), in exponent form (`1.18e-17`)
+/// when `x` is not 0 and below 1e-4 or from 1e16 in magnitude, so that no
+/// long run of zeros stands for a small number.
+///
+/// ```
+/// assert_eq!(km::text::number(0.3), "0.3");
+/// assert_eq!(km::text::number(1.1802303081984698e-17), "1.1802303081984698e-17");
+/// assert_eq!(km::text::number(0.0), "0");
+/// ```
+pub fn number(x: f64) -> String {
+    let a = x.abs();
+    if x != 0.0 && x.is_finite() && !(1e-4..1e16).contains(&a) {
+        format!("{x:e}")
+    } else {
+        x.to_string()
+    }
 }
 
 fn seconds(t: f64) -> String {
