@@ -1,6 +1,6 @@
 //! # km: light in stacks of flat scattering layers
 //!
-//! The library a user depends on: one scene, four methods, one interface.
+//! The library a user depends on: one scene, five methods, one interface.
 //!
 //! * [`Method`]: the method registry (`km`, `multiflux`, `direction-set`,
 //!   `mc`, `dipole`).
