@@ -13,6 +13,7 @@ macro_rules! help {
 }
 
 mod bsdf;
+mod colour;
 mod field;
 mod fit;
 mod mc;

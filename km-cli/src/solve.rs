@@ -54,6 +54,8 @@ pub struct SolveArgs {
     pub out: Option<PathBuf>,
     #[command(flatten)]
     pub settings: MethodArgs,
+    #[command(flatten)]
+    pub colour: crate::colour::ColourArgs,
 }
 
 // The settings of a solve, one flag each (km::settings::SETTINGS; the same
@@ -190,11 +192,49 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         stdout::eprint(&format!("wrote shard {i}/{n} to {}\n", out.display()))?;
         return Ok(());
     }
+    let format = OutputFormat::of(args.json, args.format);
+    if args.colour.colour {
+        return run_colour(args, &scene, format);
+    }
     let sol = solve(&scene, args)?;
     if let Some(out) = &args.out {
         write_json(out, &sol.to_json(), inputs)?;
     }
-    print(&sol, Some(&scene), OutputFormat::of(args.json, args.format))
+    print(&sol, Some(&scene), format)
+}
+
+/// `km solve --colour [--swatch FILE]`: the solution with the colours of its
+/// spectra (JSON key `colour`, or lines after the table).
+fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<()> {
+    let inputs = std::slice::from_ref(&args.input.scene);
+    if args.settings.shard.is_some() {
+        bail!("--colour does not combine with --shard (a shard prints nothing; `km merge` does)");
+    }
+    if format == OutputFormat::Csv {
+        bail!(
+            "--colour is the colour of the whole spectrum, not a value per wavelength: use \
+             --format table or json"
+        );
+    }
+    let wavelengths = crate::colour::wavelengths(scene)?;
+    let sol = solve(scene, args)?;
+    let colours = crate::colour::of_solution(&wavelengths, &sol)?;
+    let mut v = sol.to_json();
+    v["colour"] = crate::colour::json(&colours);
+    if let Some(path) = &args.colour.swatch {
+        let patches: Vec<_> =
+            colours.iter().map(|(n, c)| crate::colour::patch((*n).into(), c)).collect();
+        crate::colour::write_swatch(path, &patches, inputs)?;
+    }
+    if let Some(out) = &args.out {
+        write_json(out, &v, inputs)?;
+    }
+    match format {
+        OutputFormat::Table => stdout::print(
+            &(km::text::table(&sol, Some(scene)) + &crate::colour::table_lines(&colours)),
+        ),
+        _ => stdout::print_json(&v),
+    }
 }
 
 /// Print a solution as a table, JSON or CSV.

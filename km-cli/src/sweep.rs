@@ -27,6 +27,8 @@ pub struct SweepArgs {
     pub format: km::SweepFormat,
     #[command(flatten)]
     pub settings: MethodArgs,
+    #[command(flatten)]
+    pub colour: crate::colour::ColourArgs,
 }
 
 /// `km sweep`: the fixed edits and the axes of `--set`, solved over the grid
@@ -43,9 +45,33 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     if !(s.budget.is_finite() && s.budget > 0.0) {
         bail!("--budget must be a finite factor > 0, not {}", s.budget);
     }
+    // The colour needs the scene's wavelengths: checked before any point is solved.
+    let wavelengths = if args.colour.colour {
+        let scene = km::Scene::from_toml_str_edited(&text, &edits)
+            .with_context(|| format!("{}", args.scene.display()))?;
+        let points: usize = axes.iter().map(|a| a.n).product();
+        if args.colour.swatch.is_some() && points > MAX_SWATCH {
+            bail!(
+                "--swatch draws one patch per point, at most {MAX_SWATCH}; the sweep has {points}"
+            );
+        }
+        Some(crate::colour::wavelengths(&scene)?)
+    } else {
+        None
+    };
     // The points run in parallel: no progress bar.
     let opts = s.options(args.method, false)?;
     let points = km::sweep(&text, &edits, &axes, &opts)
         .map_err(|e| flag_error(e, args.method, s.tolerance))?;
-    stdout::print(&km::sweep_text(&axes, &points, args.format))
+    let Some(w) = wavelengths else {
+        return stdout::print(&km::sweep_text(&axes, &points, args.format));
+    };
+    let (rows, patches) = crate::colour::sweep_text(&axes, &points, &w, args.format)?;
+    if let Some(path) = &args.colour.swatch {
+        crate::colour::write_swatch(path, &patches, std::slice::from_ref(&args.scene))?;
+    }
+    stdout::print(&rows)
 }
+
+/// The most patches of a swatch (`km_inverse::colour::swatch_svg`).
+const MAX_SWATCH: usize = 64;
