@@ -265,20 +265,18 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
 /// A library refusal in the words of the flags that caused it (`--tolerance`,
 /// `--directions`, `--cone`, `--method`).
 pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow::Error {
-    {
-        match (&e, tolerance) {
-            (
-                KmError::NoAccuracySetting { .. }
-                | KmError::TargetUnreachable { .. }
-                | KmError::Option { name: "accuracy target", .. },
-                Some(t),
-            ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
-            (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
-            (KmError::Unsupported(_), _) => {
-                anyhow::Error::new(e).context(format!("--method {}", method.name()))
-            }
-            _ => e.into(),
+    match (&e, tolerance) {
+        (
+            KmError::NoAccuracySetting { .. }
+            | KmError::TargetUnreachable { .. }
+            | KmError::Option { name: "accuracy target", .. },
+            Some(t),
+        ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
+        (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
+        (KmError::Unsupported(_), _) => {
+            anyhow::Error::new(e).context(format!("--method {}", method.name()))
         }
+        _ => e.into(),
     }
 }
 
@@ -293,11 +291,10 @@ impl MethodArgs {
     /// The library options of these settings for `method`, with a progress
     /// bar for Monte Carlo when `progress`.
     pub fn options(&self, method: Method, progress: bool) -> Result<km::Options> {
-        let args = self;
-        if args.tolerance.is_some() && args.streams.is_some() {
+        if self.tolerance.is_some() && self.streams.is_some() {
             bail!("give either --streams or --tolerance, not both");
         }
-        options(method, args, progress)
+        options(method, self, progress)
     }
 }
 
