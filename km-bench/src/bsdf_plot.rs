@@ -134,24 +134,55 @@ pub fn heat_map(b: &Bsdf, c: usize, i: usize, transmitted: bool, phi: &[f64]) ->
 
 /// Write every picture of `km bsdf --plot` into `dir`: `bsdf-polar-C` per
 /// channel and `bsdf-brdf-C-iK` / `bsdf-btdf-C-iK` heat maps for the chosen
-/// incidence angles (PNG and SVG each). Returns the paths written.
+/// incidence angles (PNG and SVG each), `C` the channel's name
+/// ([`channel_names`]). Returns the paths written.
 ///
 /// # Errors
 /// Drawing or file errors.
 pub fn write_all(b: &Bsdf, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     let phi: Vec<f64> = (0..72).map(|k| 2.5 + 5.0 * k as f64).collect();
-    for c in 0..b.channels.len() {
-        out.extend(write_chart(dir, &format!("bsdf-polar-{c}"), &polar(b, c))?);
+    let names = channel_names(b);
+    for (c, name) in names.iter().enumerate() {
+        out.extend(write_chart(dir, &format!("bsdf-polar-{name}"), &polar(b, c))?);
         for i in chosen_incidences(b) {
             let t = b.theta_i[i].round() as i64;
             let chart = heat_map(b, c, i, false, &phi);
-            out.extend(write_chart(dir, &format!("bsdf-brdf-{c}-i{t}"), &chart)?);
+            out.extend(write_chart(dir, &format!("bsdf-brdf-{name}-i{t}"), &chart)?);
             if b.transmits {
                 let chart = heat_map(b, c, i, true, &phi);
-                out.extend(write_chart(dir, &format!("bsdf-btdf-{c}-i{t}"), &chart)?);
+                out.extend(write_chart(dir, &format!("bsdf-btdf-{name}-i{t}"), &chart)?);
             }
         }
     }
     Ok(out)
+}
+
+/// The channels' names in file names: their labels (`R`, `G`, `B`, `450nm`
+/// for "450 nm", `0` for a lone channel) with spaces dropped and any
+/// character but letters, digits, `.`, `-`, `_` replaced by `_`; the channel
+/// index appended (`-c`) where two names would be equal, and the index
+/// alone for an empty label.
+pub fn channel_names(b: &Bsdf) -> Vec<String> {
+    let clean = |c: usize| -> String {
+        let l = b.labels.get(c).map_or(String::new(), |l| {
+            l.chars()
+                .filter(|ch| !ch.is_whitespace())
+                .map(|ch| if ch.is_ascii_alphanumeric() || "._-".contains(ch) { ch } else { '_' })
+                .collect()
+        });
+        if l.is_empty() { c.to_string() } else { l }
+    };
+    let names: Vec<String> = (0..b.channels.len()).map(clean).collect();
+    names
+        .iter()
+        .enumerate()
+        .map(|(c, n)| {
+            if names.iter().filter(|m| *m == n).count() > 1 {
+                format!("{n}-{c}")
+            } else {
+                n.clone()
+            }
+        })
+        .collect()
 }

@@ -23,11 +23,12 @@ pub struct BsdfArgs {
     pub format: Option<BsdfFormat>,
     /// Incidence polar angles, degrees in [0, 90): a list `0,30,60`, a range
     /// `START:STOP:STEP` (STOP excluded) or `gauss:N` (arccosines of N Gauss
-    /// nodes in mu). Default gauss:32 (npz, csv); for fourier, 48 angles
+    /// nodes in mu). Default 0 and gauss:32 (npz, csv); for fourier, 48 angles
     /// uniform in theta from 0 (`0:90:1.875`).
     #[arg(long, allow_hyphen_values = true)]
     pub theta_i: Option<String>,
-    /// Exit polar angles, degrees in [0, 90), same syntax; default as --theta-i.
+    /// Exit polar angles, degrees in [0, 90), same syntax; default the --theta-i
+    /// given, else gauss:32 (npz, csv) or as --theta-i (fourier).
     #[arg(long, allow_hyphen_values = true)]
     pub theta_o: Option<String>,
     /// Azimuths, degrees (180 = mirror side), same syntax; default `0:360:5` (72).
@@ -69,13 +70,31 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
         bail!("--budget must be a finite number > 0, not {}", args.budget);
     }
     request.budget = args.budget;
+    request.channel_mix = spectrum_mix(&scene, format)?;
     let name = args.scene.display().to_string();
     let file = km::bsdf_file::bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
     if let (Some(out), Some(bytes)) = (&args.out, &file.bytes) {
         // Never over an input: `--out` naming the scene file is refused.
         let opts = WriteOptions { inputs: vec![args.scene.clone()], ..Default::default() };
+        let totals = km::bsdf_file::totals_path(out);
+        if let Some(t) = &file.totals {
+            if totals == *out {
+                bail!("--out {}: the totals file would be the table itself", out.display());
+            }
+            write_atomic_with(&totals, t, &opts)
+                .with_context(|| format!("cannot write {}", totals.display()))?;
+        }
         write_atomic_with(out, bytes, &opts)
             .with_context(|| format!("cannot write {}", out.display()))?;
+        if file.totals.is_some() {
+            crate::stdout::eprint(&format!("wrote {} (totals, delta parts)\n", totals.display()))?;
+        }
+    }
+    if request.channel_mix.is_some() {
+        crate::stdout::eprint(
+            "the spectrum is written as its luminance Y and linear sRGB R, B (CIE 1931 2°, D65; \
+             docs/bsdf.md)\n",
+        )?;
     }
     crate::stdout::eprint(&file.summary(args.out.as_deref()))?;
     if let Some(dir) = &args.plot {
@@ -84,6 +103,20 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// For a Fourier file of a spectral scene (several wavelengths): the linear
+/// sRGB weights of its wavelengths (`km_inverse::colour`), so that the file
+/// holds the spectrum's colour; `None` for other scenes and formats.
+fn spectrum_mix(scene: &km::Scene, format: BsdfFormat) -> anyhow::Result<Option<Vec<[f64; 3]>>> {
+    match scene.wavelengths_nm() {
+        Some(w) if format == BsdfFormat::Fourier && w.len() > 1 => {
+            let weights = km_inverse::colour::linear_srgb_weights(w)
+                .map_err(|e| anyhow!("[spectrum] wavelengths_nm: {e}"))?;
+            Ok(Some(weights))
+        }
+        _ => Ok(None),
+    }
 }
 
 /// A refused request in the words of the flags.

@@ -13,6 +13,7 @@ macro_rules! help {
 }
 
 mod bsdf;
+mod colour;
 mod field;
 mod fit;
 mod mc;
@@ -21,6 +22,7 @@ mod progress;
 mod settings_parity;
 mod solve;
 mod stdout;
+mod sweep;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -111,23 +113,7 @@ enum Command {
     },
     /// Solve a scene over a grid of edited values, one row per point (and channel).
     #[command(after_help = help!("sweep"))]
-    Sweep {
-        /// Scene file (TOML, see docs/scene-file.md).
-        scene: PathBuf,
-        /// KEY=START:STOP:N (N equally spaced values, a grid over several; the first
-        /// varies slowest) or KEY=VALUE (a fixed edit); repeatable.
-        #[arg(long = "set", value_name = "KEY=START:STOP:N", required = true)]
-        set: Vec<String>,
-        /// Method (at its default settings).
-        #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
-        method: Method,
-        /// Output format.
-        #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
-        format: km::SweepFormat,
-        /// Factor on the budget of the whole sweep (every point's work summed; docs/limits.md).
-        #[arg(long, default_value_t = 1.0)]
-        budget: f64,
-    },
+    Sweep(sweep::SweepArgs),
     /// Print what a scene calls for: effects present, work skipped and why.
     #[command(after_help = help!("plan"))]
     Plan {
@@ -220,9 +206,7 @@ fn run(command: Command) -> anyhow::Result<()> {
             let opts = km::ProfileOptions { method, r_max, points, samples, seed };
             solve::profile(&input.load()?, &opts, OutputFormat::of(json, format))
         }
-        Command::Sweep { scene, set, method, format, budget } => {
-            solve::sweep(&scene, &set, method, format, budget)
-        }
+        Command::Sweep(args) => sweep::run(&args),
         Command::Plan { input, method, json, all_effects } => {
             // The same check as `km solve`: a refused scene has no plan.
             let options = km::Options::new(method).with_all_effects(all_effects);

@@ -10,8 +10,10 @@ use km::settings::{Kind, SETTINGS};
 use crate::solve::SolveArgs;
 
 /// Flags of `km solve` that are not settings of the solve: the scene and its
-/// edits, the method, and where and how the answer is written.
-const NOT_SETTINGS: &[&str] = &["scene", "set", "method", "json", "format", "out", "quiet", "help"];
+/// edits, the method, and where and how the answer is written (the colour
+/// of a spectrum and its swatch included).
+const NOT_SETTINGS: &[&str] =
+    &["scene", "set", "method", "json", "format", "out", "quiet", "help", "colour", "swatch"];
 
 #[test]
 fn every_setting_is_a_flag_with_its_default_and_choices() {

@@ -49,6 +49,17 @@ pub struct SolveArgs {
     /// Also write the JSON result (or, with --shard, the partial tally) to this file, atomically.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: MethodArgs,
+    #[command(flatten)]
+    pub colour: crate::colour::ColourArgs,
+}
+
+// The settings of a solve, one flag each (km::settings::SETTINGS; the same
+// flags in `km solve` and `km sweep`; no doc comment: it would become the
+// command's about).
+#[derive(clap::Args, Debug, Clone)]
+pub struct MethodArgs {
     /// Accuracy target: every number asked for (R, T, their delta parts, each BRDF/BTDF value)
     /// within TOL * max(1, |x|); chooses streams or samples, reports `error_estimate` and
     /// `tolerance.limited_by`, fails when unreachable [multiflux, mc].
@@ -97,8 +108,9 @@ pub struct SolveArgs {
     /// Run shard I of N (0-based) and write its partial tally to --out [mc].
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
-    /// Multiply every default work and memory budget (Monte Carlo photon steps and tally
-    /// memory, multi-flux work) by this factor; see docs/limits.md [mc, multiflux].
+    /// Multiply every default work and memory budget by this factor: one solve's (Monte Carlo
+    /// photon steps and tally memory, multi-flux work) and a request of many points' (every
+    /// method); see docs/limits.md.
     #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
     pub budget: f64,
     /// Solve K times in this process: `seconds` stays the first (cold) call's,
@@ -159,9 +171,9 @@ impl SolveArgs {
 pub fn run(args: &SolveArgs) -> Result<()> {
     let scene = args.input.load()?;
     let inputs = std::slice::from_ref(&args.input.scene);
-    if let Some(shard) = &args.shard {
+    if let Some(shard) = &args.settings.shard {
         let (i, n) = parse_shard(shard)?;
-        if args.repeat > 1 {
+        if args.settings.repeat > 1 {
             bail!("--repeat does not combine with --shard (a shard is written once)");
         }
         if args.method != Method::Mc {
@@ -170,16 +182,54 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         let Some(out) = &args.out else {
             bail!("--shard {shard} needs --out FILE for the partial tally");
         };
-        let part = km::mc_shard(&scene, &options(args)?, i, n)?;
+        let part = km::mc_shard(&scene, &args.options()?, i, n)?;
         write_json(out, &serde_json::to_value(&part)?, inputs)?;
         stdout::eprint(&format!("wrote shard {i}/{n} to {}\n", out.display()))?;
         return Ok(());
+    }
+    let format = OutputFormat::of(args.json, args.format);
+    if args.colour.colour {
+        return run_colour(args, &scene, format);
     }
     let sol = solve(&scene, args)?;
     if let Some(out) = &args.out {
         write_json(out, &sol.to_json(), inputs)?;
     }
-    print(&sol, Some(&scene), OutputFormat::of(args.json, args.format))
+    print(&sol, Some(&scene), format)
+}
+
+/// `km solve --colour [--swatch FILE]`: the solution with the colours of its
+/// spectra (JSON key `colour`, or lines after the table).
+fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<()> {
+    let inputs = std::slice::from_ref(&args.input.scene);
+    if args.settings.shard.is_some() {
+        bail!("--colour does not combine with --shard (a shard prints nothing; `km merge` does)");
+    }
+    if format == OutputFormat::Csv {
+        bail!(
+            "--colour is the colour of the whole spectrum, not a value per wavelength: use \
+             --format table or json"
+        );
+    }
+    let wavelengths = crate::colour::wavelengths(scene)?;
+    let sol = solve(scene, args)?;
+    let colours = crate::colour::of_solution(&wavelengths, &sol)?;
+    let mut v = sol.to_json();
+    v["colour"] = crate::colour::json(&colours);
+    if let Some(path) = &args.colour.swatch {
+        let patches: Vec<_> =
+            colours.iter().map(|(n, c)| crate::colour::patch((*n).into(), c)).collect();
+        crate::colour::write_swatch(path, &patches, inputs)?;
+    }
+    if let Some(out) = &args.out {
+        write_json(out, &v, inputs)?;
+    }
+    match format {
+        OutputFormat::Table => stdout::print(
+            &(km::text::table(&sol, Some(scene)) + &crate::colour::table_lines(&colours)),
+        ),
+        _ => stdout::print_json(&v),
+    }
 }
 
 /// Print a solution as a table, JSON or CSV.
@@ -202,17 +252,21 @@ pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) ->
 /// Solve `scene` with the method and options of `args` (through
 /// [`km::solve_repeated`], `--repeat` times).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
-    if args.tolerance.is_some() && args.streams.is_some() {
-        bail!("give either --streams or --tolerance, not both");
-    }
-    let opts = options(args)?;
+    let s = &args.settings;
+    let opts = args.options()?;
     let _bar = match &opts.method {
-        km::MethodOptions::Multiflux(o) if crate::progress::wanted(args.quiet) => {
-            crate::progress::Ticker::multiflux(scene, o, args.tolerance.is_some())
+        km::MethodOptions::Multiflux(o) if args.progress() => {
+            crate::progress::Ticker::multiflux(scene, o, s.tolerance.is_some())
         }
         _ => None,
     };
-    km::solve_repeated(scene, &opts, args.repeat).map_err(|e| match (&e, args.tolerance) {
+    km::solve_repeated(scene, &opts, s.repeat).map_err(|e| flag_error(e, args.method, s.tolerance))
+}
+
+/// A library refusal in the words of the flags that caused it (`--tolerance`,
+/// `--directions`, `--cone`, `--method`).
+pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow::Error {
+    match (&e, tolerance) {
         (
             KmError::NoAccuracySetting { .. }
             | KmError::TargetUnreachable { .. }
@@ -222,15 +276,38 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
         ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
         (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
         (KmError::Unsupported(_), _) => {
-            anyhow::Error::new(e).context(format!("--method {}", args.method.name()))
+            anyhow::Error::new(e).context(format!("--method {}", method.name()))
         }
         _ => e.into(),
-    })
+    }
 }
 
-/// The library options of `args`.
-fn options(args: &SolveArgs) -> Result<km::Options> {
-    let method = match args.method {
+impl SolveArgs {
+    /// Whether a progress bar may be shown (stderr is a terminal, no `--quiet`).
+    fn progress(&self) -> bool {
+        crate::progress::wanted(self.settings.quiet)
+    }
+
+    /// The library options of the flags (a progress bar when it may be shown).
+    fn options(&self) -> Result<km::Options> {
+        self.settings.options(self.method, self.progress())
+    }
+}
+
+impl MethodArgs {
+    /// The library options of these settings for `method`, with a progress
+    /// bar for Monte Carlo when `progress`.
+    pub fn options(&self, method: Method, progress: bool) -> Result<km::Options> {
+        if self.tolerance.is_some() && self.streams.is_some() {
+            bail!("give either --streams or --tolerance, not both");
+        }
+        options(method, self, progress)
+    }
+}
+
+/// The library options of the settings `args` for `method`.
+fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Options> {
+    let method = match method {
         Method::Km => {
             km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping, model: args.km_model })
         }
@@ -249,7 +326,7 @@ fn options(args: &SolveArgs) -> Result<km::Options> {
             seed: args.seed,
             threads: args.threads,
             estimator: args.estimator,
-            progress: crate::progress::wanted(args.quiet).then(crate::progress::photons),
+            progress: progress.then(crate::progress::photons),
             all_effects: args.all_effects,
             ..Default::default()
         }),
@@ -302,29 +379,6 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
     })
 }
 
-/// `km sweep`: the fixed edits and the axes of `--set`, solved over the grid, printed.
-pub fn sweep(
-    scene: &Path,
-    set: &[String],
-    method: Method,
-    format: km::SweepFormat,
-    budget: f64,
-) -> Result<()> {
-    // Read as every scene file is read (regular file or `-`, size limit).
-    let text = km::read_scene_text(scene, km::SceneLimits::from_env().max_bytes)
-        .with_context(|| format!("{}", scene.display()))?;
-    let (edits, axes) = km::SweepAxis::split(set)?;
-    if axes.is_empty() {
-        bail!("km sweep needs at least one --set KEY=START:STOP:N");
-    }
-    if !(budget.is_finite() && budget > 0.0) {
-        bail!("--budget must be a finite factor > 0, not {budget}");
-    }
-    let opts = options(&SolveArgs::defaults(method))?.with_budget(budget)?;
-    let points = km::sweep(&text, &edits, &axes, &opts)?;
-    stdout::print(&km::sweep_text(&axes, &points, format))
-}
-
 /// Whether the user gave argument `id` on the command line (not a default).
 fn given(m: &clap::ArgMatches, id: &str) -> bool {
     matches!(m.try_get_raw(id), Ok(Some(_)))
@@ -337,18 +391,24 @@ pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
     let flag = |id: &str| format!("--{}", id.replace('_', "-"));
     let method = |m: &clap::ArgMatches| m.get_one::<Method>("method").copied();
     match matches.subcommand() {
-        Some(("solve", m)) => {
+        Some((command @ ("solve" | "sweep"), m)) => {
             let method = method(m).unwrap_or(Method::Multiflux);
-            for km::MethodSetting { name, methods, sets } in km::METHOD_SETTINGS {
-                if given(m, name) && !methods.contains(&method) {
-                    let names: Vec<_> = methods.iter().map(|x| x.name()).collect();
+            for s in km::settings::SETTINGS {
+                if given(m, s.name) && !s.applies_to(method) {
+                    let names: Vec<_> = s.methods.iter().map(|x| x.name()).collect();
                     bail!(
-                        "{} does not apply to --method {}: it sets {sets} (--method {})",
-                        flag(name),
+                        "{} does not apply to --method {}: it sets {} (--method {})",
+                        flag(s.name),
                         method.name(),
+                        s.sets,
                         names.join(" or ")
                     );
                 }
+            }
+            // A sweep prints its rows: no shard, no timing of repeated solves.
+            let once = ["shard", "repeat"].into_iter().find(|id| given(m, id));
+            if let Some(id) = once.filter(|_| command == "sweep") {
+                bail!("{} applies to km solve, not to km sweep", flag(id));
             }
             if given(m, "shard") && (given(m, "json") || given(m, "format")) {
                 bail!(

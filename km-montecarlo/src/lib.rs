@@ -60,3 +60,10 @@ pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,
 };
 pub use transport::cone_bins;
+
+/// A standard error at or below this fraction of its value is reported as
+/// 0: the number is the same in every batch to 9 digits. For a
+/// deterministic part (the mirror reflection of a smooth top surface) what
+/// is left is rounding noise, about 1e-16 of the value; a random part that
+/// small is below anything a result is read to (docs/montecarlo.md §5).
+pub const EXACT_RELATIVE_STDERR: f64 = 1e-9;

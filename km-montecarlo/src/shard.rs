@@ -606,7 +606,12 @@ fn per(idx: &dyn Fn(usize) -> usize, n: usize, norm: &[f64], f: &dyn Fn(usize) -
 /// One channel's values and standard errors from its merged batch statistics.
 fn channel_result(s: &BatchStats, l: &Layout, meta: &ChannelMeta) -> ChannelResult {
     let mean = |j: usize| s.mean(j);
-    let se = |j: usize| s.stderr(j);
+    // A number the same in every batch to 9 digits (the mirror reflection
+    // of a smooth top surface) has a standard error of rounding noise: 0.
+    let se = |j: usize| {
+        let e = s.stderr(j);
+        if e <= crate::EXACT_RELATIVE_STDERR * s.mean(j).abs() { 0.0 } else { e }
+    };
     let ones = vec![1.0; l.layers];
     let err = km_core::Uncertainty {
         reflectance: Some(se(Layout::R)),

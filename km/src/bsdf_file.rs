@@ -51,14 +51,33 @@ impl BsdfFormat {
         }
     }
 
-    /// The default polar grid in degrees: 48 angles uniform in theta from 0
-    /// (step 1.875) for the Fourier file, which needs 0 and equal grids;
-    /// else the arccosines of 32 Gauss nodes in mu.
+    /// The default exit polar grid in degrees: 48 angles uniform in theta
+    /// from 0 (step 1.875) for the Fourier file, which needs 0 and equal
+    /// grids; else the arccosines of 32 Gauss nodes in mu (the energy
+    /// check's quadrature).
     pub fn default_theta(self) -> Vec<f64> {
         match self {
             BsdfFormat::Fourier => (0..48).map(|k| 1.875 * k as f64).collect(),
             _ => gauss_angles(32).0,
         }
+    }
+
+    /// The default incidence polar grid in degrees: [`BsdfFormat::default_theta`]
+    /// with normal incidence (0) first when it lacks it (npz, csv: 0 and the
+    /// 32 Gauss angles).
+    ///
+    /// ```
+    /// use km::bsdf_file::BsdfFormat;
+    /// let t = BsdfFormat::Csv.default_theta_i();
+    /// assert_eq!((t[0], t.len()), (0.0, 33));
+    /// assert_eq!(BsdfFormat::Fourier.default_theta_i(), BsdfFormat::Fourier.default_theta());
+    /// ```
+    pub fn default_theta_i(self) -> Vec<f64> {
+        let mut t = self.default_theta();
+        if !t.contains(&0.0) {
+            t.insert(0, 0.0);
+        }
+        t
     }
 }
 
@@ -233,6 +252,10 @@ pub struct BsdfRequest {
     pub format: BsdfFormat,
     /// Factor on the grid budgets of [`check_grid`] (default 1).
     pub budget: f64,
+    /// For the Fourier file of a scene with other than 1 or 3 channels (a
+    /// spectrum): the linear RGB each channel adds per unit value
+    /// ([`FourierSettings::channel_mix`]); `None` otherwise.
+    pub channel_mix: Option<Vec<[f64; 3]>>,
 }
 
 /// The angle lists of a [`BsdfRequest`].
@@ -265,8 +288,8 @@ pub enum RequestError {
 impl BsdfRequest {
     /// A request from angle lists as text ([`parse_angles`]); a list not
     /// given takes its default: `theta_i` the format's
-    /// ([`BsdfFormat::default_theta`]), `theta_o` the `theta_i`, `phi`
-    /// [`default_phi`].
+    /// ([`BsdfFormat::default_theta_i`]), `theta_o` the `theta_i` when
+    /// given, else [`BsdfFormat::default_theta`], `phi` [`default_phi`].
     ///
     /// # Errors
     /// A list [`parse_angles`] refuses, naming the list; light from below
@@ -289,14 +312,12 @@ impl BsdfRequest {
         let parse = |list: AngleList, text: &str| {
             parse_angles(text).map_err(|source| RequestError::Angles { list, source })
         };
-        let theta_i = match theta_i {
-            Some(t) => parse(AngleList::ThetaI, t)?,
-            None => format.default_theta(),
-        };
+        let given_i = theta_i.map(|t| parse(AngleList::ThetaI, t)).transpose()?;
         let theta_o = match theta_o {
             Some(t) => parse(AngleList::ThetaO, t)?,
-            None => theta_i.clone(),
+            None => given_i.clone().unwrap_or_else(|| format.default_theta()),
         };
+        let theta_i = given_i.unwrap_or_else(|| format.default_theta_i());
         let phi = match phi {
             Some(t) => parse(AngleList::Phi, t)?,
             None => default_phi(),
@@ -304,7 +325,16 @@ impl BsdfRequest {
         if format == BsdfFormat::Fourier && from_below {
             return Err(RequestError::FromBelowInFourier);
         }
-        Ok(BsdfRequest { theta_i, theta_o, phi, from_below, streams, format, budget: 1.0 })
+        Ok(BsdfRequest {
+            theta_i,
+            theta_o,
+            phi,
+            from_below,
+            streams,
+            format,
+            budget: 1.0,
+            channel_mix: None,
+        })
     }
 }
 
@@ -322,6 +352,21 @@ pub struct BsdfFile {
     pub options: BsdfOptions,
     /// The bytes of the file in the requested format, when asked for.
     pub bytes: Option<Vec<u8>>,
+    /// For the CSV: the bytes of its totals file ([`totals_path`]), when asked for.
+    pub totals: Option<Vec<u8>>,
+}
+
+/// The totals file beside a CSV BSDF file: `NAME.csv` -> `NAME.totals.csv`
+/// (totals and delta parts per channel and incidence, `Table::totals_csv`).
+///
+/// ```
+/// use std::path::Path;
+/// let p = km::bsdf_file::totals_path(Path::new("out/paint.csv"));
+/// assert_eq!(p, Path::new("out/paint.totals.csv"));
+/// ```
+pub fn totals_path(out: &Path) -> std::path::PathBuf {
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    out.with_file_name(format!("{stem}.totals.csv"))
 }
 
 /// The BSDF of `scene` on the grids of `request`, its checks (energy,
@@ -354,6 +399,7 @@ pub fn bsdf_file(
     meta["scene"] = json!(scene_text);
     meta["channels"] = json!(scene.labels());
     meta["seconds"] = json!(seconds);
+    let totals = (with_bytes && request.format == BsdfFormat::Csv).then(|| table.totals_csv());
     let bytes = if !with_bytes {
         None
     } else {
@@ -375,11 +421,15 @@ pub fn bsdf_file(
                 } else {
                     None
                 };
-                fourier(&bsdf, below.as_ref(), &FourierSettings::default())?
+                let settings = FourierSettings {
+                    channel_mix: request.channel_mix.clone(),
+                    ..FourierSettings::default()
+                };
+                fourier(&bsdf, below.as_ref(), &settings)?
             }
         })
     };
-    Ok(BsdfFile { bsdf, phi: phi.clone(), meta, seconds, options, bytes })
+    Ok(BsdfFile { bsdf, phi: phi.clone(), meta, seconds, options, bytes, totals })
 }
 
 impl BsdfFile {

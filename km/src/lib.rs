@@ -1,6 +1,6 @@
 //! # km: light in stacks of flat scattering layers
 //!
-//! The library a user depends on: one scene, four methods, one interface.
+//! The library a user depends on: one scene, five methods, one interface.
 //!
 //! * [`Method`]: the method registry (`km`, `multiflux`, `direction-set`,
 //!   `mc`, `dipole`).
@@ -20,9 +20,9 @@
 //! * [`KmError`]: every refusal, in the library's own words.
 //! * [`text`]: a solution, a scene and a plan as text for people;
 //!   [`sweep_text`], [`Profile::table`] and [`Profile::csv`] likewise.
-//! * [`solve_repeated`], [`Options::with_budget`], [`mc_shard`],
-//!   [`METHOD_SETTINGS`]: repeated timing, work budgets, Monte Carlo
-//!   shards, the settings that apply to some methods only.
+//! * [`solve_repeated`], [`Options::with_budget`], [`mc_shard`]: repeated
+//!   timing, work budgets, Monte Carlo shards; [`settings::SETTINGS`]: every
+//!   setting of a solve and the methods it applies to.
 //! * [`bsdf_file`]: the whole BSDF as an npz, CSV or Fourier BSDF file.
 //!
 //! The crates below: `km-core` (scene, layers, Fresnel, planner, two-flux,
@@ -79,7 +79,7 @@ pub use km_multiflux::bsdf;
 pub use km_multiflux::budget as multiflux_budget;
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
-pub use run::{METHOD_SETTINGS, MethodSetting, mc_shard, solve_repeated};
+pub use run::{mc_shard, solve_repeated};
 pub use solver::{MethodOptions, Options, Solver};
 pub use sweep::{
     MAX_POINTS as SWEEP_MAX_POINTS, SweepAxis, SweepFormat, SweepPoint, sweep, sweep_text,

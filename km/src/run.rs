@@ -1,10 +1,10 @@
 //! Running a solve: the work budgets scaled by one factor, a solve repeated
-//! for its timing, one shard of a Monte Carlo run, and the settings that
-//! apply to some methods only.
+//! for its timing, one shard of a Monte Carlo run (the settings that apply
+//! to some methods only are in [`crate::settings::SETTINGS`]).
 
 use km_core::{Scene, Solution};
 
-use crate::{KmError, Method, MethodOptions, Options};
+use crate::{KmError, MethodOptions, Options};
 
 impl Options {
     /// Every default work and memory budget multiplied by `factor`: the
@@ -97,51 +97,4 @@ pub fn mc_shard(
         });
     };
     Ok(km_montecarlo::run_shard(scene, o, index, count)?)
-}
-
-/// A setting that applies to some methods only: `km solve` refuses it
-/// with another method, naming what it sets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MethodSetting {
-    /// The setting's name (the command line's flag, `_` for `-`).
-    pub name: &'static str,
-    /// The methods it applies to.
-    pub methods: &'static [Method],
-    /// What it sets, in words.
-    pub sets: &'static str,
-}
-
-/// The settings that apply to some methods only.
-pub const METHOD_SETTINGS: &[MethodSetting] = &[
-    setting("samples", &[Method::Mc], "the photon count of Monte Carlo"),
-    setting("seed", &[Method::Mc], "the random seed of Monte Carlo"),
-    setting("threads", &[Method::Mc], "the worker threads of Monte Carlo"),
-    setting("estimator", &[Method::Mc], "the absorption estimator of Monte Carlo"),
-    setting("shard", &[Method::Mc], "a share of a Monte Carlo run"),
-    setting("streams", &[Method::Multiflux], "the Gauss nodes per hemisphere of multi-flux"),
-    setting("order", &[Method::Multiflux], "the Neumann order of multi-flux adding"),
-    setting("directions", &[Method::DirectionSet], "the size of the direction set on the sphere"),
-    setting("km_mapping", &[Method::Km], "how two-flux K, S come from the scene"),
-    setting("km_model", &[Method::Km], "the four-flux or the two-flux model"),
-    setting(
-        "cone",
-        &[Method::Mc, Method::Multiflux],
-        "the cones the BRDF/BTDF values are means over (Monte Carlo bins; multi-flux averaged alike)",
-    ),
-    setting("fdr", &[Method::Dipole], "how the dipole computes F_dr"),
-    setting("dipole", &[Method::Dipole], "which dipole"),
-    setting(
-        "tolerance",
-        &[Method::Multiflux, Method::Mc],
-        "an accuracy target, met by choosing streams or photons; km and dipole are closed \
-         forms with no accuracy setting",
-    ),
-];
-
-const fn setting(
-    name: &'static str,
-    methods: &'static [Method],
-    sets: &'static str,
-) -> MethodSetting {
-    MethodSetting { name, methods, sets }
 }

@@ -60,6 +60,9 @@ pub struct Setting {
     pub conflicts: &'static [&'static str],
     /// One line of help.
     pub help: &'static str,
+    /// What it sets, in the words of a refusal: "`--NAME` does not apply to
+    /// method M: it sets SETS".
+    pub sets: &'static str,
 }
 
 use Method::{Dipole, DirectionSet as Ds, Km, Mc, Multiflux as Mf};
@@ -87,6 +90,8 @@ pub const SETTINGS: &[Setting] = &[
         conflicts: &["streams", "samples", "shard"],
         help: "accuracy target: every number asked for within TOL * max(1, |x|); chooses the \
                streams or photons and reports error_estimate",
+        sets: "an accuracy target, met by choosing streams or photons; km and dipole are \
+               closed forms with no accuracy setting",
     },
     Setting {
         name: "all_effects",
@@ -95,6 +100,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("false"),
         conflicts: &[],
         help: "compute every effect (the planner off), for comparison",
+        sets: "the planner off",
     },
     Setting {
         name: "km_mapping",
@@ -105,6 +111,7 @@ pub const SETTINGS: &[Setting] = &[
         help: "how two-flux K, S come from the scene (gate1974: K = 2 sigma_a, S = 3/4 sigma_s \
                (1 - g), the least error on the grid of docs/two-flux.md §13; seed: K = sigma_a, \
                S = sigma_s)",
+        sets: "how two-flux K, S come from the scene",
     },
     Setting {
         name: "km_model",
@@ -114,6 +121,7 @@ pub const SETTINGS: &[Setting] = &[
         conflicts: &[],
         help: "the two-flux model: four-flux carries a collimated beam as a beam \
                (docs/two-flux.md §12); two-flux is the seed's diffuse model",
+        sets: "the four-flux or the two-flux model",
     },
     Setting {
         name: "cone",
@@ -123,6 +131,8 @@ pub const SETTINGS: &[Setting] = &[
         conflicts: &[],
         help: "half-angle in degrees of the cones the BRDF/BTDF values are means over: Monte \
                Carlo's bins (default 5), or the multi-flux values averaged alike",
+        sets: "the cones the BRDF/BTDF values are means over (Monte Carlo bins; multi-flux \
+               averaged alike)",
     },
     Setting {
         name: "streams",
@@ -132,6 +142,7 @@ pub const SETTINGS: &[Setting] = &[
         conflicts: &["tolerance"],
         help: "Gauss nodes per hemisphere and Snell segment (default: the scene's rule, 16 for \
                most scenes)",
+        sets: "the Gauss nodes per hemisphere of multi-flux",
     },
     Setting {
         name: "order",
@@ -140,6 +151,7 @@ pub const SETTINGS: &[Setting] = &[
         default: None,
         conflicts: &[],
         help: "truncate the adding after this many round trips (seed eq. 21; default exact)",
+        sets: "the Neumann order of multi-flux adding",
     },
     Setting {
         name: "directions",
@@ -148,6 +160,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("303"),
         conflicts: &[],
         help: "directions on the sphere in the medium of lowest index (the seed's 303)",
+        sets: "the size of the direction set on the sphere",
     },
     Setting {
         name: "samples",
@@ -156,6 +169,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("1000000"),
         conflicts: &["tolerance"],
         help: "photons per channel",
+        sets: "the photon count of Monte Carlo",
     },
     Setting {
         name: "seed",
@@ -164,6 +178,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("1"),
         conflicts: &[],
         help: "random seed; the same seed gives bit-identical results for any thread count",
+        sets: "the random seed of Monte Carlo",
     },
     Setting {
         name: "threads",
@@ -172,6 +187,7 @@ pub const SETTINGS: &[Setting] = &[
         default: None,
         conflicts: &[],
         help: "worker threads (default: all cores); never changes the result",
+        sets: "the worker threads of Monte Carlo",
     },
     Setting {
         name: "estimator",
@@ -180,6 +196,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("survival"),
         conflicts: &[],
         help: "absorption estimator: survival biasing with Russian roulette (as MCML) or analog",
+        sets: "the absorption estimator of Monte Carlo",
     },
     Setting {
         name: "shard",
@@ -188,14 +205,18 @@ pub const SETTINGS: &[Setting] = &[
         default: None,
         conflicts: &["tolerance", "repeat"],
         help: "run shard I of N (0-based) of a Monte Carlo run; merge the shards with km merge",
+        sets: "a share of a Monte Carlo run",
     },
     Setting {
         name: "budget",
-        methods: &[Mf, Mc],
+        methods: ALL,
         kind: Kind::Real { min: 0.0, max: 1e12 },
         default: Some("1"),
         conflicts: &[],
-        help: "multiply every default work and memory budget by this factor (docs/limits.md)",
+        help: "multiply every default work and memory budget by this factor: one solve's \
+               (multi-flux, Monte Carlo) and a request of many points' (every method; \
+               docs/limits.md)",
+        sets: "the work and memory budgets",
     },
     Setting {
         name: "repeat",
@@ -205,6 +226,7 @@ pub const SETTINGS: &[Setting] = &[
         conflicts: &["shard"],
         help: "solve K times: seconds stays the first call's, seconds_best and seconds_median \
                are over all K",
+        sets: "how many times the solve is timed",
     },
     Setting {
         name: "fdr",
@@ -213,6 +235,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("exact"),
         conflicts: &[],
         help: "how the dipole computes F_dr: the exact integral or Egan & Hilgeman's fit",
+        sets: "how the dipole computes F_dr",
     },
     Setting {
         name: "dipole",
@@ -221,6 +244,7 @@ pub const SETTINGS: &[Setting] = &[
         default: Some("jensen2001"),
         conflicts: &[],
         help: "which dipole: Jensen et al. 2001 or d'Eon 2012's better dipole",
+        sets: "which dipole",
     },
 ];
 
@@ -380,9 +404,9 @@ impl Settings {
                 s.name,
                 &value,
                 format!(
-                    "does not apply to method {}: it sets the {} (method {})",
+                    "does not apply to method {}: it sets {} (method {})",
                     self.method.name(),
-                    s.help.split([':', ';', '(']).next().unwrap_or(s.help).trim(),
+                    s.sets,
                     names.join(" or ")
                 ),
             ));

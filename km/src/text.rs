@@ -3,6 +3,8 @@
 
 use std::fmt::Write;
 
+use km_montecarlo::EXACT_RELATIVE_STDERR;
+
 use crate::{ChannelResult, Light, Method, MethodDiagnostics, Plan, Scene, Solution, Substrate};
 
 /// Reads one number of a channel's result.
@@ -24,17 +26,61 @@ const TOTALS: [(&str, Getter, StdGetter); 5] = [
 const TOTAL_WORDS: [&str; 5] =
     ["reflectance", "  specular part", "transmittance", "  direct part", "absorptance"];
 
-/// `x`, with `± stderr` when there is one.
-fn cell(x: f64, se: Option<f64>) -> String {
-    match se {
-        Some(e) => format!("{x:.6} ± {e:.1e}"),
-        None => format!("{x:.6}"),
+/// `x` for people: 6 decimals, or 6 significant digits in exponent form
+/// below 1e-3 and from 1e6 (0 as `0`).
+fn fixed(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e6).contains(&a) && x.is_finite() {
+        format!("{x:.5e}")
+    } else {
+        format!("{x:.6}")
     }
+}
+
+/// `x ± se` for people (eq. F1 of docs/cli.md): the standard error to two
+/// significant digits and the value to the same decimal place (`0.2345 ±
+/// 0.0012`; in exponent form when that place is beyond the 6th decimal);
+/// `x` alone as [`fixed`] when there is no standard error or it is at most
+/// [`km_montecarlo::EXACT_RELATIVE_STDERR`] of `|x|` (a number the same in
+/// every batch of photons, e.g. the mirror reflection of a smooth surface).
+///
+/// ```
+/// use km::text::with_stderr;
+/// assert_eq!(with_stderr(0.23451234, Some(0.00123)), "0.2345 ± 0.0012");
+/// assert_eq!(with_stderr(684.49, Some(12.3)), "684 ± 12");
+/// assert_eq!(with_stderr(3.4567e-9, Some(1.23e-10)), "3.46e-9 ± 1.2e-10");
+/// assert_eq!(with_stderr(0.04, Some(1.3e-18)), "0.040000");
+/// assert_eq!(with_stderr(0.5, None), "0.500000");
+/// ```
+pub fn with_stderr(x: f64, se: Option<f64>) -> String {
+    let Some(e) = se.filter(|e| *e > EXACT_RELATIVE_STDERR * x.abs() && e.is_finite()) else {
+        return fixed(x);
+    };
+    // The decimal place of the standard error's second significant digit.
+    let place = 1 - e.log10().floor() as i64;
+    if (0..=6).contains(&place) {
+        let d = place as usize;
+        return format!("{x:.d$} ± {e:.d$}");
+    }
+    if place < 0 {
+        return format!("{x:.0} ± {e:.0}");
+    }
+    // Small numbers: the value's significant digits down to that place.
+    let digits = if x == 0.0 { 0 } else { (x.abs().log10().floor() as i64 + place).max(0) };
+    let d = digits as usize;
+    format!("{x:.d$e} ± {e:.1e}")
+}
+
+/// `x`, with `± stderr` when there is one (see [`with_stderr`]).
+fn cell(x: f64, se: Option<f64>) -> String {
+    with_stderr(x, se)
 }
 
 /// Whether the BTDF is meaningless: every value 0 and nothing transmitted
 /// (an opaque substrate or a half-space).
-fn btdf_is_empty(sol: &Solution) -> bool {
+pub(crate) fn btdf_is_empty(sol: &Solution) -> bool {
     sol.channels.iter().all(|c| c.btdf.iter().all(|&v| v == 0.0) && c.transmittance == 0.0)
 }
 
@@ -49,7 +95,8 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
     let mc = sol.channels.iter().any(|c| c.stderr.is_some());
     let width = if mc { 24 } else { 14 };
     let wavelengths = scene.and_then(|sc| sc.wavelengths_nm());
-    if let Some(w) = wavelengths.filter(|w| w.len() == sol.channels.len()) {
+    let spectral = wavelengths.filter(|w| w.len() == sol.channels.len());
+    if let Some(w) = spectral {
         // Spectral: one row per wavelength.
         let _ = write!(s, "{:>14}", "wavelength_nm");
         for name in ["R", "R_specular", "T", "T_direct", "A"] {
@@ -81,35 +128,7 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
             let _ = writeln!(s);
         }
     }
-    let scene_dirs = scene.map(|s| s.channels()[0].directions_deg());
-    let dirs = if sol.directions.is_empty() {
-        scene_dirs.unwrap_or(&sol.directions)
-    } else {
-        &sol.directions
-    };
-    for (what, pick) in [("BRDF", 0usize), ("BTDF", 1usize)] {
-        if sol
-            .channels
-            .iter()
-            .all(|c| if pick == 0 { c.brdf.is_empty() } else { c.btdf.is_empty() })
-            || (pick == 1 && btdf_is_empty(sol))
-        {
-            continue;
-        }
-        for (i, d) in dirs.iter().enumerate() {
-            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1}) 1/sr", d[0], d[1]));
-            for c in &sol.channels {
-                let v = if pick == 0 { &c.brdf } else { &c.btdf };
-                let se = c
-                    .stderr
-                    .as_ref()
-                    .and_then(|u| if pick == 0 { u.brdf.as_ref() } else { u.btdf.as_ref() });
-                let e = se.and_then(|e| e.get(i).copied());
-                let _ = write!(s, "{:>width$}", cell(v.get(i).copied().unwrap_or(f64::NAN), e));
-            }
-            let _ = writeln!(s);
-        }
-    }
+    direction_rows(&mut s, sol, scene, spectral, width);
     cone_lines(&mut s, sol);
     model_error_lines(&mut s, sol);
     if mc {
@@ -132,6 +151,56 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
         let _ = writeln!(s, "note: {note}");
     }
     s
+}
+
+/// The BRDF/BTDF rows: one per direction, a column per channel (for a
+/// spectral scene under a header of its wavelengths); no BTDF rows when
+/// nothing is transmitted.
+fn direction_rows(
+    s: &mut String,
+    sol: &Solution,
+    scene: Option<&Scene>,
+    spectral: Option<&[f64]>,
+    width: usize,
+) {
+    let scene_dirs = scene.map(|s| s.channels()[0].directions_deg());
+    let dirs = if sol.directions.is_empty() {
+        scene_dirs.unwrap_or(&sol.directions)
+    } else {
+        &sol.directions
+    };
+    let mut wl_header = false;
+    for (what, pick) in [("BRDF", 0usize), ("BTDF", 1usize)] {
+        if sol
+            .channels
+            .iter()
+            .all(|c| if pick == 0 { c.brdf.is_empty() } else { c.btdf.is_empty() })
+            || (pick == 1 && btdf_is_empty(sol))
+        {
+            continue;
+        }
+        if let Some(w) = spectral.filter(|_| !std::mem::replace(&mut wl_header, true)) {
+            // Directions in rows, wavelengths in columns (as the labels above).
+            let _ = write!(s, "{:<24}", "");
+            for wl in w {
+                let _ = write!(s, "{:>width$}", format!("{wl} nm"));
+            }
+            let _ = writeln!(s);
+        }
+        for (i, d) in dirs.iter().enumerate() {
+            let _ = write!(s, "{:<24}", format!("{what} ({:.1}, {:.1}) 1/sr", d[0], d[1]));
+            for c in &sol.channels {
+                let v = if pick == 0 { &c.brdf } else { &c.btdf };
+                let se = c
+                    .stderr
+                    .as_ref()
+                    .and_then(|u| if pick == 0 { u.brdf.as_ref() } else { u.btdf.as_ref() });
+                let e = se.and_then(|e| e.get(i).copied());
+                let _ = write!(s, "{:>width$}", cell(v.get(i).copied().unwrap_or(f64::NAN), e));
+            }
+            let _ = writeln!(s);
+        }
+    }
 }
 
 /// The cones the BRDF/BTDF values are means over (Monte Carlo bins,
@@ -200,8 +269,10 @@ fn km_mapping_words(mapping: &str, model: &str, scene: Option<&Scene>) -> String
 
 /// The solution as CSV: a header, then one row per channel (`channel`, or
 /// `wavelength_nm` for a spectral scene), the five totals, their standard
-/// errors when there are any (`stderr_reflectance`, ...), and `brdf_I`,
-/// `btdf_I` per output direction.
+/// errors when there are any (`stderr_reflectance`, ...), `brdf_I`,
+/// `btdf_I` per output direction, and their standard errors
+/// (`stderr_brdf_I`, `stderr_btdf_I`, Monte Carlo). Numbers as [`number`]
+/// writes them (every digit of the JSON).
 pub fn csv(sol: &Solution, scene: Option<&Scene>) -> String {
     let wavelengths =
         scene.and_then(|sc| sc.wavelengths_nm()).filter(|w| w.len() == sol.channels.len());
@@ -220,25 +291,58 @@ pub fn csv(sol: &Solution, scene: Option<&Scene>) -> String {
     }
     head.extend((0..n_brdf).map(|i| format!("brdf_{i}")));
     head.extend((0..n_btdf).map(|i| format!("btdf_{i}")));
+    if mc {
+        head.extend((0..n_brdf).map(|i| format!("stderr_brdf_{i}")));
+        head.extend((0..n_btdf).map(|i| format!("stderr_btdf_{i}")));
+    }
     let mut s = head.join(",");
     s.push('\n');
+    let list = |v: Option<&Vec<f64>>, n: usize| -> Vec<String> {
+        (0..n).map(|i| v.and_then(|v| v.get(i)).map(|x| number(*x)).unwrap_or_default()).collect()
+    };
     for (k, c) in sol.channels.iter().enumerate() {
         let mut row = vec![match wavelengths {
             Some(w) => w[k].to_string(),
             None => sol.labels.get(k).cloned().unwrap_or_default(),
         }];
-        row.extend(TOTALS.iter().map(|t| t.1(c).to_string()));
+        row.extend(TOTALS.iter().map(|t| number(t.1(c))));
         if mc {
-            row.extend(TOTALS.iter().map(|t| {
-                c.stderr.as_ref().and_then(t.2).map(|e| e.to_string()).unwrap_or_default()
-            }));
+            row.extend(
+                TOTALS
+                    .iter()
+                    .map(|t| c.stderr.as_ref().and_then(t.2).map(number).unwrap_or_default()),
+            );
         }
-        row.extend((0..n_brdf).map(|i| c.brdf.get(i).map(f64::to_string).unwrap_or_default()));
-        row.extend((0..n_btdf).map(|i| c.btdf.get(i).map(f64::to_string).unwrap_or_default()));
+        row.extend(list(Some(&c.brdf), n_brdf));
+        row.extend(list(Some(&c.btdf), n_btdf));
+        if mc {
+            let u = c.stderr.as_ref();
+            row.extend(list(u.and_then(|u| u.brdf.as_ref()), n_brdf));
+            row.extend(list(u.and_then(|u| u.btdf.as_ref()), n_btdf));
+        }
         s.push_str(&row.join(","));
         s.push('\n');
     }
     s
+}
+
+/// A number for CSV and the sweep's rows: the shortest decimal that reads
+/// back as `x` (every digit of the JSON), in exponent form (`1.18e-17`)
+/// when `x` is not 0 and below 1e-4 or from 1e16 in magnitude, so that no
+/// long run of zeros stands for a small number.
+///
+/// ```
+/// assert_eq!(km::text::number(0.3), "0.3");
+/// assert_eq!(km::text::number(1.1802303081984698e-17), "1.1802303081984698e-17");
+/// assert_eq!(km::text::number(0.0), "0");
+/// ```
+pub fn number(x: f64) -> String {
+    let a = x.abs();
+    if x != 0.0 && x.is_finite() && !(1e-4..1e16).contains(&a) {
+        format!("{x:e}")
+    } else {
+        x.to_string()
+    }
 }
 
 fn seconds(t: f64) -> String {

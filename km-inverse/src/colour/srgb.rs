@@ -59,13 +59,24 @@ fn srgb_decode(e: f64) -> f64 {
 /// assert!(rgb.iter().all(|c| (c - 1.0).abs() < 1e-12));
 /// ```
 pub fn srgb(xyz: Xyz) -> [f64; 3] {
+    srgb_linear(xyz).map(srgb_encode)
+}
+
+/// Linear sRGB (before the transfer function; white `(1, 1, 1)`) of
+/// D65-referred tristimulus values with `Y = 100` for white:
+/// `(R, G, B)_lin = M^-1 (X, Y, Z) / 100` (eq. C5). Linear in `XYZ`, so
+/// the linear RGB of a spectrum is a weighted sum of its values (what a
+/// renderer's RGB texture or BSDF file holds).
+///
+/// ```
+/// use km_inverse::colour::{Xyz, srgb_linear};
+/// let rgb = srgb_linear(Xyz { x: 41.24, y: 21.26, z: 1.93 });
+/// assert!((rgb[0] - 1.0).abs() < 1e-12 && rgb[1].abs() < 1e-12 && rgb[2].abs() < 1e-12);
+/// ```
+pub fn srgb_linear(xyz: Xyz) -> [f64; 3] {
     let m = xyz_to_srgb_matrix();
     let v = [xyz.x / 100.0, xyz.y / 100.0, xyz.z / 100.0];
-    let mut out = [0.0; 3];
-    for (o, row) in out.iter_mut().zip(m) {
-        *o = srgb_encode(row[0] * v[0] + row[1] * v[1] + row[2] * v[2]);
-    }
-    out
+    m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
 }
 
 /// D65-referred tristimulus values (`Y = 100` for white) of an sRGB colour,

@@ -222,12 +222,7 @@ impl<'a> Table<'a> {
         let (ni, no, np) = (b.theta_i.len(), b.theta_o.len(), self.phi.len());
         let mut s = String::from("channel,theta_i_deg,theta_o_deg,phi_deg,brdf,btdf\n");
         for c in 0..b.channels.len() {
-            let label = b.labels.get(c).cloned().unwrap_or_else(|| c.to_string());
-            let label = if label.contains([',', '"', '\n']) {
-                format!("\"{}\"", label.replace('"', "\"\""))
-            } else {
-                label
-            };
+            let label = csv_label(b.labels.get(c).cloned().unwrap_or_else(|| c.to_string()));
             for i in 0..ni {
                 for o in 0..no {
                     for p in 0..np {
@@ -241,6 +236,42 @@ impl<'a> Table<'a> {
             }
         }
         s.into_bytes()
+    }
+}
+
+impl Table<'_> {
+    /// The totals file beside the `csv`: a header line, then one row per
+    /// (channel, theta_i): `channel,theta_i_deg,reflectance,
+    /// reflectance_specular,transmittance,transmittance_direct` (totals with
+    /// their delta parts, as the npz's arrays of those names; full precision).
+    pub fn totals_csv(&self) -> Vec<u8> {
+        let b = self.bsdf;
+        let mut s = String::from(
+            "channel,theta_i_deg,reflectance,reflectance_specular,transmittance,\
+             transmittance_direct\n",
+        );
+        for (c, ch) in b.channels.iter().enumerate() {
+            let label = csv_label(b.labels.get(c).cloned().unwrap_or_else(|| c.to_string()));
+            for (i, t) in b.theta_i.iter().enumerate() {
+                s.push_str(&format!(
+                    "{label},{t},{:e},{:e},{:e},{:e}\n",
+                    ch.reflectance[i],
+                    ch.reflectance_specular[i],
+                    ch.transmittance[i],
+                    ch.transmittance_direct[i]
+                ));
+            }
+        }
+        s.into_bytes()
+    }
+}
+
+/// A channel label as a CSV field (quoted when it holds a comma, quote or newline).
+fn csv_label(label: String) -> String {
+    if label.contains([',', '"', '\n']) {
+        format!("\"{}\"", label.replace('"', "\"\""))
+    } else {
+        label
     }
 }
 
@@ -284,11 +315,17 @@ pub struct FourierSettings {
     /// A pair's series ends where the sum of the dropped `|a_k|` is below
     /// `tail * |a_0|` (layerlab's sparsity rule).
     pub tail: f64,
+    /// Linear RGB from the channels: row `c` is what channel `c` adds to
+    /// (R, G, B) per unit value (for a spectrum, the weights of its
+    /// wavelengths in the colour of the spectrum). The file then holds Y, R,
+    /// B of the mixed channels whatever their count; `None`: one channel as
+    /// is, three as RGB.
+    pub channel_mix: Option<Vec<[f64; 3]>>,
 }
 
 impl Default for FourierSettings {
     fn default() -> Self {
-        FourierSettings { max_orders: 64, tail: 1e-5 }
+        FourierSettings { max_orders: 64, tail: 1e-5, channel_mix: None }
     }
 }
 
@@ -302,7 +339,8 @@ impl Default for FourierSettings {
 ///
 /// `above` must be computed with `theta_i == theta_o` including 0 degrees;
 /// `below` (light from the substrate side, the same grids) when the stack
-/// transmits. One channel is written as is; three (RGB) as Y, R, B.
+/// transmits. One channel is written as is; three (RGB) as Y, R, B; any
+/// count with [`FourierSettings::channel_mix`] as Y, R, B of the mix.
 ///
 /// # Errors
 /// [`BsdfError::Input`] for grids that differ or miss 0 degrees, a channel
@@ -317,9 +355,20 @@ pub fn fourier(
         return Err(bad("needs theta_i == theta_o on a grid that contains 0 degrees"));
     }
     let nc = above.channels.len();
-    if nc != 1 && nc != 3 {
-        return Err(bad(&format!("needs 1 or 3 channels (RGB), the scene has {nc}")));
+    let mix = settings.channel_mix.as_deref();
+    match mix {
+        Some(w) if w.len() != nc => {
+            return Err(bad(&format!("{} channel weights for {nc} channels", w.len())));
+        }
+        None if nc != 1 && nc != 3 => {
+            return Err(bad(&format!(
+                "needs 1 or 3 channels (RGB), or the RGB weights of a spectrum's channels; the \
+                 scene has {nc}"
+            )));
+        }
+        _ => {}
     }
+    let n_out = if mix.is_some() { 3 } else { nc };
     if above.transmits {
         match below {
             Some(b) if b.theta_i == above.theta_i && b.theta_o == above.theta_o => {}
@@ -391,7 +440,15 @@ pub fn fourier(
                 let a: Vec<f64> = cosine_coefficients(&buf, kmax, &cos_t);
                 chans.push(a.iter().map(|x| x * scale).collect::<Vec<f64>>());
             }
-            if nc == 3 {
+            if let Some(w) = mix {
+                // Linear RGB of the channels (a spectrum's colour), then as three.
+                chans = (0..3)
+                    .map(|j| {
+                        (0..kmax).map(|k| (0..nc).map(|c| w[c][j] * chans[c][k]).sum()).collect()
+                    })
+                    .collect();
+            }
+            if n_out == 3 {
                 // Y, R, B as layerlab writes them (Rec. 709 luminance).
                 let y: Vec<f64> = (0..kmax)
                     .map(|k| {
@@ -405,7 +462,7 @@ pub fn fourier(
     }
     // Series length per pair: the tail rule on the largest channel.
     let lengths = series_lengths(&pairs, kmax, settings.tail);
-    Ok(scatfun_bytes(&nodes, &pairs, &lengths, nc, eta))
+    Ok(scatfun_bytes(&nodes, &pairs, &lengths, n_out, eta))
 }
 
 /// The series length of each pair of cosines: the shortest whose dropped

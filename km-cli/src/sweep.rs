@@ -1,0 +1,77 @@
+//! `km sweep`: one scene solved over a grid of edited values, with every
+//! setting `km solve` takes ([`MethodArgs`], the same flags), one row per
+//! point (and channel), computed by `km::sweep`.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use km::Method;
+
+use crate::solve::{MethodArgs, flag_error, method_parser};
+use crate::stdout;
+
+// The flags of `km sweep` (no doc comment: it would become the command's about).
+#[derive(clap::Args, Debug)]
+pub struct SweepArgs {
+    /// Scene file (TOML, see docs/scene-file.md).
+    pub scene: PathBuf,
+    /// KEY=START:STOP:N (N equally spaced values, a grid over several; the first
+    /// varies slowest) or KEY=VALUE (a fixed edit); repeatable.
+    #[arg(long = "set", value_name = "KEY=START:STOP:N", required = true)]
+    pub set: Vec<String>,
+    /// Method.
+    #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+    pub method: Method,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
+    pub format: km::SweepFormat,
+    #[command(flatten)]
+    pub settings: MethodArgs,
+    #[command(flatten)]
+    pub colour: crate::colour::ColourArgs,
+}
+
+/// `km sweep`: the fixed edits and the axes of `--set`, solved over the grid
+/// with the method's settings, printed.
+pub fn run(args: &SweepArgs) -> Result<()> {
+    // Read as every scene file is read (regular file or `-`, size limit).
+    let text = km::read_scene_text(&args.scene, km::SceneLimits::from_env().max_bytes)
+        .with_context(|| format!("{}", args.scene.display()))?;
+    let (edits, axes) = km::SweepAxis::split(&args.set)?;
+    if axes.is_empty() {
+        bail!("km sweep needs at least one --set KEY=START:STOP:N");
+    }
+    let s = &args.settings;
+    if !(s.budget.is_finite() && s.budget > 0.0) {
+        bail!("--budget must be a finite factor > 0, not {}", s.budget);
+    }
+    // The colour needs the scene's wavelengths: checked before any point is solved.
+    let wavelengths = if args.colour.colour {
+        let scene = km::Scene::from_toml_str_edited(&text, &edits)
+            .with_context(|| format!("{}", args.scene.display()))?;
+        let points: usize = axes.iter().map(|a| a.n).product();
+        if args.colour.swatch.is_some() && points > MAX_SWATCH {
+            bail!(
+                "--swatch draws one patch per point, at most {MAX_SWATCH}; the sweep has {points}"
+            );
+        }
+        Some(crate::colour::wavelengths(&scene)?)
+    } else {
+        None
+    };
+    // The points run in parallel: no progress bar.
+    let opts = s.options(args.method, false)?;
+    let points = km::sweep(&text, &edits, &axes, &opts)
+        .map_err(|e| flag_error(e, args.method, s.tolerance))?;
+    let Some(w) = wavelengths else {
+        return stdout::print(&km::sweep_text(&axes, &points, args.format));
+    };
+    let (rows, patches) = crate::colour::sweep_text(&axes, &points, &w, args.format)?;
+    if let Some(path) = &args.colour.swatch {
+        crate::colour::write_swatch(path, &patches, std::slice::from_ref(&args.scene))?;
+    }
+    stdout::print(&rows)
+}
+
+/// The most patches of a swatch (`km_inverse::colour::swatch_svg`).
+const MAX_SWATCH: usize = 64;
