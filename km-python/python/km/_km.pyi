@@ -16,6 +16,9 @@ FloatOrArray = float | npt.NDArray[np.float64]
 class KmError(ValueError):
     """Bad input: a scene, an option, or a scene the method cannot treat.
 
+    ``km.KmTypeError`` (also a ``TypeError``) and ``km.KmFileNotFoundError``
+    (also a ``FileNotFoundError``) are its subclasses (km/_errors.py).
+
     ``str(err)`` is the message of the ``km`` command (``line 3:
     `layer[1].albedo`: 1.5: albedo must lie in [0, 1]``).
     """
@@ -144,8 +147,19 @@ class Solution:
     @property
     def seconds(self) -> float:
         """The solver's own wall time, seconds."""
+    @property
+    def accuracy(self) -> dict[str, Any] | None:
+        """How an accuracy target was met, or None."""
+    @property
+    def directions_deg(self) -> list[list[float]]:
+        """The output directions ``[theta_deg, phi_deg]`` of ``brdf``/``btdf``."""
+    @property
+    def extra(self) -> dict[str, Any]:
+        """Method settings and diagnostics."""
+    def _repr_html_(self) -> str: ...
     def to_dict(self) -> dict[str, Any]:
-        """The ``km solve --json`` object."""
+        """The ``km solve --json`` object (there ``channels``, for several
+        channels, is the list of labels; the attribute is their number)."""
     def to_json(self, indent: bool = False) -> str:
         """The ``km solve --json`` object as text."""
 
@@ -168,34 +182,12 @@ class Partial:
     @property
     def seconds(self) -> float: ...
 
-def solve(
-    scene: Scene,
-    method: Method = "multiflux",
-    *,
-    streams: int | None = None,
-    order: int | None = None,
-    samples: int | None = None,
-    seed: int | None = None,
-    tolerance: float | None = None,
-    threads: int | None = None,
-    analog: bool = False,
-    all_effects: bool = False,
-    km_model: Literal["four-flux", "two-flux"] | None = None,
-    cone: float | None = None,
-) -> Solution:
-    """Solve a scene, as ``km solve SCENE --method M --json`` does.
+def _solve(scene: Scene, method: str = ..., **settings: Any) -> Solution:
+    """The extension's solve: ``km.solve`` (km/_solve.py) documents the settings."""
 
-    ``streams``, ``order`` [multiflux]: Gauss nodes per hemisphere, Neumann
-    order of the adding; ``samples``, ``seed``, ``threads``, ``analog`` [mc]:
-    photons per channel (default 10^6), seed (default 1), worker threads
-    (default all cores; never changes the result), analog absorption;
-    ``tolerance`` [multiflux, mc]: accuracy target; ``all_effects``: the
-    planner off; ``km_model`` [km]: ``"four-flux"`` (default) or the seed's
-    ``"two-flux"``; ``cone`` [mc, multiflux]: BRDF/BTDF values as means over
-    cones of this half-angle in degrees (Monte Carlo's bins, default 5; the
-    multi-flux values averaged alike). An option the method does not read
-    is refused. The GIL is released while the solver runs.
-    """
+def _settings() -> list[dict[str, Any]]:
+    """The table ``km::settings::SETTINGS``: per setting ``name``, ``methods``,
+    ``kind``, ``min``, ``max``, ``choices``, ``default``, ``conflicts``, ``help``."""
 
 def field(
     scene: Scene,
@@ -235,9 +227,10 @@ def run_shard(
 def merge(parts: Sequence[Partial]) -> Solution:
     """Merge all shards of a run into exactly (bit for bit) the single-run result."""
 
-def _solve_scenes(scenes: Sequence[Scene], method: str = ..., **options: Any) -> dict[str, Any]: ...
+def _solve_scenes(scenes: Sequence[Scene], method: str = ..., *, errors: str = ...,
+                  **settings: Any) -> dict[str, Any]: ...
 def _solve_sweep(scene: Scene, keys: Sequence[str], values: npt.NDArray[np.float64],
-                 method: str = ..., **options: Any) -> dict[str, Any]: ...
+                 method: str = ..., *, errors: str = ..., **settings: Any) -> dict[str, Any]: ...
 
 class _BsdfCore:
     """The BSDF of a scene's stack; use :func:`km.bsdf` (km/_bsdf.py wraps it)."""
@@ -297,6 +290,7 @@ class FitResult:
     @property
     def notes(self) -> list[str]: ...
     def to_dict(self) -> dict[str, Any]: ...
+    def _repr_html_(self) -> str: ...
 
 def _fit(m_r: float, m_t: float, m_u: float | None = None, **options: Any) -> FitResult: ...
 def _fit_many(m_r: npt.NDArray[np.float64], m_t: npt.NDArray[np.float64],
@@ -310,7 +304,7 @@ def fit_km(*, r_black: float | None = None, r_white: float | None = None,
            r_inf: float | None = None, r_zero: float | None = None,
            thickness: float | None = None, n: float | None = None,
            k2: float | None = None) -> dict[str, Any]:
-    """Kubelka-Munk inverse of a paint film (``km fit --km``; docs/inverse-km.md).
+    """Kubelka-Munk inverse of one paint film (``km.fit_km`` wraps it, km/_fit.py).
 
     Three ways in: ``r_black``, ``r_white``, ``r_white_ground``
     [``r_black_ground``] and ``thickness`` (a drawdown over two grounds,
@@ -325,7 +319,8 @@ def fit_km(*, r_black: float | None = None, r_white: float | None = None,
 
 def colour(wavelengths_nm: Sequence[float], values: Sequence[float], *,
            observer: str = "1931", illuminant: str = "D65") -> dict[str, Any]:
-    """Colour of a reflectance or transmittance spectrum (docs/colour.md).
+    """Colour of a spectrum as tuples and bytes (``km.colour``, km/_colour.py,
+    returns numpy arrays).
 
     ``observer``: ``"1931"`` (2 degrees) or ``"1964"`` (10 degrees);
     ``illuminant``: ``"D65"`` or ``"D50"``. Returns ``xyz`` (Y = 100 for
@@ -334,10 +329,10 @@ def colour(wavelengths_nm: Sequence[float], values: Sequence[float], *,
     """
 
 def delta_e2000(lab1: tuple[float, float, float], lab2: tuple[float, float, float]) -> float:
-    """CIEDE2000 colour difference (Sharma, Wu & Dalal 2005)."""
+    """CIEDE2000 of two triples (``km.delta_e2000`` takes any sequences and arrays)."""
 
 def srgb(xyz: tuple[float, float, float]) -> tuple[float, float, float]:
-    """sRGB (IEC 61966-2-1, encoded, 0..1) of CIE XYZ with Y = 100 for white."""
+    """sRGB of one XYZ triple (``km.srgb`` takes any sequences and arrays)."""
 
 def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              n_sample: float = 1.0, n_slide: float | None = None, g: float | None = None,
@@ -345,7 +340,8 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              sigma_u: float | None = None, specular_in_m_r: float = 1.0,
              unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
              streams: int | None = None) -> list[dict[str, Any]]:
-    """Fit every row of a measurement file, as ``km fit FILE --json`` does.
+    """The rows of ``km fit FILE --json`` (``km.fit_file`` wraps them as
+    ``km.FitResults``, km/_fit.py).
 
     iad's ``.rxt`` (sample and spheres from its header) or a ``.csv`` with
     columns wavelength_nm, m_r, m_t[, m_u, sigma_r, sigma_t, sigma_u, g]
