@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 import time
+from typing import Any
 
 import mitsuba as mi
 
@@ -27,7 +28,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 
 
-def scene_dict(width: int, height: int, spp: int) -> dict:
+def scene_dict(width: int, height: int, spp: int) -> dict[str, Any]:
     paint = (REPO / "examples" / "seed-three-layers.toml").read_text()
     T = mi.ScalarTransform4f
     return {

@@ -78,7 +78,7 @@ class Bsdf:
     ['reflectance', 'reflectance_specular']
     """
 
-    def __init__(self, core: Any) -> None:
+    def __init__(self, core: _km._BsdfCore) -> None:
         self._core = core
 
     def __reduce__(self) -> tuple[Any, ...]:  # picklable through the core

@@ -105,7 +105,7 @@ def delta_e2000(lab1: npt.ArrayLike, lab2: npt.ArrayLike) -> Any:
     (2,)
     """
     a, b = np.broadcast_arrays(_triples("lab1", lab1), _triples("lab2", lab2))
-    flat = [_km.delta_e2000(tuple(p), tuple(q))
+    flat = [_km.delta_e2000((p[0], p[1], p[2]), (q[0], q[1], q[2]))
             for p, q in zip(a.reshape(-1, 3).tolist(), b.reshape(-1, 3).tolist())]
     if a.ndim == 1:
         return float(flat[0])
@@ -137,5 +137,5 @@ def srgb(xyz: npt.ArrayLike) -> npt.NDArray[np.float64]:
     array([1., 1., 1.])
     """
     a = _triples("xyz", xyz)
-    flat = [_km.srgb(tuple(p)) for p in a.reshape(-1, 3).tolist()]
+    flat = [_km.srgb((p[0], p[1], p[2])) for p in a.reshape(-1, 3).tolist()]
     return np.asarray(flat, dtype=np.float64).reshape(a.shape)

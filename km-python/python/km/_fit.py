@@ -44,6 +44,14 @@ def _get(row: dict[str, Any], path: tuple[str, ...]) -> float:
     return float("nan") if v is None or isinstance(v, bool) else float(v)
 
 
+def _scalar(v: npt.ArrayLike) -> float:
+    return float(np.asarray(v, dtype=np.float64))
+
+
+def _optional(v: npt.ArrayLike | None) -> float | None:
+    return None if v is None else _scalar(v)
+
+
 class FitResults(dict[str, Any]):
     """The results of a fit over many points: a dict of numpy arrays.
 
@@ -201,17 +209,18 @@ def fit(m_r: npt.ArrayLike, m_t: npt.ArrayLike, m_u: npt.ArrayLike | None = None
     per_point = dict(m_r=m_r, m_t=m_t, m_u=m_u, g=g, sigma_r=sigma_r, sigma_t=sigma_t,
                      sigma_u=sigma_u)
     if all(v is None or np.ndim(v) == 0 for v in per_point.values()):
-        scalars = {k: (None if v is None else float(v)) for k, v in per_point.items()}  # type: ignore[arg-type]
-        one: FitResult = _km._fit(scalars.pop("m_r"), scalars.pop("m_t"), scalars.pop("m_u"),
-                                  **scalars, **kw)
+        one: FitResult = _km._fit(_scalar(m_r), _scalar(m_t), _optional(m_u), g=_optional(g),
+                                  sigma_r=_optional(sigma_r), sigma_t=_optional(sigma_t),
+                                  sigma_u=_optional(sigma_u), **kw)
         return one
     given = {k: np.asarray(v, dtype=np.float64) for k, v in per_point.items() if v is not None}
     arrays = dict(zip(given, np.broadcast_arrays(*given.values())))
     shape = next(iter(arrays.values())).shape
     col = {k: (np.ascontiguousarray(arrays[k].ravel()) if k in arrays else None)
            for k in per_point}
-    out = _km._fit_many(col["m_r"], col["m_t"], col["m_u"], col["g"], col["sigma_r"],
-                        col["sigma_t"], col["sigma_u"], **kw)
+    out = _km._fit_many(np.ascontiguousarray(arrays["m_r"].ravel()),
+                        np.ascontiguousarray(arrays["m_t"].ravel()), col["m_u"], col["g"],
+                        col["sigma_r"], col["sigma_t"], col["sigma_u"], **kw)
     rows: list[dict[str, Any]] = []
     for i, r in enumerate(out):
         if isinstance(r, BaseException):

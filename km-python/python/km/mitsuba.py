@@ -39,7 +39,7 @@ from ._table import DIRECT, REFL, SPEC, TRANS, BsdfTable
 __all__ = ["register", "table_for", "PLUGIN"]
 
 PLUGIN = "km"
-_CACHE: dict[tuple, BsdfTable] = {}
+_CACHE: dict[tuple[Any, ...], BsdfTable] = {}
 
 
 def table_for(scene_text: str, streams: int | None = None, n_theta: int = 46,
@@ -63,7 +63,7 @@ def register(name: str = PLUGIN) -> type:
     spectral = "spectral" in variant
     F = mi.BSDFFlags
 
-    class KmBSDF(mi.BSDF):
+    class KmBSDF(mi.BSDF):  # type: ignore[misc]  # mitsuba has no type stubs
         """A km stack's whole BSDF (see the module ``km.mitsuba``)."""
 
         def __init__(self, props: Any) -> None:
@@ -157,11 +157,11 @@ def register(name: str = PLUGIN) -> type:
             side, theta_i, transmitted, mu_o, phi = g
             return self.table.pdf(side, transmitted, theta_i, mu_o, phi, self._lobes(ctx))
 
-        def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: bool = True) -> tuple:
+        def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: bool = True) -> tuple[Any, Any]:
             return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
         def sample(self, ctx: Any, si: Any, sample1: float, sample2: Any,
-                   active: bool = True) -> tuple:
+                   active: bool = True) -> tuple[Any, Any]:
             bs = mi.BSDFSample3f()
             inc = self._incidence(si)
             lobes = self._lobes(ctx)
