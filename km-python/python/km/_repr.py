@@ -95,14 +95,36 @@ def _per_channel(v: Any, channels: int) -> list[Any]:
     return list(a) if a.size == channels else [v] * channels
 
 
+def _wavelengths(labels: Sequence[str]) -> list[float] | None:
+    """The wavelengths of labels such as ``"400 nm"`` (the scene file's
+    labels of a spectrum), or None when a label is not one."""
+    out = []
+    for lab in labels:
+        try:
+            out.append(float(lab.removesuffix("nm").strip()))
+        except ValueError:
+            return None
+    return out
+
+
 def solution_html(sol: Any) -> str:
-    """The HTML of a :class:`km.Solution`: its totals per channel and its BRDF/BTDF."""
+    """The HTML of a :class:`km.Solution`: its totals per channel and a plot of
+    its BRDF/BTDF (or, without output directions, of its totals over the channels)."""
     c = sol.channels
     keys = ("reflectance", "reflectance_specular", "transmittance", "transmittance_direct",
             "absorptance")
     rows = [[k] + _per_channel(getattr(sol, k), c) for k in keys]
     t = table(f"km.Solution, method {sol.method}", ["", *sol.labels], rows)
     d = np.asarray(sol.directions_deg, dtype=float).reshape(-1, 2)
+    if d.shape[0] == 0 and c > 1:
+        # No directions: the totals over the channels (a spectrum).
+        wl = _wavelengths(sol.labels)
+        x = np.asarray(wl, dtype=float) if wl else np.arange(c, dtype=float)
+        series = [(k, x, _per_channel(getattr(sol, k), c))
+                  for k in ("reflectance", "transmittance", "absorptance")]
+        svg = svg_plot(series, xlabel="wavelength (nm)" if wl else "channel", ylabel="fraction",
+                       title="Totals over the channels")
+        return f"<div>{t}{svg}</div>"
     if d.shape[0] == 0:
         return f"<div>{t}</div>"
     # Signed exit angle: phi near 180 (the mirror side) to the right, else left.
