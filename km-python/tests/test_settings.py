@@ -26,6 +26,15 @@ NOT_SETTINGS = {
 }
 
 
+def test_run_shard_takes_monte_carlo_settings_only():
+    params = inspect.signature(km.run_shard).parameters
+    for name, p in params.items():
+        if name in ("scene", "index", "count", "analog"):
+            continue
+        assert name in TABLE and "mc" in TABLE[name]["methods"], name
+        assert p.default is (False if TABLE[name]["kind"] == "flag" else None), name
+
+
 def test_the_table_is_exported_whole():
     # The names the library's messages list (an unknown setting names them all).
     with pytest.raises(km.KmError) as info:
@@ -63,10 +72,18 @@ def test_every_setting_is_a_keyword_argument_with_its_default(entry):
             for c in s["choices"]:
                 assert f"'{c}'" in hint or f'"{c}"' in hint, (name, c, hint)
         # The docstring states the table's default and range.
-        doc = entry.__doc__
-        entry_doc = doc[doc.index(f"\n{name} : "):][:600]
+        lines = entry.__doc__.splitlines()
+        start = lines.index(next(ln for ln in lines if ln.startswith(f"{name} : ")))
+        body = []
+        for ln in lines[start + 1:]:
+            if not ln.startswith("    "):
+                break
+            body.append(ln)
+        text = " ".join(" ".join(body).split())
         if s["default"] is not None and s["kind"] != "flag":
-            assert f"Default ``{s['default']}``" in entry_doc.split("\n\n")[0], name
+            assert f"Default ``{s['default']}``." in text, (name, text)
+        elif s["kind"] != "flag":
+            assert "Default: not given" in text, (name, text)
     for name in params:
         assert name in TABLE or name in NOT_SETTINGS[entry], (
             f"{entry.__name__}({name}=...) is not in km::settings::SETTINGS")

@@ -11,6 +11,7 @@ flags follow too; their documentation below is written from that table
 from __future__ import annotations
 
 import functools
+import textwrap
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, Literal, TypeVar
 
@@ -50,9 +51,12 @@ def _integers_named(f: F) -> F:
 
 def settings_doc(exclude: Sequence[str] = ("shard",)) -> str:
     """The numpydoc entries of the solve settings, one per row of
-    ``km::settings::SETTINGS`` (name, type, methods, range, default, help)."""
+    ``km::settings::SETTINGS`` (name, type, methods, range, default, help),
+    leaving out the settings in ``exclude`` (and exclusions of them)."""
+    table = _km._settings()
+    every = {m for s in table for m in s["methods"]}
     out = []
-    for s in _km._settings():
+    for s in table:
         if s["name"] in exclude:
             continue
         kind = s["kind"]
@@ -70,13 +74,19 @@ def settings_doc(exclude: Sequence[str] = ("shard",)) -> str:
             rng = f" Range {int(s['min'])} to {int(hi) if hi < 2**63 else '2^64 - 1'}."
         elif kind == "real":
             rng = f" Range > {s['min']:g} and <= {s['max']:g}."
-        default = (" Default: the method chooses (see above)." if s["default"] is None
-                   else f" Default ``{s['default']}``.")
-        methods = ", ".join(s["methods"])
-        conflicts = (" Excludes " + ", ".join(f"``{c}``" for c in s["conflicts"]) + "."
-                     if s["conflicts"] else "")
+        if kind == "flag":
+            default = ""
+        elif s["default"] is None:
+            default = " Default: not given (the method chooses)."
+        else:
+            default = f" Default ``{s['default']}``."
+        methods = "all methods" if set(s["methods"]) == every else ", ".join(s["methods"])
+        others = [c for c in s["conflicts"] if c not in exclude]
+        conflicts = " Excludes " + ", ".join(f"``{c}``" for c in others) + "." if others else ""
         help_ = s["help"][0].upper() + s["help"][1:]
-        out.append(f"{s['name']} : {typ}\n    [{methods}] {help_}.{rng}{default}{conflicts}")
+        text = f"[{methods}] {help_}.{rng}{default}{conflicts}"
+        body = textwrap.fill(text, width=76, initial_indent="    ", subsequent_indent="    ")
+        out.append(f"{s['name']} : {typ}\n{body}")
     return "\n".join(out)
 
 
