@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import doctest
 import inspect
+import pickle
 import pydoc
 import types
 
@@ -101,6 +102,10 @@ def test_a_missing_file_is_a_file_not_found_error(tmp_path):
         assert isinstance(e, km.KmError) and isinstance(e, km.KmFileNotFoundError)
         assert e.errno == 2 and e.filename == str(path) and e.key == key
         assert str(e).startswith(("`file`: cannot read", "invalid option path")), str(e)
+        # Pickled whole (exceptions cross process boundaries, e.g. Dask's).
+        back = pickle.loads(pickle.dumps(e))
+        assert type(back) is type(e) and str(back) == str(e)
+        assert (back.errno, back.filename, back.key, back.line) == (2, str(path), key, None)
     # A file that exists but is not a scene stays a plain KmError.
     bad = tmp_path / "bad.toml"
     bad.write_text("[[layer]]\ntau = 1.0\nalbedo = 2.0\n")
@@ -124,6 +129,8 @@ def test_wrong_types_are_type_errors_and_km_errors():
         assert isinstance(info.value, km.KmError), type(info.value)
         assert type(info.value) is km.KmTypeError
         assert info.value.key is not None and info.value.key.startswith(key), info.value.key
+        back = pickle.loads(pickle.dumps(info.value))
+        assert type(back) is km.KmTypeError and back.key == info.value.key
     # Every km error is still a ValueError, and `except km.KmError` catches all.
     assert issubclass(km.KmError, ValueError)
     for cls in (km.KmTypeError, km.KmFileNotFoundError):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from ._km import KmError
 
 
@@ -68,6 +70,13 @@ class KmFileNotFoundError(KmError, FileNotFoundError):
     def __str__(self) -> str:
         # The command's message, not OSError's "[Errno 2] ...".
         return str(self.args[0]) if self.args else ""
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Pickled with errno, strerror and filename (OSError's own reduce
+        # keeps only the message), e.g. across Dask workers.
+        state = dict(self.__dict__, errno=self.errno, strerror=self.strerror,
+                     filename=self.filename)
+        return (type(self), tuple(self.args), state)
 
 
 __all__ = ["KmError", "KmTypeError", "KmFileNotFoundError"]
