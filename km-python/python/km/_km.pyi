@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 from os import PathLike
-from typing import Any, Literal, Mapping, Sequence
+from typing import Any, Literal, Mapping, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = ["KmError", "Scene", "Solution", "Partial", "_BsdfCore", "FitResult", "_fit",
+           "_fit_many", "fit_file", "fit_km", "colour", "delta_e2000", "srgb", "_solve",
+           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "_settings",
+           "__version__"]
 
-Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
-FloatOrArray = float | npt.NDArray[np.float64]
+_Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
+_FloatOrArray = float | npt.NDArray[np.float64]
 
 class KmError(ValueError):
     """Bad input: a scene, an option, or a scene the method cannot treat.
@@ -28,6 +32,7 @@ class KmError(ValueError):
     line: int | None
     """1-based line of the scene text, or None (scenes from keyword arguments)."""
 
+@final
 class Scene:
     """A validated scene: a stack of layers, its light, ambient medium,
     substrate, output directions, and one or more spectral channels.
@@ -35,8 +40,8 @@ class Scene:
     Immutable, comparable with ``==`` and picklable.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         layers: Sequence[Mapping[str, Any]],
         *,
         light: str | Mapping[str, Any] | None = None,
@@ -45,7 +50,7 @@ class Scene:
         substrate: str | Mapping[str, Any] | None = None,
         directions_deg: Sequence[Sequence[float]] | npt.ArrayLike | None = None,
         spectrum: Mapping[str, Any] | None = None,
-    ) -> None:
+    ) -> Scene:
         """A scene from keyword arguments: the keys of the scene file.
 
         ``layers``: top first, each a mapping of ``[[layer]]`` keys (see
@@ -88,8 +93,9 @@ class Scene:
     @property
     def directions_deg(self) -> list[tuple[float, float]]:
         """Exit directions ``[theta_deg, phi_deg]`` of the BRDF/BTDF samples."""
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, other: object, /) -> bool: ...
 
+@final
 class Solution:
     """What a solve returns.
 
@@ -106,19 +112,19 @@ class Solution:
     @property
     def labels(self) -> list[str]: ...
     @property
-    def reflectance(self) -> FloatOrArray:
+    def reflectance(self) -> _FloatOrArray:
         """Total reflectance (specular part included)."""
     @property
-    def reflectance_specular(self) -> FloatOrArray:
+    def reflectance_specular(self) -> _FloatOrArray:
         """The mirror (delta) part of the reflectance."""
     @property
-    def transmittance(self) -> FloatOrArray:
+    def transmittance(self) -> _FloatOrArray:
         """Total transmittance (unscattered part included)."""
     @property
-    def transmittance_direct(self) -> FloatOrArray:
+    def transmittance_direct(self) -> _FloatOrArray:
         """The unscattered (delta) part of the transmittance."""
     @property
-    def absorptance(self) -> FloatOrArray:
+    def absorptance(self) -> _FloatOrArray:
         """Absorbed fraction."""
     @property
     def brdf(self) -> npt.NDArray[np.float64]:
@@ -130,13 +136,13 @@ class Solution:
     def absorptance_layers(self) -> npt.NDArray[np.float64] | None:
         """Absorbed fraction per layer, top first, when the method gives it."""
     @property
-    def stderr(self) -> dict[str, FloatOrArray] | None:
+    def stderr(self) -> dict[str, _FloatOrArray] | None:
         """Standard errors by key (Monte Carlo), or None."""
     @property
-    def error_estimate(self) -> dict[str, FloatOrArray] | None:
+    def error_estimate(self) -> dict[str, _FloatOrArray] | None:
         """Estimated errors by key (an accuracy target was given), or None."""
     @property
-    def model_error_estimate(self) -> dict[str, FloatOrArray] | None:
+    def model_error_estimate(self) -> dict[str, _FloatOrArray] | None:
         """How far a closed form (km, dipole) may be off, by key (eq. K25), or None."""
     @property
     def notes(self) -> list[str]:
@@ -163,6 +169,7 @@ class Solution:
     def to_json(self, indent: bool = False) -> str:
         """The ``km solve --json`` object as text."""
 
+@final
 class Partial:
     """The partial tally of one Monte Carlo shard; picklable, exact."""
 
@@ -191,7 +198,7 @@ def _settings() -> list[dict[str, Any]]:
 
 def field(
     scene: Scene,
-    method: Method = "multiflux",
+    method: _Method = "multiflux",
     *,
     depths: Sequence[float] | None = None,
     streams: int | None = None,
@@ -232,10 +239,11 @@ def _solve_scenes(scenes: Sequence[Scene], method: str = ..., *, errors: str = .
 def _solve_sweep(scene: Scene, keys: Sequence[str], values: npt.NDArray[np.float64],
                  method: str = ..., *, errors: str = ..., **settings: Any) -> dict[str, Any]: ...
 
+@final
 class _BsdfCore:
     """The BSDF of a scene's stack; use :func:`km.bsdf` (km/_bsdf.py wraps it)."""
-    def __init__(self, scene: Scene, streams: int | None = None,
-                 max_fourier_order: int | None = None) -> None: ...
+    def __new__(cls, scene: Scene, streams: int | None = None,
+                max_fourier_order: int | None = None) -> _BsdfCore: ...
     @property
     def streams(self) -> int: ...
     @property
@@ -261,6 +269,7 @@ class _BsdfCore:
                theta_o: npt.NDArray[np.float64],
                phi: npt.NDArray[np.float64]) -> dict[str, Any]: ...
 
+@final
 class FitResult:
     """The result of :func:`km.fit` (``to_dict()`` is the ``km fit --json`` object)."""
     @property
@@ -292,12 +301,20 @@ class FitResult:
     def to_dict(self) -> dict[str, Any]: ...
     def _repr_html_(self) -> str: ...
 
-def _fit(m_r: float, m_t: float, m_u: float | None = None, **options: Any) -> FitResult: ...
+def _fit(m_r: float, m_t: float, m_u: float | None = None, *, thickness: float,
+         n_sample: float = 1.0, n_slide: float | None = None, g: float | None = None,
+         sigma_r: float | None = None, sigma_t: float | None = None,
+         sigma_u: float | None = None, specular_in_m_r: float = 1.0,
+         unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
+         streams: int | None = None) -> FitResult: ...
 def _fit_many(m_r: npt.NDArray[np.float64], m_t: npt.NDArray[np.float64],
               m_u: npt.NDArray[np.float64] | None, g: npt.NDArray[np.float64] | None,
               sigma_r: npt.NDArray[np.float64] | None, sigma_t: npt.NDArray[np.float64] | None,
-              sigma_u: npt.NDArray[np.float64] | None,
-              **options: Any) -> list[FitResult | KmError]: ...
+              sigma_u: npt.NDArray[np.float64] | None, *, thickness: float,
+              n_sample: float = 1.0, n_slide: float | None = None,
+              specular_in_m_r: float = 1.0, unscattered_in_m_t: float = 1.0,
+              incidence: float = 0.0,
+              streams: int | None = None) -> list[FitResult | KmError]: ...
 
 def fit_km(*, r_black: float | None = None, r_white: float | None = None,
            r_white_ground: float | None = None, r_black_ground: float | None = None,
