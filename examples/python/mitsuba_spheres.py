@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 import time
+from typing import Any
 
 import mitsuba as mi
 
@@ -27,7 +28,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 
 
-def scene_dict(width: int, height: int, spp: int) -> dict:
+def scene_dict(width: int, height: int, spp: int) -> dict[str, Any]:
     paint = (REPO / "examples" / "seed-three-layers.toml").read_text()
     T = mi.ScalarTransform4f
     return {
@@ -74,7 +75,8 @@ def main() -> None:
     done = time.perf_counter()
     out = pathlib.Path(args.out)
     tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
-    mi.util.write_bitmap(str(tmp), img, write_async=False)  # sRGB, 8 bit
+    write_bitmap: Any = mi.util.write_bitmap  # untyped in mitsuba's stubs
+    write_bitmap(str(tmp), img, write_async=False)  # sRGB, 8 bit
     tmp.replace(out)
     print(f"wrote {out}: {args.width}x{args.width // 2}, {args.spp} spp; "
           f"load (km table) {loaded - start:.2f} s, render {done - loaded:.1f} s")

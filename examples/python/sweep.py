@@ -30,13 +30,20 @@ G_VALUES = [0.0, 0.5, 0.8]
 SUBSTRATE = {"kind": "lambertian", "albedo": 0.95}
 
 
-def coating(d: float = 1.0, g: float = 0.0, directions=None) -> km.Scene:
+def coating(d: float = 1.0, g: float = 0.0,
+            directions: list[list[float]] | None = None) -> km.Scene:
     return km.Scene(
         layers=[km.layer(sigma_a=SIGMA_A, sigma_s=SIGMA_S, thickness=d, g=g, n=N)],
         theta_deg=30.0,
         substrate=SUBSTRATE,
         directions_deg=directions,
     )
+
+
+def stderr(sol: km.Solution, key: str) -> float | np.ndarray:
+    """The Monte Carlo standard error of ``key`` (a Monte Carlo solve has them)."""
+    assert sol.stderr is not None, "a Monte Carlo solution has standard errors"
+    return sol.stderr[key]
 
 
 # %% R(d) for three g: one batch call sweeps the 2-D grid (thickness x g).
@@ -54,7 +61,7 @@ def reflectance_sweep(out: pathlib.Path, mc_samples: int) -> None:
         line, = ax.semilogx(d, batch.reflectance[i], label=f"multi-flux, g = {gi}")
         mc = [km.solve(coating(x, gi), "mc", samples=mc_samples, seed=1) for x in d_mc]
         ax.errorbar(d_mc, [s.reflectance for s in mc],
-                    yerr=[s.stderr["reflectance"] for s in mc],
+                    yerr=[stderr(s, "reflectance") for s in mc],
                     fmt="o", ms=3.5, capsize=2, color=line.get_color(),
                     label=f"Monte Carlo, g = {gi}")
     ax.set_xlabel("coating thickness d (um)")
@@ -78,8 +85,8 @@ def brdf_plane(out: pathlib.Path, mc_samples: int, d: float = 1.0) -> None:
         mf = km.solve(scene)
         line, = ax.plot(x, mf.brdf, label=f"multi-flux, g = {gi}")
         mc = km.solve(scene, "mc", samples=mc_samples, seed=2)
-        ax.errorbar(x[::3], mc.brdf[::3], yerr=mc.stderr["brdf"][::3], fmt="o", ms=3.5,
-                    capsize=2, color=line.get_color(), label=f"Monte Carlo, g = {gi}")
+        ax.errorbar(x[::3], mc.brdf[::3], yerr=np.asarray(stderr(mc, "brdf"))[::3], fmt="o",
+                    ms=3.5, capsize=2, color=line.get_color(), label=f"Monte Carlo, g = {gi}")
     ax.set_xlabel("exit angle (deg; > 0 on the mirror side)")
     ax.set_ylabel("BRDF (1/sr), diffuse part")
     ax.set_title(f"Coating d = {d} um, light at 30 deg")

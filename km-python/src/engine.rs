@@ -4,6 +4,7 @@
 //! de-duplication and the accuracy target exactly as `km solve` does, so that
 //! `Solution::to_json` is the `km solve --json` object.
 
+use km::settings::{Settings, Value};
 use km::{Method, Scene, Solution};
 
 use crate::error::Error;
@@ -42,6 +43,10 @@ pub struct Options {
     pub km_model: Option<km::KmModel>,
     /// Cone half-angle of the BRDF/BTDF values, degrees [mc, multiflux].
     pub cone: Option<f64>,
+    /// Further settings of [`km::settings::SETTINGS`] by name, as text
+    /// (`("km_mapping", "seed")`, `("budget", "4")`, `("repeat", "3")`):
+    /// checked and read exactly as the `km solve` flags of the same names.
+    pub settings: Vec<(String, String)>,
 }
 
 impl Default for Options {
@@ -58,6 +63,7 @@ impl Default for Options {
             all_effects: false,
             km_model: None,
             cone: None,
+            settings: Vec::new(),
         }
     }
 }
@@ -89,53 +95,59 @@ impl Options {
         })
     }
 
-    /// The library's options (`km::Options`), as `km solve` builds them from its flags.
+    /// The settings of the solve, checked against [`km::settings::SETTINGS`]
+    /// as the `km solve` flags are: a setting the method does not read (a
+    /// silent no-op would mislead), a value outside its range or two settings
+    /// that exclude each other are refused in the command's words.
     ///
     /// # Errors
-    /// An option that the method does not read (a silent no-op would
-    /// mislead), both `streams` and `tolerance`, zero samples or threads.
-    pub fn library(&self) -> Result<km::Options, Error> {
-        let m = self.method;
-        let unused = |name: &str, given: bool, ok: bool| -> Result<(), Error> {
-            if given && !ok {
-                Err(Error::option(name, format!("method {} has no such option", m.name())))
-            } else {
-                Ok(())
+    /// The first refused setting, as [`Error::Setting`] naming it.
+    pub fn settings(&self) -> Result<Settings, Error> {
+        let mut s = Settings::new(self.method);
+        let counts = [
+            ("streams", self.streams.map(|n| n as u64)),
+            ("order", self.order.map(|n| n as u64)),
+            ("samples", self.samples),
+            ("seed", self.seed),
+            ("threads", self.threads.map(|n| n as u64)),
+        ];
+        for (name, v) in counts {
+            if let Some(n) = v {
+                s.set(name, Value::Count(n))?;
             }
-        };
-        unused("streams", self.streams.is_some(), m == Method::Multiflux)?;
-        unused("order", self.order.is_some(), m == Method::Multiflux)?;
-        unused("samples", self.samples.is_some(), m == Method::Mc)?;
-        unused("seed", self.seed.is_some(), m == Method::Mc)?;
-        unused("threads", self.threads.is_some(), m == Method::Mc)?;
-        unused("analog", self.analog, m == Method::Mc)?;
-        unused("km_model", self.km_model.is_some(), m == Method::Km)?;
-        unused("cone", self.cone.is_some(), matches!(m, Method::Mc | Method::Multiflux))?;
-        if self.tolerance.is_some() && self.streams.is_some() {
-            return Err(Error::option("tolerance", "give either streams or tolerance, not both"));
         }
-        let method = match m {
-            Method::Km => km::MethodOptions::Km(km::KmOptions {
-                model: self.km_model.unwrap_or_default(),
-                ..Default::default()
-            }),
-            Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
-                streams: self.streams,
-                neumann_order: self.order,
-                all_effects: self.all_effects,
-                ..Default::default()
-            }),
-            Method::Mc => km::MethodOptions::Mc(self.mc()?),
-            Method::DirectionSet => km::MethodOptions::new(Method::DirectionSet),
-            Method::Dipole => km::MethodOptions::Dipole(km::DipoleOptions::default()),
-        };
-        Ok(km::Options {
-            method,
-            tolerance: self.tolerance,
-            all_effects: self.all_effects,
-            cone_deg: self.cone,
-            budget: 1.0,
-        })
+        if let Some(t) = self.tolerance {
+            s.set("tolerance", Value::Real(t))?;
+        }
+        if let Some(c) = self.cone {
+            s.set("cone", Value::Real(c))?;
+        }
+        if self.analog {
+            s.set("estimator", Value::Choice("analog"))?;
+        }
+        if self.all_effects {
+            s.set("all_effects", Value::Flag(true))?;
+        }
+        if let Some(m) = self.km_model {
+            let name = match m {
+                km::KmModel::TwoFlux => "two-flux",
+                km::KmModel::FourFlux => "four-flux",
+            };
+            s.set("km_model", Value::Choice(name))?;
+        }
+        for (name, text) in &self.settings {
+            s.set_text(name, text)?;
+        }
+        Ok(s)
+    }
+
+    /// The library's options (`km::Options`), as `km solve` builds them from
+    /// its flags ([`Options::settings`], then [`Settings::options`]).
+    ///
+    /// # Errors
+    /// Those of [`Options::settings`] and of the budget.
+    pub fn library(&self) -> Result<km::Options, Error> {
+        Ok(self.settings()?.options()?)
     }
 }
 
@@ -155,7 +167,8 @@ impl Options {
 /// assert!((c.reflectance + c.transmittance + c.absorptance - 1.0).abs() < 1e-9);
 /// ```
 pub fn solve(scene: &Scene, opts: &Options) -> Result<Solution, Error> {
-    Ok(km::solve(scene, &opts.library()?)?)
+    let settings = opts.settings()?;
+    Ok(km::solve_repeated(scene, &settings.options()?, settings.repeat())?)
 }
 
 #[cfg(test)]
@@ -172,7 +185,18 @@ mod tests {
         let e = solve(&scene, &opts).unwrap_err();
         assert_eq!(e.key(), Some("streams"));
         let opts = Options { method: Method::Mc, samples: Some(0), ..Default::default() };
-        assert!(solve(&scene, &opts).unwrap_err().to_string().contains("at least 1"));
+        let e = solve(&scene, &opts).unwrap_err();
+        assert_eq!(e.key(), Some("samples"));
+        assert!(e.to_string().contains("1.."), "{e}");
+        // A setting of the table given by name, in the table's words.
+        let opts = Options {
+            method: Method::Km,
+            settings: vec![("km_mapping".into(), "nope".into())],
+            ..Default::default()
+        };
+        let e = solve(&scene, &opts).unwrap_err();
+        assert_eq!(e.key(), Some("km_mapping"));
+        assert!(e.to_string().contains("gate1974"), "{e}");
     }
 
     #[test]

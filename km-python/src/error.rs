@@ -20,6 +20,15 @@ pub enum Error {
         /// What its domain is.
         reason: String,
     },
+    /// A setting of the solve refused (`km::settings`), in the words of the
+    /// `km solve` flag of the same name.
+    #[error("{message}")]
+    Setting {
+        /// The setting's name (a keyword argument of `km.solve`).
+        name: String,
+        /// The library's message.
+        message: String,
+    },
     /// One point of a batch failed (its index, 0-based, and the error).
     #[error("point {index}: {source}")]
     Point {
@@ -45,7 +54,7 @@ impl Error {
         match self {
             Error::Scene(CoreError::Scene { key, .. }) => Some(key),
             Error::Scene(CoreError::Invalid { name, .. }) => Some(name),
-            Error::Option { name, .. } => Some(name),
+            Error::Option { name, .. } | Error::Setting { name, .. } => Some(name),
             Error::Point { source, .. } => source.key(),
             _ => None,
         }
@@ -70,6 +79,9 @@ impl From<km::KmError> for Error {
             km::KmError::Dipole(e) => e.into(),
             km::KmError::Option { name: "accuracy target", .. } => {
                 Error::Option { name: "tolerance".into(), reason: e.to_string() }
+            }
+            km::KmError::Setting { ref name, .. } => {
+                Error::Setting { name: name.clone(), message: e.to_string() }
             }
             km::KmError::NoAccuracySetting { .. }
             | km::KmError::TargetUnreachable { .. }

@@ -53,13 +53,20 @@ def test_spectrum_in_parallel_equals_the_cli_rows(km_cli):
     ref = cli(km_cli, str(path), "--thickness", "1", "--n-sample", "1.4", "--n-slide", "1.5")
     got = km.fit(rows["m_r"], rows["m_t"], thickness=1, n_sample=1.4, n_slide=1.5,
                  sigma_r=rows["sigma_r"], sigma_t=rows["sigma_t"])
-    assert len(got) == len(ref) == len(data)
-    for r, want in zip(got, ref):
+    # Arrays give one dict of arrays; its rows are the command's rows.
+    assert isinstance(got, km.FitResults) and got["albedo"].shape == (len(data),)
+    assert len(got.rows) == len(ref) == len(data)
+    for i, (r, want) in enumerate(zip(got.rows, ref)):
         want = dict(want)
         want.pop("wavelength_nm")
-        same(r.to_dict(), want)
+        same(r, want)
+        for key in ("albedo", "tau", "g", "mu_a", "mu_s_prime", "residual"):
+            assert got[key][i] == want[key], key
+        assert got["u_albedo"][i] == want["uncertainty"]["albedo"]
+        assert got["m_r_fitted"][i] == want["fitted"]["m_r"]
+        assert got["status"][i] == want["status"] and got["error"][i] == ""
     # The synthetic truth of the file (header): albedo 0.9, 0.95, 0.99.
-    assert abs(got[0].albedo - 0.9) < 1e-3
+    assert abs(got["albedo"][0] - 0.9) < 1e-3
 
 
 def test_bad_input_names_the_value():
@@ -67,7 +74,10 @@ def test_bad_input_names_the_value():
         km.fit(0.3, 0.2, thickness=-1)
     assert e.value.key == "thickness" and "-1" in str(e.value)
     out = km.fit([0.3, 0.3], [0.2, 0.2], thickness=1, g=[0.0, 1.5], errors="keep")
-    assert isinstance(out[0], km.FitResult) and isinstance(out[1], km.KmError)
+    assert list(out["status"]) == [km.fit(0.3, 0.2, thickness=1).status, "invalid"]
+    assert out["error"][0] == "" and "g" in out["error"][1]
+    assert out["albedo"][0] == km.fit(0.3, 0.2, thickness=1).albedo
+    assert np.isnan(out["albedo"][1]) and np.isnan(out["tau"][1])
     with pytest.raises(km.KmError, match="point 1"):
         km.fit([0.3, 0.3], [0.2, 0.2], thickness=1, g=[0.0, 1.5])
 
@@ -135,7 +145,14 @@ def test_colour():
 ], ids=["rxt", "csv"])
 def test_fit_file_equals_km_fit_file_json(km_cli, name, kwargs, flags):
     path = REPO / "examples" / name
-    same(km.fit_file(path, **kwargs), cli(km_cli, str(path), *flags))
+    got = km.fit_file(path, **kwargs)
+    want = cli(km_cli, str(path), *flags)
+    same(got.rows, want)
+    assert isinstance(got, km.FitResults)
+    wl = [np.nan if r["wavelength_nm"] is None else r["wavelength_nm"] for r in want]
+    assert np.array_equal(got["wavelength_nm"], np.array(wl, dtype=float), equal_nan=True)
+    fitted = [r.get("albedo", float("nan")) for r in want]
+    assert np.array_equal(got["albedo"], np.array(fitted, dtype=float), equal_nan=True)
 
 
 def test_fit_file_refusals(tmp_path):

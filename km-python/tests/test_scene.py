@@ -44,6 +44,10 @@ def test_a_missing_file_is_a_km_error(tmp_path):
     with pytest.raises(km.KmError, match="cannot read") as info:
         km.Scene.from_file(tmp_path / "nope.toml")
     assert info.value.key == "file"
+    # ... and a FileNotFoundError, with errno and filename.
+    assert isinstance(info.value, FileNotFoundError) and isinstance(info.value, km.KmError)
+    assert type(info.value) is km.KmFileNotFoundError
+    assert info.value.errno == 2 and info.value.filename == str(tmp_path / "nope.toml")
 
 
 def test_keyword_scene_equals_the_file_scene():

@@ -7,6 +7,9 @@ from typing import Any
 import numpy as np
 
 from . import _km
+from ._km import Scene
+from ._repr import bsdf_html
+from ._solve import _integers_named
 
 _TOTALS = ("reflectance", "transmittance", "reflectance_specular", "transmittance_direct")
 
@@ -44,13 +47,45 @@ class Bsdf:
     set of operators per Fourier order) on the distinct polar angles it is
     given, with the same streams each time (:attr:`streams`): the values are
     those of ``km bsdf`` at those angles, not an interpolation.
+
+    Parameters
+    ----------
+    core : km._km._BsdfCore
+        The extension's BSDF; use :func:`km.bsdf` to make one.
+
+    Attributes
+    ----------
+    streams : int
+        Gauss nodes per hemisphere and Snell segment of every evaluation.
+    transmits : bool
+        Whether light leaves through the far side.
+    n_above, n_below : float, float or None
+        Refractive indices above and below the stack (None: opaque).
+    channels : int
+        Number of spectral channels.
+    labels : list of str
+        Channel labels.
+    wavelengths_nm : list of float or None
+        Wavelengths of the channels.
+
+    Examples
+    --------
+    >>> import km
+    >>> b = km.bsdf(km.Scene(layers=[km.layer(tau=1.0, albedo=0.9, g=0.5)]), streams=8)
+    >>> b.brdf(30.0, [0.0, 30.0], 180.0).shape
+    (2,)
+    >>> sorted(b.totals(30.0))[:2]
+    ['reflectance', 'reflectance_specular']
     """
 
-    def __init__(self, core: Any) -> None:
+    def __init__(self, core: _km._BsdfCore) -> None:
         self._core = core
 
-    def __reduce__(self):  # picklable through the core
+    def __reduce__(self) -> tuple[Any, ...]:  # picklable through the core
         return (Bsdf, (self._core,))
+
+    def _repr_html_(self) -> str:
+        return bsdf_html(self)
 
     def __repr__(self) -> str:
         return (f"km.Bsdf({self.channels} channel(s), streams={self.streams}, "
@@ -93,14 +128,38 @@ class Bsdf:
 
     def eval(self, theta_i: Any, theta_o: Any, phi: Any, *, transmitted: bool = False,
              side: str = "above") -> Any:
-        """The smooth BRDF (or, with ``transmitted=True``, BTDF), 1/sr.
+        """The smooth BRDF (or, with ``transmitted=True``, BTDF), 1/sr (eq. B1 of docs/bsdf.md).
 
-        ``theta_i``, ``theta_o``, ``phi`` (degrees) broadcast against each
-        other (numpy rules); the result has their broadcast shape for a
-        one-channel scene and ``(channels,) + shape`` otherwise (a float for
-        scalar arguments and one channel). The BTDF of an opaque stack is 0.
-        Eq. B1 of docs/bsdf.md; ``side="below"`` lights the stack from its
-        substrate (transparent substrates only).
+        Parameters
+        ----------
+        theta_i, theta_o, phi : float or array_like
+            Incidence, exit (degrees in [0, 90), each from the normal on its
+            side) and azimuth (degrees; 180 is the mirror side), broadcast
+            against each other (numpy rules).
+        transmitted : bool, default False
+            The BTDF instead of the BRDF (0 for an opaque stack).
+        side : {"above", "below"}, default "above"
+            Light from the ambient medium, or from below through a
+            transparent substrate.
+
+        Returns
+        -------
+        float or ndarray
+            The broadcast shape for one channel (a float for scalars),
+            ``(channels,) + shape`` otherwise.
+
+        Raises
+        ------
+        KmError
+            An angle out of range, an unknown side, ``side="below"`` on an
+            opaque stack.
+
+        Examples
+        --------
+        >>> import km
+        >>> b = km.bsdf(km.Scene(layers=[km.layer(tau=1.0, albedo=0.9)]), streams=8)
+        >>> b.eval(0.0, 0.0, 0.0) > 0
+        True
         """
         ti, to, ph = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64)
                                            for a in (theta_i, theta_o, phi)))
@@ -110,19 +169,59 @@ class Bsdf:
         return _shape(np.asarray(values), self.channels, shape)
 
     def brdf(self, theta_i: Any, theta_o: Any, phi: Any, *, side: str = "above") -> Any:
-        """``eval(..., transmitted=False)``: the smooth BRDF, 1/sr."""
+        """The smooth BRDF, 1/sr: ``eval(theta_i, theta_o, phi, side=side)``.
+
+        Parameters
+        ----------
+        theta_i, theta_o, phi : float or array_like
+            Angles in degrees, as for :meth:`eval`.
+        side : {"above", "below"}, default "above"
+            As for :meth:`eval`.
+
+        Returns
+        -------
+        float or ndarray
+            As for :meth:`eval`.
+        """
         return self.eval(theta_i, theta_o, phi, transmitted=False, side=side)
 
     def btdf(self, theta_i: Any, theta_o: Any, phi: Any, *, side: str = "above") -> Any:
-        """``eval(..., transmitted=True)``: the smooth BTDF, 1/sr (0 when opaque)."""
+        """The smooth BTDF, 1/sr (0 when opaque): ``eval(..., transmitted=True)``.
+
+        Parameters
+        ----------
+        theta_i, theta_o, phi : float or array_like
+            Angles in degrees, as for :meth:`eval`.
+        side : {"above", "below"}, default "above"
+            As for :meth:`eval`.
+
+        Returns
+        -------
+        float or ndarray
+            As for :meth:`eval`.
+        """
         return self.eval(theta_i, theta_o, phi, transmitted=True, side=side)
 
     def totals(self, theta_i: Any, *, side: str = "above") -> dict[str, Any]:
-        """Per incidence: ``reflectance`` and ``transmittance`` (totals, delta
-        parts included), ``reflectance_specular`` (mirror reflection) and
-        ``transmittance_direct`` (unscattered beam), each with the shape of
-        ``theta_i`` (one channel) or ``(channels,) + shape``.
+        """The totals and delta parts per incidence.
 
+        Parameters
+        ----------
+        theta_i : float or array_like
+            Incidence angles, degrees.
+        side : {"above", "below"}, default "above"
+            As for :meth:`eval`.
+
+        Returns
+        -------
+        dict
+            ``reflectance`` and ``transmittance`` (totals, delta parts
+            included), ``reflectance_specular`` (mirror reflection) and
+            ``transmittance_direct`` (unscattered beam), each with the shape
+            of ``theta_i`` (one channel) or ``(channels,) + shape``.
+
+        Notes
+        -----
         The smooth parts' albedo is ``reflectance - reflectance_specular``
         (resp. ``transmittance - transmittance_direct``) = the integral of
         ``eval(...) * cos(theta_o)`` over the exit hemisphere.
@@ -135,6 +234,20 @@ class Bsdf:
               side: str = "above") -> dict[str, Any]:
         """The arrays that ``km bsdf --format npz`` writes, on the grids given.
 
+        Parameters
+        ----------
+        theta_i, theta_o, phi : array_like, optional
+            The grids, degrees.
+        side : {"above", "below"}, default "above"
+            As for :meth:`eval`.
+
+        Returns
+        -------
+        dict
+            See below.
+
+        Notes
+        -----
         Defaults as ``km bsdf``: ``theta_i`` the arccosines of 32 Gauss nodes
         in mu, ``theta_o`` = ``theta_i``, ``phi`` = 0, 5, ..., 355. Keys:
         ``theta_i``, ``theta_o``, ``phi`` (1-D, degrees), ``brdf``, ``btdf``
@@ -150,15 +263,41 @@ class Bsdf:
         return dict(self._core._table(_check_side(side), *args))
 
 
-def bsdf(scene: Any, *, streams: int | None = None,
+def bsdf(scene: Scene, *, streams: int | None = None,
          max_fourier_order: int | None = None) -> Bsdf:
     """The whole BSDF of ``scene``'s stack (multi-flux; docs/bsdf.md).
 
-    The scene's light and output directions are ignored. ``streams``: Gauss
-    nodes per hemisphere and Snell segment (default: what ``km bsdf``
-    chooses by default, the solver's default for the most demanding of its
-    32 default incidences, over all channels). ``max_fourier_order`` bounds
-    the azimuthal series (default: as the series needs). Raises
-    :class:`km.KmError` for a scene the multi-flux solver refuses.
+    The scene's light and output directions are ignored.
+
+    Parameters
+    ----------
+    scene : Scene
+        The stack.
+    streams : int, optional
+        Gauss nodes per hemisphere and Snell segment (default: what
+        ``km bsdf`` chooses, the solver's default for the most demanding of
+        its 32 default incidences, over all channels).
+    max_fourier_order : int, optional
+        Bound of the azimuthal series (default: as the series needs).
+
+    Returns
+    -------
+    Bsdf
+        Evaluates the BRDF/BTDF and totals at any angles.
+
+    Raises
+    ------
+    KmError
+        A scene the multi-flux solver refuses.
+
+    Examples
+    --------
+    >>> import km
+    >>> b = km.bsdf(km.Scene(layers=[km.layer(tau=1.0, albedo=0.9)]), streams=8)
+    >>> b.streams, b.transmits
+    (8, True)
     """
     return Bsdf(_km._BsdfCore(scene, streams, max_fourier_order))
+
+
+bsdf = _integers_named(bsdf)

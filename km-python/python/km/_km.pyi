@@ -3,18 +3,25 @@
 from __future__ import annotations
 
 from os import PathLike
-from typing import Any, Literal, Mapping, Sequence
+from typing import Any, Literal, Mapping, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = ["KmError", "Scene", "Solution", "Partial", "_BsdfCore", "FitResult", "_fit",
+           "_fit_many", "fit_file", "fit_km", "colour", "delta_e2000", "srgb", "_solve",
+           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "_settings",
+           "__version__"]
 
-Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
-FloatOrArray = float | npt.NDArray[np.float64]
+_Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
+_FloatOrArray = float | npt.NDArray[np.float64]
 
 class KmError(ValueError):
     """Bad input: a scene, an option, or a scene the method cannot treat.
+
+    ``km.KmTypeError`` (also a ``TypeError``) and ``km.KmFileNotFoundError``
+    (also a ``FileNotFoundError``) are its subclasses (km/_errors.py).
 
     ``str(err)`` is the message of the ``km`` command (``line 3:
     `layer[1].albedo`: 1.5: albedo must lie in [0, 1]``).
@@ -25,6 +32,7 @@ class KmError(ValueError):
     line: int | None
     """1-based line of the scene text, or None (scenes from keyword arguments)."""
 
+@final
 class Scene:
     """A validated scene: a stack of layers, its light, ambient medium,
     substrate, output directions, and one or more spectral channels.
@@ -32,8 +40,8 @@ class Scene:
     Immutable, comparable with ``==`` and picklable.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         layers: Sequence[Mapping[str, Any]],
         *,
         light: str | Mapping[str, Any] | None = None,
@@ -42,7 +50,7 @@ class Scene:
         substrate: str | Mapping[str, Any] | None = None,
         directions_deg: Sequence[Sequence[float]] | npt.ArrayLike | None = None,
         spectrum: Mapping[str, Any] | None = None,
-    ) -> None:
+    ) -> Scene:
         """A scene from keyword arguments: the keys of the scene file.
 
         ``layers``: top first, each a mapping of ``[[layer]]`` keys (see
@@ -85,8 +93,9 @@ class Scene:
     @property
     def directions_deg(self) -> list[tuple[float, float]]:
         """Exit directions ``[theta_deg, phi_deg]`` of the BRDF/BTDF samples."""
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, other: object, /) -> bool: ...
 
+@final
 class Solution:
     """What a solve returns.
 
@@ -103,19 +112,19 @@ class Solution:
     @property
     def labels(self) -> list[str]: ...
     @property
-    def reflectance(self) -> FloatOrArray:
+    def reflectance(self) -> _FloatOrArray:
         """Total reflectance (specular part included)."""
     @property
-    def reflectance_specular(self) -> FloatOrArray:
+    def reflectance_specular(self) -> _FloatOrArray:
         """The mirror (delta) part of the reflectance."""
     @property
-    def transmittance(self) -> FloatOrArray:
+    def transmittance(self) -> _FloatOrArray:
         """Total transmittance (unscattered part included)."""
     @property
-    def transmittance_direct(self) -> FloatOrArray:
+    def transmittance_direct(self) -> _FloatOrArray:
         """The unscattered (delta) part of the transmittance."""
     @property
-    def absorptance(self) -> FloatOrArray:
+    def absorptance(self) -> _FloatOrArray:
         """Absorbed fraction."""
     @property
     def brdf(self) -> npt.NDArray[np.float64]:
@@ -127,13 +136,13 @@ class Solution:
     def absorptance_layers(self) -> npt.NDArray[np.float64] | None:
         """Absorbed fraction per layer, top first, when the method gives it."""
     @property
-    def stderr(self) -> dict[str, FloatOrArray] | None:
+    def stderr(self) -> dict[str, _FloatOrArray] | None:
         """Standard errors by key (Monte Carlo), or None."""
     @property
-    def error_estimate(self) -> dict[str, FloatOrArray] | None:
+    def error_estimate(self) -> dict[str, _FloatOrArray] | None:
         """Estimated errors by key (an accuracy target was given), or None."""
     @property
-    def model_error_estimate(self) -> dict[str, FloatOrArray] | None:
+    def model_error_estimate(self) -> dict[str, _FloatOrArray] | None:
         """How far a closed form (km, dipole) may be off, by key (eq. K25), or None."""
     @property
     def notes(self) -> list[str]:
@@ -144,11 +153,23 @@ class Solution:
     @property
     def seconds(self) -> float:
         """The solver's own wall time, seconds."""
+    @property
+    def accuracy(self) -> dict[str, Any] | None:
+        """How an accuracy target was met, or None."""
+    @property
+    def directions_deg(self) -> list[list[float]]:
+        """The output directions ``[theta_deg, phi_deg]`` of ``brdf``/``btdf``."""
+    @property
+    def extra(self) -> dict[str, Any]:
+        """Method settings and diagnostics."""
+    def _repr_html_(self) -> str: ...
     def to_dict(self) -> dict[str, Any]:
-        """The ``km solve --json`` object."""
+        """The ``km solve --json`` object (there ``channels``, for several
+        channels, is the list of labels; the attribute is their number)."""
     def to_json(self, indent: bool = False) -> str:
         """The ``km solve --json`` object as text."""
 
+@final
 class Partial:
     """The partial tally of one Monte Carlo shard; picklable, exact."""
 
@@ -168,38 +189,16 @@ class Partial:
     @property
     def seconds(self) -> float: ...
 
-def solve(
-    scene: Scene,
-    method: Method = "multiflux",
-    *,
-    streams: int | None = None,
-    order: int | None = None,
-    samples: int | None = None,
-    seed: int | None = None,
-    tolerance: float | None = None,
-    threads: int | None = None,
-    analog: bool = False,
-    all_effects: bool = False,
-    km_model: Literal["four-flux", "two-flux"] | None = None,
-    cone: float | None = None,
-) -> Solution:
-    """Solve a scene, as ``km solve SCENE --method M --json`` does.
+def _solve(scene: Scene, method: str = ..., **settings: Any) -> Solution:
+    """The extension's solve: ``km.solve`` (km/_solve.py) documents the settings."""
 
-    ``streams``, ``order`` [multiflux]: Gauss nodes per hemisphere, Neumann
-    order of the adding; ``samples``, ``seed``, ``threads``, ``analog`` [mc]:
-    photons per channel (default 10^6), seed (default 1), worker threads
-    (default all cores; never changes the result), analog absorption;
-    ``tolerance`` [multiflux, mc]: accuracy target; ``all_effects``: the
-    planner off; ``km_model`` [km]: ``"four-flux"`` (default) or the seed's
-    ``"two-flux"``; ``cone`` [mc, multiflux]: BRDF/BTDF values as means over
-    cones of this half-angle in degrees (Monte Carlo's bins, default 5; the
-    multi-flux values averaged alike). An option the method does not read
-    is refused. The GIL is released while the solver runs.
-    """
+def _settings() -> list[dict[str, Any]]:
+    """The table ``km::settings::SETTINGS``: per setting ``name``, ``methods``,
+    ``kind``, ``min``, ``max``, ``choices``, ``default``, ``conflicts``, ``help``."""
 
 def field(
     scene: Scene,
-    method: Method = "multiflux",
+    method: _Method = "multiflux",
     *,
     depths: Sequence[float] | None = None,
     streams: int | None = None,
@@ -235,14 +234,16 @@ def run_shard(
 def merge(parts: Sequence[Partial]) -> Solution:
     """Merge all shards of a run into exactly (bit for bit) the single-run result."""
 
-def _solve_scenes(scenes: Sequence[Scene], method: str = ..., **options: Any) -> dict[str, Any]: ...
+def _solve_scenes(scenes: Sequence[Scene], method: str = ..., *, errors: str = ...,
+                  **settings: Any) -> dict[str, Any]: ...
 def _solve_sweep(scene: Scene, keys: Sequence[str], values: npt.NDArray[np.float64],
-                 method: str = ..., **options: Any) -> dict[str, Any]: ...
+                 method: str = ..., *, errors: str = ..., **settings: Any) -> dict[str, Any]: ...
 
+@final
 class _BsdfCore:
     """The BSDF of a scene's stack; use :func:`km.bsdf` (km/_bsdf.py wraps it)."""
-    def __init__(self, scene: Scene, streams: int | None = None,
-                 max_fourier_order: int | None = None) -> None: ...
+    def __new__(cls, scene: Scene, streams: int | None = None,
+                max_fourier_order: int | None = None) -> _BsdfCore: ...
     @property
     def streams(self) -> int: ...
     @property
@@ -268,6 +269,7 @@ class _BsdfCore:
                theta_o: npt.NDArray[np.float64],
                phi: npt.NDArray[np.float64]) -> dict[str, Any]: ...
 
+@final
 class FitResult:
     """The result of :func:`km.fit` (``to_dict()`` is the ``km fit --json`` object)."""
     @property
@@ -297,20 +299,29 @@ class FitResult:
     @property
     def notes(self) -> list[str]: ...
     def to_dict(self) -> dict[str, Any]: ...
+    def _repr_html_(self) -> str: ...
 
-def _fit(m_r: float, m_t: float, m_u: float | None = None, **options: Any) -> FitResult: ...
+def _fit(m_r: float, m_t: float, m_u: float | None = None, *, thickness: float,
+         n_sample: float = 1.0, n_slide: float | None = None, g: float | None = None,
+         sigma_r: float | None = None, sigma_t: float | None = None,
+         sigma_u: float | None = None, specular_in_m_r: float = 1.0,
+         unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
+         streams: int | None = None) -> FitResult: ...
 def _fit_many(m_r: npt.NDArray[np.float64], m_t: npt.NDArray[np.float64],
               m_u: npt.NDArray[np.float64] | None, g: npt.NDArray[np.float64] | None,
               sigma_r: npt.NDArray[np.float64] | None, sigma_t: npt.NDArray[np.float64] | None,
-              sigma_u: npt.NDArray[np.float64] | None,
-              **options: Any) -> list[FitResult | KmError]: ...
+              sigma_u: npt.NDArray[np.float64] | None, *, thickness: float,
+              n_sample: float = 1.0, n_slide: float | None = None,
+              specular_in_m_r: float = 1.0, unscattered_in_m_t: float = 1.0,
+              incidence: float = 0.0,
+              streams: int | None = None) -> list[FitResult | KmError]: ...
 
 def fit_km(*, r_black: float | None = None, r_white: float | None = None,
            r_white_ground: float | None = None, r_black_ground: float | None = None,
            r_inf: float | None = None, r_zero: float | None = None,
            thickness: float | None = None, n: float | None = None,
            k2: float | None = None) -> dict[str, Any]:
-    """Kubelka-Munk inverse of a paint film (``km fit --km``; docs/inverse-km.md).
+    """Kubelka-Munk inverse of one paint film (``km.fit_km`` wraps it, km/_fit.py).
 
     Three ways in: ``r_black``, ``r_white``, ``r_white_ground``
     [``r_black_ground``] and ``thickness`` (a drawdown over two grounds,
@@ -325,7 +336,8 @@ def fit_km(*, r_black: float | None = None, r_white: float | None = None,
 
 def colour(wavelengths_nm: Sequence[float], values: Sequence[float], *,
            observer: str = "1931", illuminant: str = "D65") -> dict[str, Any]:
-    """Colour of a reflectance or transmittance spectrum (docs/colour.md).
+    """Colour of a spectrum as tuples and bytes (``km.colour``, km/_colour.py,
+    returns numpy arrays).
 
     ``observer``: ``"1931"`` (2 degrees) or ``"1964"`` (10 degrees);
     ``illuminant``: ``"D65"`` or ``"D50"``. Returns ``xyz`` (Y = 100 for
@@ -334,10 +346,10 @@ def colour(wavelengths_nm: Sequence[float], values: Sequence[float], *,
     """
 
 def delta_e2000(lab1: tuple[float, float, float], lab2: tuple[float, float, float]) -> float:
-    """CIEDE2000 colour difference (Sharma, Wu & Dalal 2005)."""
+    """CIEDE2000 of two triples (``km.delta_e2000`` takes any sequences and arrays)."""
 
 def srgb(xyz: tuple[float, float, float]) -> tuple[float, float, float]:
-    """sRGB (IEC 61966-2-1, encoded, 0..1) of CIE XYZ with Y = 100 for white."""
+    """sRGB of one XYZ triple (``km.srgb`` takes any sequences and arrays)."""
 
 def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              n_sample: float = 1.0, n_slide: float | None = None, g: float | None = None,
@@ -345,7 +357,8 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              sigma_u: float | None = None, specular_in_m_r: float = 1.0,
              unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
              streams: int | None = None) -> list[dict[str, Any]]:
-    """Fit every row of a measurement file, as ``km fit FILE --json`` does.
+    """The rows of ``km fit FILE --json`` (``km.fit_file`` wraps them as
+    ``km.FitResults``, km/_fit.py).
 
     iad's ``.rxt`` (sample and spheres from its header) or a ``.csv`` with
     columns wavelength_nm, m_r, m_t[, m_u, sigma_r, sigma_t, sigma_u, g]

@@ -118,8 +118,8 @@ class BsdfTable:
         return min(max(k, 0), len(self.d_mu) - 1)
 
     def _lobe_p(self, side: str, j: int, enabled: tuple[bool, ...]) -> np.ndarray:
-        p = self.lobes[side][j] * np.asarray(enabled, dtype=float)
-        s = p.sum()
+        p: np.ndarray = self.lobes[side][j] * np.asarray(enabled, dtype=float)
+        s = float(p.sum())
         return p / s if s > 0 else p
 
     # -- what a renderer asks --------------------------------------------

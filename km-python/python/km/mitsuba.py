@@ -39,7 +39,7 @@ from ._table import DIRECT, REFL, SPEC, TRANS, BsdfTable
 __all__ = ["register", "table_for", "PLUGIN"]
 
 PLUGIN = "km"
-_CACHE: dict[tuple, BsdfTable] = {}
+_CACHE: dict[tuple[Any, ...], BsdfTable] = {}
 
 
 def table_for(scene_text: str, streams: int | None = None, n_theta: int = 46,
@@ -63,7 +63,8 @@ def register(name: str = PLUGIN) -> type:
     spectral = "spectral" in variant
     F = mi.BSDFFlags
 
-    class KmBSDF(mi.BSDF):
+    # Without mitsuba's stubs mi.BSDF is Any (misc); with them the ignore is unused.
+    class KmBSDF(mi.BSDF):  # type: ignore[misc, unused-ignore]
         """A km stack's whole BSDF (see the module ``km.mitsuba``)."""
 
         def __init__(self, props: Any) -> None:
@@ -91,7 +92,7 @@ def register(name: str = PLUGIN) -> type:
             if tab.transmits:
                 comps += [F.DeltaTransmission | side_flags, F.GlossyTransmission | side_flags]
             self.m_components = comps
-            flags = F.Empty
+            flags: Any = F.Empty
             for c in comps:
                 flags = flags | c
             self.m_flags = flags
@@ -139,7 +140,7 @@ def register(name: str = PLUGIN) -> type:
 
         # -- the BSDF interface ---------------------------------------------
 
-        def eval(self, ctx: Any, si: Any, wo: Any, active: bool = True) -> Any:
+        def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
             g = self._geometry(si, wo)
             lobes = self._lobes(ctx)
             if g is None:
@@ -150,19 +151,19 @@ def register(name: str = PLUGIN) -> type:
             f = self.table.eval(side, transmitted, theta_i, math.degrees(math.acos(mu_o)), phi)
             return self._spectrum(si, f * mu_o)
 
-        def pdf(self, ctx: Any, si: Any, wo: Any, active: bool = True) -> float:
+        def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
             g = self._geometry(si, wo)
             if g is None:
                 return 0.0
             side, theta_i, transmitted, mu_o, phi = g
             return self.table.pdf(side, transmitted, theta_i, mu_o, phi, self._lobes(ctx))
 
-        def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: bool = True) -> tuple:
+        def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> tuple[Any, Any]:
             return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
-        def sample(self, ctx: Any, si: Any, sample1: float, sample2: Any,
-                   active: bool = True) -> tuple:
-            bs = mi.BSDFSample3f()
+        def sample(self, ctx: Any, si: Any, sample1: Any, sample2: Any,
+                   active: Any = True) -> tuple[Any, Any]:
+            bs: Any = mi.BSDFSample3f()
             inc = self._incidence(si)
             lobes = self._lobes(ctx)
             if inc is None:
@@ -216,7 +217,7 @@ def register(name: str = PLUGIN) -> type:
                 return bs, mi.Spectrum(0.0)
             return bs, self._spectrum(si, np.asarray(value) / bs.pdf)
 
-        def eval_diffuse_reflectance(self, si: Any, active: bool = True) -> Any:
+        def eval_diffuse_reflectance(self, si: Any, active: Any = True) -> Any:
             """The stack's total reflectance at ``si.wi`` (the albedo Mitsuba's AOVs show)."""
             inc = self._incidence(si)
             if inc is None:
@@ -233,7 +234,7 @@ def register(name: str = PLUGIN) -> type:
         def traverse(self, callback: Any) -> None:
             pass
 
-        def parameters_changed(self, keys: Any) -> None:
+        def parameters_changed(self, keys: Any = None) -> None:
             pass
 
         def to_string(self) -> str:

@@ -6,14 +6,36 @@ use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use super::settings::options_from;
 use super::{PyScene, PySolution, guarded, py_err};
 use crate::engine::Options;
 use crate::error::Error;
 use crate::sweep::{Columns, Target};
 use km::Method;
 
-/// The partial tally of one Monte Carlo shard (`km.run_shard`); `km.merge`
-/// combines shards into exactly the single-run result. Picklable (exact).
+/// The partial tally of one Monte Carlo shard, made by `km.run_shard`.
+///
+/// `km.merge` combines all shards of a run into exactly (bit for bit) the
+/// single-run result. Picklable exactly (the sums travel as IEEE-754 bit
+/// patterns); `to_json()` is the `km solve --shard --out` file, which
+/// `km merge` reads, so shards from Python and the command line mix.
+///
+/// Attributes
+/// ----------
+/// index, count : int
+///     This shard and the number of shards of the run.
+/// samples, seed : int
+///     Photons per channel and seed of the whole run.
+/// seconds : float
+///     Tracing wall time of this shard.
+///
+/// Examples
+/// --------
+/// >>> import km, pickle
+/// >>> s = km.Scene(layers=[km.layer(tau=1.0, albedo=0.9)])
+/// >>> p = km.run_shard(s, 0, 2, samples=1000)
+/// >>> (p.index, p.count), pickle.loads(pickle.dumps(p)).to_json() == p.to_json()
+/// ((0, 2), True)
 #[pyclass(frozen, name = "Partial", module = "km")]
 pub struct PyPartial {
     part: km_montecarlo::Partial,
@@ -22,6 +44,20 @@ pub struct PyPartial {
 #[pymethods]
 impl PyPartial {
     /// A partial tally from its JSON text (the `km solve --shard` file format).
+    ///
+    /// Parameters
+    /// ----------
+    /// text : str
+    ///     The file's text.
+    ///
+    /// Returns
+    /// -------
+    /// Partial
+    ///
+    /// Raises
+    /// ------
+    /// KmError
+    ///     Text that is not a km shard.
     #[staticmethod]
     fn from_json(py: Python<'_>, text: &str) -> PyResult<PyPartial> {
         let part = serde_json::from_str(text).map_err(|e| {
@@ -78,75 +114,34 @@ impl PyPartial {
 // ---------------------------------------------------------------------------
 // Functions
 
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn options(
-    py: Python<'_>,
-    method: &str,
-    streams: Option<usize>,
-    order: Option<usize>,
-    samples: Option<u64>,
-    seed: Option<u64>,
-    tolerance: Option<f64>,
-    threads: Option<usize>,
-    analog: bool,
-    all_effects: bool,
-) -> PyResult<Options> {
-    let method: Method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
-    Ok(Options {
-        method,
-        streams,
-        order,
-        samples,
-        seed,
-        tolerance,
-        threads,
-        analog,
-        all_effects,
-        ..Default::default()
-    })
-}
-
-/// Solve a scene (see `km.solve`).
+/// Solve a scene: the extension's side of `km.solve` (km/_solve.py), with
+/// the settings of `km::settings::SETTINGS` as keyword arguments.
 #[pyfunction]
-#[pyo3(signature = (scene, method="multiflux", *, streams=None, order=None, samples=None,
-                    seed=None, tolerance=None, threads=None, analog=false, all_effects=false,
-                    km_model=None, cone=None))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn solve(
+#[pyo3(signature = (scene, method="multiflux", **settings))]
+pub(crate) fn _solve(
     py: Python<'_>,
     scene: &Bound<'_, PyScene>,
     method: &str,
-    streams: Option<usize>,
-    order: Option<usize>,
-    samples: Option<u64>,
-    seed: Option<u64>,
-    tolerance: Option<f64>,
-    threads: Option<usize>,
-    analog: bool,
-    all_effects: bool,
-    km_model: Option<&str>,
-    cone: Option<f64>,
+    settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PySolution> {
-    let mut opts = options(
-        py,
-        method,
-        streams,
-        order,
-        samples,
-        seed,
-        tolerance,
-        threads,
-        analog,
-        all_effects,
-    )?;
-    opts.km_model = km_model
-        .map(|m| m.parse::<km::KmModel>().map_err(|e| Error::option("km_model", e.to_string())))
-        .transpose()
-        .map_err(|e| py_err(py, e))?;
-    opts.cone = cone;
+    let opts = options_from(py, method, settings)?;
     let scene = &scene.get().scene;
     let sol = guarded(py, || crate::engine::solve(scene, &opts))?;
     Ok(PySolution { sol })
+}
+
+/// The worker count of a batch (`threads`, taken out of the settings: in a
+/// batch it sizes the pool, and each Monte Carlo point runs on one thread).
+fn pool_threads(py: Python<'_>, settings: Option<&Bound<'_, PyDict>>) -> PyResult<Option<usize>> {
+    let Some(d) = settings else { return Ok(None) };
+    let Some(t) = d.get_item("threads")? else { return Ok(None) };
+    d.del_item("threads")?;
+    if t.is_none() {
+        return Ok(None);
+    }
+    t.extract::<usize>().map(Some).map_err(|_| {
+        py_err(py, Error::option("threads", format!("{t}: expected a whole number >= 1")))
+    })
 }
 
 /// The columns of a batch as a dict of numpy arrays (flat point axis).
@@ -196,6 +191,9 @@ fn clone_error(e: &Error) -> Error {
         Error::Option { name, reason } => {
             Error::Option { name: name.clone(), reason: reason.clone() }
         }
+        Error::Setting { name, message } => {
+            Error::Setting { name: name.clone(), message: message.clone() }
+        }
         other => Error::Solver(other.to_string()),
     }
 }
@@ -212,27 +210,17 @@ fn check_errors_mode(py: Python<'_>, errors: &str) -> PyResult<()> {
 
 /// Batch solve of a list of scenes (see `km.solve_many`).
 #[pyfunction]
-#[pyo3(signature = (scenes, method="multiflux", *, streams=None, order=None, samples=None,
-                    seed=None, tolerance=None, threads=None, analog=false, all_effects=false,
-                    errors="raise"))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (scenes, method="multiflux", *, errors="raise", **settings))]
 pub(crate) fn _solve_scenes<'py>(
     py: Python<'py>,
     scenes: Vec<Bound<'py, PyScene>>,
     method: &str,
-    streams: Option<usize>,
-    order: Option<usize>,
-    samples: Option<u64>,
-    seed: Option<u64>,
-    tolerance: Option<f64>,
-    threads: Option<usize>,
-    analog: bool,
-    all_effects: bool,
     errors: &str,
+    settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     check_errors_mode(py, errors)?;
-    let opts =
-        options(py, method, streams, order, samples, seed, tolerance, None, analog, all_effects)?;
+    let threads = pool_threads(py, settings)?;
+    let opts = options_from(py, method, settings)?;
     let list: Vec<Scene> = scenes.iter().map(|s| s.get().scene.clone()).collect();
     let Some(first) = list.first() else {
         return Err(py_err(py, Error::option("scenes", "the batch is empty")));
@@ -260,29 +248,19 @@ pub(crate) fn _solve_scenes<'py>(
 
 /// Batch solve of a parameter sweep of one scene (see `km.solve_many`).
 #[pyfunction]
-#[pyo3(signature = (scene, keys, values, method="multiflux", *, streams=None, order=None,
-                    samples=None, seed=None, tolerance=None, threads=None, analog=false,
-                    all_effects=false, errors="raise"))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (scene, keys, values, method="multiflux", *, errors="raise", **settings))]
 pub(crate) fn _solve_sweep<'py>(
     py: Python<'py>,
     scene: &Bound<'py, PyScene>,
     keys: Vec<String>,
     values: PyReadonlyArray2<'py, f64>,
     method: &str,
-    streams: Option<usize>,
-    order: Option<usize>,
-    samples: Option<u64>,
-    seed: Option<u64>,
-    tolerance: Option<f64>,
-    threads: Option<usize>,
-    analog: bool,
-    all_effects: bool,
     errors: &str,
+    settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     check_errors_mode(py, errors)?;
-    let opts =
-        options(py, method, streams, order, samples, seed, tolerance, None, analog, all_effects)?;
+    let threads = pool_threads(py, settings)?;
+    let opts = options_from(py, method, settings)?;
     let targets = keys
         .iter()
         .map(|k| k.parse::<Target>())

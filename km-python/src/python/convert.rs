@@ -4,18 +4,21 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde_json::Value;
 
-use super::py_err;
+use super::{py_err, py_err_as};
 use crate::error::Error;
 
 pub(crate) fn to_toml(py: Python<'_>, key: &str, obj: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    // A Python value of a type the scene file has no place for: a
+    // `km.KmTypeError` (a `TypeError` and a `km.KmError`) naming the key.
     let refuse = |what: String| {
-        py_err(
+        py_err_as(
             py,
             Error::Scene(km_core::CoreError::scene(
                 key,
                 None,
                 format!("{what} cannot be a value of the scene file"),
             )),
+            "KmTypeError",
         )
     };
     if obj.is_instance_of::<PyBool>() {

@@ -14,7 +14,37 @@ use super::convert::json_to_py;
 use super::{guarded, py_err};
 use crate::error::Error;
 
-/// The result of a slab fit: the `km fit --json` object (docs/inverse.md §6).
+/// The result of one slab fit (`km.fit` with scalar readings).
+///
+/// `to_dict()` is the `km fit --json` object (docs/inverse.md §6). Over many
+/// points `km.fit` returns a `km.FitResults` dict of arrays instead.
+///
+/// Attributes
+/// ----------
+/// albedo, tau, g : float
+///     Single-scattering albedo, optical thickness, anisotropy.
+/// mu_a, mu_s, mu_s_prime : float
+///     Absorption, scattering and reduced scattering coefficients, 1/(unit
+///     of the thickness).
+/// fitted : dict
+///     What the fitted sample would read (`m_r`, `m_t`[, `m_u`]).
+/// residual : float
+///     Weighted residual of the fit.
+/// status : str
+///     How the fit ended (`converged`, ...).
+/// uncertainty : dict
+///     Standard uncertainties, correlations and conditioning.
+/// streams, evaluations : int
+///     Streams of the forward model; its evaluations.
+/// notes : list of str
+///     Remarks of the fit.
+///
+/// Examples
+/// --------
+/// >>> import km
+/// >>> r = km.fit(0.2726, 0.2991, thickness=1, n_sample=1.4, n_slide=1.5)
+/// >>> r.status, round(r.albedo, 3)
+/// ('converged', 0.9)
 #[pyclass(frozen, name = "FitResult", module = "km")]
 pub struct PyFitResult {
     r: FitResult,
@@ -90,6 +120,10 @@ impl PyFitResult {
     /// The `km fit --json` object, as a dict.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         json_to_py(py, &self.r.to_json())
+    }
+    /// HTML for Jupyter: the fitted values and an SVG plot of the fitted readings.
+    fn _repr_html_(slf: &Bound<'_, Self>) -> PyResult<String> {
+        slf.py().import("km._repr")?.call_method1("fit_html", (slf,))?.extract()
     }
     fn __repr__(&self) -> String {
         format!(
@@ -286,6 +320,12 @@ pub(crate) fn fit_file<'py>(
     incidence: f64,
     streams: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    if let Err(io) = std::fs::metadata(&path)
+        && io.kind() == std::io::ErrorKind::NotFound
+    {
+        let e = Error::option("path", format!("{}: cannot read: {io}", path.display()));
+        return Err(super::file_err(py, &path, e));
+    }
     let list = guarded(py, || {
         let name = path.display().to_string();
         let cannot = |e: String| Error::option("path", format!("{name}: {e}"));

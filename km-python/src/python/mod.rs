@@ -25,6 +25,7 @@ mod field;
 mod fit;
 mod fit_km;
 mod scene;
+mod settings;
 mod solution;
 
 pub(crate) use scene::PyScene;
@@ -35,8 +36,24 @@ pyo3::create_exception!(
     KmError,
     PyValueError,
     "Bad input to km: a scene, an option or a method that cannot treat the scene.\n\n\
-     Attributes: `key` (the scene key or option named, or None) and `line`\n\
-     (1-based line of the scene text, or None)."
+     A subclass of ``ValueError``; ``str(err)`` is the message of the ``km``\n\
+     command, word for word. Two subclasses add a standard base:\n\
+     ``km.KmTypeError`` (also a ``TypeError``) and ``km.KmFileNotFoundError``\n\
+     (also a ``FileNotFoundError``), so ``except km.KmError`` catches them all.\n\n\
+     Attributes\n\
+     ----------\n\
+     key : str or None\n\
+     \x20   The scene key or option named (``layer[1].albedo``, ``streams``).\n\
+     line : int or None\n\
+     \x20   1-based line of the scene text, or None.\n\n\
+     Examples\n\
+     --------\n\
+     >>> import km\n\
+     >>> try:\n\
+     ...     km.Scene.from_toml(\"[[layer]]\\ntau = 1.0\\nalbedo = 1.5\\n\")\n\
+     ... except km.KmError as e:\n\
+     ...     print(e.key, e.line)\n\
+     layer[1].albedo 3\n"
 );
 
 /// A `km.KmError` with `key` and `line` set.
@@ -47,6 +64,41 @@ pub(crate) fn py_err(py: Python<'_>, e: Error) -> PyErr {
     // if it did, the message still carries key and line.
     let _ = v.setattr("key", e.key());
     let _ = v.setattr("line", e.line());
+    err
+}
+
+/// A `km.KmError` of the subclass `class` of `km._errors` (`KmTypeError`,
+/// `KmFileNotFoundError`), with `key` and `line` set; a plain `km.KmError`
+/// if that class cannot be found.
+pub(crate) fn py_err_as(py: Python<'_>, e: Error, class: &str) -> PyErr {
+    let (msg, key, line) = (e.to_string(), e.key().map(str::to_string), e.line());
+    let made =
+        py.import("km._errors").and_then(|m| m.getattr(class)).and_then(|c| c.call1((&msg,)));
+    match made {
+        Ok(v) => {
+            // As in `py_err`: the message carries key and line in any case.
+            let _ = v.setattr("key", key);
+            let _ = v.setattr("line", line);
+            PyErr::from_value(v)
+        }
+        Err(_) => py_err(py, e),
+    }
+}
+
+/// A missing file as `km.KmFileNotFoundError` (a `FileNotFoundError` and a
+/// `km.KmError`) with `errno`, `strerror` and `filename` set; `e` otherwise.
+pub(crate) fn file_err(py: Python<'_>, path: &std::path::Path, e: Error) -> PyErr {
+    let missing =
+        matches!(std::fs::metadata(path), Err(io) if io.kind() == std::io::ErrorKind::NotFound);
+    if !missing {
+        return py_err(py, e);
+    }
+    let msg = e.to_string();
+    let err = py_err_as(py, e, "KmFileNotFoundError");
+    let v = err.value(py);
+    let _ = v.setattr("errno", 2);
+    let _ = v.setattr("strerror", msg);
+    let _ = v.setattr("filename", path.display().to_string());
     err
 }
 
@@ -84,12 +136,13 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_km::colour_of, m)?)?;
     m.add_function(wrap_pyfunction!(fit_km::delta_e2000, m)?)?;
     m.add_function(wrap_pyfunction!(fit_km::srgb, m)?)?;
-    m.add_function(wrap_pyfunction!(batch::solve, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_solve, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_solve_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_shard, m)?)?;
     m.add_function(wrap_pyfunction!(batch::merge, m)?)?;
     m.add_function(wrap_pyfunction!(field::field, m)?)?;
+    m.add_function(wrap_pyfunction!(settings::_settings, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

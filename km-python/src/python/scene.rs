@@ -10,11 +10,65 @@ use super::convert::{section, to_toml};
 use super::{guarded, py_err};
 use crate::error::Error;
 
-/// A validated scene: one or more spectral channels of a layer stack.
+/// A validated scene: a stack of layers with its light, ambient medium,
+/// substrate, output directions and one or more spectral channels.
 ///
-/// Build it from a scene file's text (`Scene.from_toml`), a file
-/// (`Scene.from_file`) or keyword arguments (`Scene(layers=[...], ...)`);
-/// see docs/python.md. Scenes are immutable and picklable.
+/// Build it from keyword arguments (the keys of the scene file,
+/// docs/scene-file.md), from a scene file's text (`Scene.from_toml`) or from
+/// a file (`Scene.from_file`). Every key is checked as the scene file checks
+/// it, with the same messages. Scenes are immutable, comparable with `==`
+/// and picklable.
+///
+/// Parameters
+/// ----------
+/// layers : sequence of mapping
+///     The layers, top first, each a mapping of `[[layer]]` keys (see
+///     `km.layer`): `sigma_a`, `sigma_s`, `thickness` or `tau`, `albedo`;
+///     `g`, `n`, `preset`. A value may be a number or a sequence/array (one
+///     value per spectral channel).
+/// light : str or mapping, optional
+///     `"collimated"` (default) or `"diffuse"`, or a mapping of `[light]`.
+/// theta_deg : float, optional
+///     Polar angle of a collimated beam, degrees (default 0).
+/// ambient_n : float or sequence, optional
+///     Refractive index of the medium above the stack (default 1).
+/// substrate : str or mapping, optional
+///     `"transparent"`, `"lambertian"`, `"black"`, `"conductor"`, or a mapping
+///     of `[substrate]` (`{"kind": "lambertian", "albedo": 0.8}`).
+/// directions_deg : array_like, optional
+///     `[[theta, phi], ...]` exit directions of the BRDF/BTDF samples, degrees.
+/// spectrum : mapping, optional
+///     `{"labels": [...], "wavelengths_nm": [...]}` of the channels.
+///
+/// Attributes
+/// ----------
+/// channels : int
+///     Number of spectral channels.
+/// labels : list of str
+///     Channel labels.
+/// wavelengths_nm : list of float or None
+///     Wavelengths of the channels, when given.
+/// light, substrate : dict
+///     The light and the substrate of channel 0.
+/// directions_deg : list of [float, float]
+///     Exit directions of the BRDF/BTDF samples.
+///
+/// Raises
+/// ------
+/// KmError
+///     A key that is unknown, missing or out of its range (`key` names it).
+/// KmTypeError
+///     A value that cannot stand in a scene (an object where a number belongs).
+///
+/// Examples
+/// --------
+/// >>> import km
+/// >>> s = km.Scene(layers=[km.layer(tau=[1.0, 2.0], albedo=0.9, g=0.5)],
+/// ...              theta_deg=30.0, substrate={"kind": "lambertian", "albedo": 0.5})
+/// >>> s.channels
+/// 2
+/// >>> km.Scene.from_toml(s.to_toml()) == s
+/// True
 #[pyclass(frozen, name = "Scene", module = "km")]
 pub struct PyScene {
     pub(crate) scene: Scene,
@@ -102,19 +156,60 @@ impl PyScene {
     }
 
     /// A scene from the text of a scene file (TOML, docs/scene-file.md).
+    ///
+    /// Parameters
+    /// ----------
+    /// text : str
+    ///     The scene file's text.
+    ///
+    /// Returns
+    /// -------
+    /// Scene
+    ///
+    /// Raises
+    /// ------
+    /// KmError
+    ///     An invalid scene, naming the key and the line.
+    ///
+    /// Examples
+    /// --------
+    /// >>> km.Scene.from_toml("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").channels
+    /// 1
     #[staticmethod]
     fn from_toml(py: Python<'_>, text: String) -> PyResult<PyScene> {
         PyScene::parse(py, text)
     }
 
     /// A scene from a scene file on disk.
+    ///
+    /// Parameters
+    /// ----------
+    /// path : str or path-like
+    ///     The scene file (TOML, docs/scene-file.md); at most
+    ///     `KM_MAX_SCENE_BYTES` bytes, a regular file.
+    ///
+    /// Returns
+    /// -------
+    /// Scene
+    ///
+    /// Raises
+    /// ------
+    /// KmFileNotFoundError
+    ///     The file does not exist (also a `FileNotFoundError`).
+    /// KmError
+    ///     A file that cannot be read, or an invalid scene (key and line named).
+    ///
+    /// Examples
+    /// --------
+    /// >>> km.Scene.from_file("examples/seed-three-layers.toml")  # doctest: +SKIP
+    /// km.Scene(3 layer(s), 1 channel(s), 3 direction(s))
     #[staticmethod]
     fn from_file(py: Python<'_>, path: PathBuf) -> PyResult<PyScene> {
         // The checked reader of `km`: a FIFO or /dev/zero is refused before
         // opening, and the size limit holds (KM_MAX_SCENE_BYTES).
         let limits = km_core::SceneLimits::from_env();
         let text = km_core::read_scene_text(&path, limits.max_bytes)
-            .map_err(|e| py_err(py, Error::Scene(e)))?;
+            .map_err(|e| super::file_err(py, &path, Error::Scene(e)))?;
         PyScene::parse(py, text)
     }
 
@@ -141,8 +236,17 @@ impl PyScene {
         self.scene.wavelengths_nm().map(<[f64]>::to_vec)
     }
 
-    /// The layers of one channel, top first, as dicts of their derived values
-    /// (sigma_a, sigma_s, sigma_t, thickness, tau, albedo, g, n).
+    /// The layers of one channel, top first, as dicts of their derived values.
+    ///
+    /// Parameters
+    /// ----------
+    /// channel : int, default 0
+    ///     The channel.
+    ///
+    /// Returns
+    /// -------
+    /// list of dict
+    ///     Per layer: sigma_a, sigma_s, sigma_t, thickness, tau, albedo, g, n.
     #[pyo3(signature = (channel=0))]
     fn layers<'py>(&self, py: Python<'py>, channel: usize) -> PyResult<Bound<'py, PyList>> {
         let c = self.scene.channels().get(channel).ok_or_else(|| {

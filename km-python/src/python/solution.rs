@@ -11,10 +11,52 @@ use super::convert::json_to_py;
 
 /// What a solve returns: totals, BRDF/BTDF samples, uncertainties, the plan.
 ///
-/// For a one-channel scene the totals are floats and `brdf`/`btdf` 1-D
-/// arrays; for several channels each total is an array over channels and
-/// `brdf`/`btdf` are `channels x directions`. `to_dict()` is the
-/// `km solve --json` object.
+/// Made by `km.solve` and `km.merge`, not by hand. For a one-channel scene
+/// the totals are floats and `brdf`/`btdf` 1-D arrays over the output
+/// directions; for `C` channels each total is an array of shape `(C,)` and
+/// `brdf`/`btdf` have shape `(C, D)`. `to_dict()` is the `km solve --json`
+/// object, unchanged: there `channels` (present for several channels) is
+/// the list of channel labels and each total a list over them, while the
+/// attribute `channels` is their number (as on `Scene`, `Batch` and `Bsdf`)
+/// and `labels` the list: `sol.to_dict()["channels"] == sol.labels` and
+/// `sol.channels == len(sol.labels)`.
+///
+/// Attributes
+/// ----------
+/// method : str
+///     The method that solved.
+/// channels : int
+///     Number of spectral channels.
+/// labels : list of str
+///     Channel labels.
+/// reflectance, transmittance, absorptance : float or ndarray
+///     Totals (the delta parts included).
+/// reflectance_specular, transmittance_direct : float or ndarray
+///     The mirror reflection and the unscattered beam.
+/// brdf, btdf : ndarray
+///     Smooth BRDF/BTDF (1/sr) at `directions_deg`.
+/// directions_deg : list of [float, float]
+///     The output directions `[theta, phi]`, degrees.
+/// stderr, error_estimate, model_error_estimate : dict or None
+///     Standard errors (Monte Carlo), estimated errors (a tolerance), how far
+///     a closed form may be off, by key.
+/// absorptance_layers : ndarray or None
+///     Absorbed fraction per layer.
+/// notes : list of str
+///     What the solver simplified.
+/// plan, accuracy, extra : dict or None
+///     The plan obeyed, how a tolerance was met, method diagnostics.
+/// seconds : float
+///     The solver's wall time.
+///
+/// Examples
+/// --------
+/// >>> import km
+/// >>> sol = km.solve(km.Scene(layers=[km.layer(tau=1.0, albedo=0.9)]), "km")
+/// >>> round(sol.reflectance + sol.transmittance + sol.absorptance, 12)
+/// 1.0
+/// >>> sol.to_dict()["method"], sol.channels
+/// ('km', 1)
 #[pyclass(frozen, name = "Solution", module = "km")]
 pub struct PySolution {
     pub(crate) sol: Solution,
@@ -233,14 +275,32 @@ impl PySolution {
         self.sol.seconds
     }
     /// The `km solve --json` object, as a dict.
+    ///
+    /// Returns
+    /// -------
+    /// dict
+    ///     The JSON object of `km solve SCENE --json`, key for key.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         json_to_py(py, &self.sol.to_json())
     }
     /// The `km solve --json` object, as text.
+    ///
+    /// Parameters
+    /// ----------
+    /// indent : bool, default False
+    ///     Pretty-print with indentation.
+    ///
+    /// Returns
+    /// -------
+    /// str
     #[pyo3(signature = (indent=false))]
     fn to_json(&self, indent: bool) -> String {
         let v = self.sol.to_json();
         if indent { serde_json::to_string_pretty(&v).unwrap_or_default() } else { v.to_string() }
+    }
+    /// HTML for Jupyter: the totals per channel and an SVG plot of the BRDF/BTDF.
+    fn _repr_html_(slf: &Bound<'_, Self>) -> PyResult<String> {
+        slf.py().import("km._repr")?.call_method1("solution_html", (slf,))?.extract()
     }
     fn __repr__(&self) -> String {
         let c = &self.sol.channels;
