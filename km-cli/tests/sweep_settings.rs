@@ -93,7 +93,7 @@ fn sweep_refuses_settings_of_other_methods_as_solve_does() {
     for (extra, words) in [
         (&["--method", "km", "--streams", "4"][..], "--streams does not apply to --method km"),
         (&["--method", "multiflux", "--samples", "10"][..], "--samples does not apply"),
-        (&["--method", "km", "--budget", "2"][..], "--budget does not apply to --method km"),
+        (&["--method", "km", "--order", "2"][..], "--order does not apply to --method km"),
         (&["--method", "mc", "--shard", "0/2"][..], "--shard applies to km solve, not"),
         (&["--repeat", "3"][..], "--repeat applies to km solve, not"),
         (&["--method", "mc", "--samples", "10", "--tolerance", "1e-3"][..], "either --samples"),
@@ -105,10 +105,25 @@ fn sweep_refuses_settings_of_other_methods_as_solve_does() {
         assert!(out.stdout.is_empty());
     }
     // The same words as `km solve` (both read km::settings::SETTINGS).
-    let solve = km(&["solve", &s, "--method", "km", "--budget", "2"]);
+    let solve = km(&["solve", &s, "--method", "km", "--streams", "4"]);
     let err = String::from_utf8_lossy(&solve.stderr);
-    assert!(err.contains("--budget does not apply to --method km"), "{err}");
-    assert!(err.contains("mc") && err.contains("multiflux"), "{err}");
+    assert!(err.contains("--streams does not apply to --method km"), "{err}");
+    assert!(err.contains("multiflux"), "{err}");
+}
+
+#[test]
+fn budget_scales_a_two_flux_sweep_as_one_request() {
+    // 100 two-flux points of 4.6e5 work units each (docs/limits.md §1):
+    // within the default budget of 1e10, over a thousandth of it.
+    let s = slab();
+    let base = ["sweep", s.as_str(), "--method", "km", "--set", "layer[1].g=0:0.99:100"];
+    let ok = km(&base);
+    assert_eq!(ok.status.code(), Some(0), "{}", String::from_utf8_lossy(&ok.stderr));
+    let refused = km(&[&base[..], &["--budget", "0.001"]].concat());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_ne!(refused.status.code(), Some(0), "{err}");
+    assert!(err.contains("100 points") && err.contains("--budget"), "{err}");
+    assert!(refused.stdout.is_empty());
 }
 
 #[test]
