@@ -150,3 +150,34 @@ def test_integers_out_of_range_name_the_argument(name, value):
     method = "multiflux" if name in ("streams", "order") else "mc"
     with pytest.raises(km.KmError, match=name):
         km.solve(s, method, **{name: value})
+
+
+def test_bsdf_evaluations_and_tables_over_their_budget_are_refused_before_work():
+    # 10^7 azimuths in one call took 870 MB; a 1024 x 1024 x 72 table 1.45 GB.
+    # The tables are held to `km bsdf`'s grid budget: 2^18 angle pairs, 2^22
+    # table values (256 x 256 x 72 azimuths is 4.7 10^6).
+    r = run_child(
+        f"""
+        import numpy as np
+        b = km.bsdf(km.Scene.from_toml({SCENE!r}), streams=8)
+        calls = (lambda: b.eval(30.0, 30.0, np.linspace(0.0, 360.0, 10**7)),
+                 lambda: b.table(np.linspace(0, 89, 1024), np.linspace(0, 89, 1024)),
+                 lambda: b.table(np.linspace(0, 89, 256), np.linspace(0, 89, 256)))
+        for call in calls:
+            try:
+                call()
+            except km.KmError as e:
+                print("refused:", e)
+            else:
+                print("accepted")
+        # Within the budget the same calls answer (a table's worth of values).
+        print(b.eval(30.0, 30.0, np.linspace(0.0, 360.0, 1000)).shape)
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 4, r.stdout
+    assert lines[0].startswith("refused:") and "evaluate in chunks" in lines[0], lines[0]
+    assert lines[1].startswith("refused:") and "angle pairs" in lines[1], lines[1]
+    assert lines[2].startswith("refused:") and "table values" in lines[2], lines[2]
+    assert lines[3] == "(1000,)", lines[3]

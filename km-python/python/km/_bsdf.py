@@ -164,6 +164,14 @@ class Bsdf:
         ti, to, ph = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64)
                                            for a in (theta_i, theta_o, phi)))
         shape = ti.shape
+        # At most a table's worth of values per call, checked before the
+        # broadcast arrays are copied (10^7 azimuths took 870 MB).
+        size = int(np.prod(shape, dtype=np.int64)) * self.channels
+        if size > self._core.max_values:
+            raise _km.KmError(
+                f"invalid option phi: {self.channels} channel(s) x {size // self.channels} "
+                f"points = {size} values, over the {self._core.max_values} of one call: "
+                "evaluate in chunks")
         flat = [np.ascontiguousarray(a.ravel()) for a in (ti, to, ph)]
         values = self._core._eval(_check_side(side), bool(transmitted), *flat)
         return _shape(np.asarray(values), self.channels, shape)
@@ -248,16 +256,22 @@ class Bsdf:
 
         Notes
         -----
-        Defaults as ``km bsdf``: ``theta_i`` the arccosines of 32 Gauss nodes
-        in mu, ``theta_o`` = ``theta_i``, ``phi`` = 0, 5, ..., 355. Keys:
+        Defaults as ``km bsdf``: ``theta_i`` normal incidence (0) and the
+        arccosines of 32 Gauss nodes in mu, ``theta_o`` those 32 Gauss angles
+        (``theta_i`` itself when ``theta_i`` is given), ``phi`` = 0, 5, ..., 355. Keys:
         ``theta_i``, ``theta_o``, ``phi`` (1-D, degrees), ``brdf``, ``btdf``
         (``channels x n_i x n_o x n_phi``, 1/sr), ``reflectance``,
         ``transmittance``, ``reflectance_specular``, ``transmittance_direct``
         (``channels x n_i``), ``fourier_orders`` (per channel) and
         ``streams``. Always with the channel axis, as in the file.
         """
-        ti = _gauss_angles(32) if theta_i is None else np.asarray(theta_i, dtype=np.float64)
-        to = ti if theta_o is None else np.asarray(theta_o, dtype=np.float64)
+        gauss = _gauss_angles(32)
+        if theta_i is None:
+            ti = np.concatenate(([0.0], gauss))
+            to = gauss if theta_o is None else np.asarray(theta_o, dtype=np.float64)
+        else:
+            ti = np.asarray(theta_i, dtype=np.float64)
+            to = ti if theta_o is None else np.asarray(theta_o, dtype=np.float64)
         ph = np.arange(72) * 5.0 if phi is None else np.asarray(phi, dtype=np.float64)
         args = [np.ascontiguousarray(np.atleast_1d(a).ravel()) for a in (ti, to, ph)]
         return dict(self._core._table(_check_side(side), *args))

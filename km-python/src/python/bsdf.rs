@@ -149,6 +149,12 @@ impl PyBsdfCore {
     fn n_below(&self) -> Option<f64> {
         self.n_below
     }
+    /// The most values one evaluation returns (channels x points), as the
+    /// most values of one `km bsdf` table at budget 1.
+    #[getter]
+    fn max_values(&self) -> usize {
+        km::bsdf_file::MAX_TABLE_VALUES
+    }
     /// Number of spectral channels.
     #[getter]
     fn channels(&self) -> usize {
@@ -192,6 +198,17 @@ impl PyBsdfCore {
             return Err(py_err(py, Error::option("phi", format!("{p} is not finite"))));
         }
         let nc = self.scene.channels().len();
+        // At most a table's worth of values per call (`km bsdf`'s
+        // `MAX_TABLE_VALUES`, 32 MB): 10^7 azimuths took 870 MB.
+        let max = km::bsdf_file::MAX_TABLE_VALUES;
+        if nc.saturating_mul(n) > max {
+            let msg = format!(
+                "{nc} channel(s) x {n} points = {} values, over the {max} of one call: \
+                 evaluate in chunks",
+                nc.saturating_mul(n)
+            );
+            return Err(py_err(py, Error::option("phi", msg)));
+        }
         if n == 0 {
             return Ok(Vec::<f64>::new().into_pyarray(py).reshape([nc, 0])?.into_any());
         }
@@ -261,6 +278,26 @@ impl PyBsdfCore {
         phi: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let (ti, to, ph) = (vec1(&theta_i), vec1(&theta_o), vec1(&phi));
+        // The grid budget of `km bsdf` at budget 1 (angle pairs and table
+        // values), before any work: a 1024 x 1024 x 72 table took 1.45 GB.
+        let request = km::bsdf_file::BsdfRequest {
+            theta_i: ti.clone(),
+            theta_o: to.clone(),
+            phi: ph.clone(),
+            from_below: side == "below",
+            streams: self.opts.streams,
+            format: km::bsdf_file::BsdfFormat::Npz,
+            budget: 1.0,
+            channel_mix: None,
+        };
+        km::bsdf_file::check_grid(self.scene.channels().len(), &request, true, 1.0).map_err(
+            |e| match e {
+                km::bsdf::BsdfError::Input { name, reason } => {
+                    py_err(py, Error::option(name, reason))
+                }
+                e => py_err(py, Error::option("phi", e.to_string())),
+            },
+        )?;
         let (b, brdf, btdf) = guarded(py, || {
             let b = self.build(side, &ti, &to)?;
             let t = km::bsdf::write::Table::new(&b, &ph)?;
