@@ -82,11 +82,40 @@ fn nothing_is_drawn_when_stderr_is_not_a_terminal() {
     assert!(!out.stdout.is_empty());
 }
 
+/// Photons of the seed scene that one thread traces in about `seconds` on
+/// this machine, from a timed pilot run (the solver's own `seconds`).
+fn photons_for(seed: &str, seconds: f64) -> u64 {
+    let pilot = 200_000u64;
+    let out = Command::new(env!("CARGO_BIN_EXE_km"))
+        .args(["solve", seed, "-m", "mc", "--threads", "1", "--json"])
+        .args(["--samples", &pilot.to_string()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let took = v["seconds"].as_f64().expect("`seconds` in the JSON");
+    assert!(took > 0.0, "pilot took {took} s");
+    ((pilot as f64 * seconds / took) as u64).clamp(1_000, 400_000_000)
+}
+
 #[test]
 fn a_long_monte_carlo_run_counts_photons_on_a_terminal() {
-    // 4e6 photons of the seed scene: about 2 to 4 s on a loaded machine
-    // (the bar is drawn once the run has lasted 0.5 s and is projected past 2 s).
+    // The bar is drawn once the run has lasted 0.5 s and is projected past
+    // SHOW_ABOVE_S = 2 s. The photon count is sized from a pilot run to take
+    // about 5 s here, so that neither a fast nor a loaded machine decides the
+    // outcome (a fixed count of 4e6 took 2 to 4 s on one machine and under
+    // 2 s on another).
     let seed = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/seed-three-layers.toml");
-    let shown = on_terminal(&["solve", seed, "-m", "mc", "--samples", "4000000", "--threads", "1"]);
-    assert!(shown.contains("photons"), "{shown:?}");
+    let n = photons_for(seed, 5.0).to_string();
+    let shown = on_terminal(&["solve", seed, "-m", "mc", "--samples", &n, "--threads", "1"]);
+    assert!(shown.contains("photons"), "{n} photons: {shown:?}");
+}
+
+#[test]
+fn a_short_monte_carlo_run_draws_nothing_on_a_terminal() {
+    // The other side of the same rule: a run of about 0.1 s never shows a bar.
+    let seed = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/seed-three-layers.toml");
+    let n = photons_for(seed, 0.1).to_string();
+    let shown = on_terminal(&["solve", seed, "-m", "mc", "--samples", &n, "--threads", "1"]);
+    assert!(shown.is_empty(), "{n} photons: {shown:?}");
 }
