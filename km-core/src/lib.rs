@@ -48,4 +48,4 @@ pub use layer::Layer;
 pub use scene::{
     Light, MonoScene, Scene, SceneLimits, Substrate, read_checked_text, read_scene_text,
 };
-pub use solution::{AccuracyReport, ChannelResult, Solution, Uncertainty};
+pub use solution::{AccuracyReport, ChannelResult, DepthOutput, Solution, Uncertainty};

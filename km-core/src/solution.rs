@@ -204,6 +204,32 @@ impl AccuracyReport {
     }
 }
 
+/// The depth-resolved field of a solve whose scene asks for `[output]
+/// depths` (docs/field.md): per channel, one value per depth. The same
+/// quantities as `km field`, from the solve itself.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DepthOutput {
+    /// The depths, in the scene's length unit, as asked.
+    pub depths: Vec<f64>,
+    /// Per channel, the fluence rate `phi(z)` per unit incident irradiance (eq. D1).
+    pub fluence: Vec<Vec<f64>>,
+    /// Per channel, the absorbed power per unit depth `A(z)` (1/length).
+    pub absorbed: Vec<Vec<f64>>,
+    /// Per channel, the net downward flux `F(z)`.
+    pub net_flux: Vec<Vec<f64>>,
+    /// Monte Carlo: the standard errors of `fluence`, `absorbed`, `net_flux`, in that order.
+    pub stderr: Option<[Vec<Vec<f64>>; 3]>,
+}
+
+/// The JSON keys of a [`DepthOutput`] in the order of its `stderr` array.
+pub const DEPTH_KEYS: [&str; 3] = ["fluence", "absorbed", "net_flux"];
+
+impl DepthOutput {
+    fn values(&self) -> [&Vec<Vec<f64>>; 3] {
+        [&self.fluence, &self.absorbed, &self.net_flux]
+    }
+}
+
 /// The answer of one method for a whole scene.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Solution {
@@ -227,6 +253,9 @@ pub struct Solution {
     /// Method-specific settings and diagnostics (e.g. `streams`, `mc`), typed;
     /// merged into the JSON by [`Solution::to_json`].
     pub diagnostics: Diagnostics,
+    /// The field at the scene's `[output] depths`, when it asks for them and
+    /// the method gives one (`km::solve` attaches it).
+    pub field: Option<DepthOutput>,
 }
 
 impl Solution {
@@ -271,6 +300,27 @@ impl Solution {
             if self.channels.iter().any(|c| get(c).is_some()) {
                 let per: Vec<Option<&Uncertainty>> = self.channels.iter().map(get).collect();
                 out.insert(key.into(), uncertainty_json(&per));
+            }
+        }
+        if let Some(f) = &self.field {
+            let rows = |v: &Vec<Vec<f64>>| {
+                if v.len() == 1 {
+                    nums(&v[0])
+                } else {
+                    Value::Array(v.iter().map(|r| nums(r)).collect())
+                }
+            };
+            out.insert("depths".into(), nums(&f.depths));
+            for (k, v) in DEPTH_KEYS.iter().zip(f.values()) {
+                out.insert((*k).into(), rows(v));
+            }
+            if let Some(se) = &f.stderr {
+                let slot = out.entry("stderr").or_insert_with(|| Value::Object(Map::new()));
+                if let Value::Object(m) = slot {
+                    for (k, v) in DEPTH_KEYS.iter().zip(se) {
+                        m.insert((*k).into(), rows(v));
+                    }
+                }
             }
         }
         if self.channels.iter().any(|c| c.cones.is_some()) {

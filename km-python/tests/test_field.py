@@ -45,3 +45,28 @@ def test_energy_balance_and_refusals():
             km.field(s, m)
     with pytest.raises(km.KmError, match="stack"):
         km.field(s, depths=[2.0])
+
+
+def test_solve_carries_the_field_of_the_scene_depths(km_cli, tmp_path):
+    # `km.solve` on a scene with [output] depths: `Solution.field` holds what
+    # `km.field` gives (multi-flux: the same numbers), and `to_dict()` the
+    # keys of `km solve --json` (the same JSON as the command).
+    s = km.Scene.from_toml(TEXT)
+    sol = km.solve(s, streams=16)
+    f = sol.field
+    assert f is not None
+    ref = km.field(s, streams=16)
+    for k in ("depths", "fluence", "absorbed", "net_flux"):
+        assert np.array_equal(f[k], ref[k]), k
+    assert abs(f["net_flux"][0, 0] - (1.0 - sol.reflectance)) < 1e-10
+    path = tmp_path / "s.toml"
+    path.write_text(TEXT)
+    out = json.loads(subprocess.run([km_cli, "solve", path, "--streams", "16", "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    d = sol.to_dict()
+    for k in ("depths", "fluence", "absorbed", "net_flux"):
+        assert np.array_equal(np.array(d[k]), np.array(out[k])), k
+    mc = km.solve(s, "mc", samples=5000).field
+    assert mc is not None and set(mc["stderr"]) == {"fluence", "absorbed", "net_flux"}
+    assert km.solve(s, "direction-set").field is None
+    assert km.solve(km.Scene.from_toml(TEXT.split("[output]")[0])).field is None

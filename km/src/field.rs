@@ -13,15 +13,17 @@
 
 use std::time::Instant;
 
-use km_core::Scene;
+use km_core::solution::DepthOutput;
+use km_core::two_flux::KmModel;
 use km_core::two_flux::KmOptions;
+use km_core::{Scene, Solution};
 use km_montecarlo::McOptions;
 use km_multiflux::MultifluxOptions;
 use km_multiflux::depth::DepthField;
 
-use crate::Method;
 use crate::error::{KmError, Reason, Unsupported};
 use crate::mc_field::{MAX_DEPTH_BINS, mc_depths};
+use crate::{Method, MethodOptions, Solver};
 
 /// The settings of [`field`]: the method and its options.
 #[derive(Debug, Clone, Default)]
@@ -224,4 +226,103 @@ impl Field {
         }
         out
     }
+}
+
+impl From<Field> for DepthOutput {
+    fn from(f: Field) -> DepthOutput {
+        DepthOutput {
+            depths: f.depths,
+            fluence: f.fluence,
+            absorbed: f.absorbed,
+            net_flux: f.net_flux,
+            stderr: f.stderr.map(|s| [s.fluence, s.absorbed, s.net_flux]),
+        }
+    }
+}
+
+/// A Monte Carlo solve of `scene` that tallies the field at `depths` in the
+/// same run (`km::solve` with `[output] depths`): its answer (the run's
+/// totals, the same as without the depth tally for the same seed) and the
+/// field, with the run's per-layer absorptance.
+pub(crate) fn mc_solve_with_field(
+    scene: &Scene,
+    depths: &[f64],
+    opts: &McOptions,
+) -> Result<(Solution, DepthOutput), KmError> {
+    check_depths(depths)?;
+    check_in_stack(scene, depths)?;
+    let v = mc_depths(scene, depths, None, opts)?;
+    let out = DepthOutput {
+        depths: v.depths,
+        fluence: v.fluence,
+        absorbed: v.absorbed,
+        net_flux: v.net_flux,
+        stderr: Some([v.fluence_se, v.absorbed_se, v.net_flux_se]),
+    };
+    Ok((v.bins.solution, out))
+}
+
+/// Attach the field at the scene's `[output] depths` to a solve's answer
+/// `sol` by the same method and settings (the streams an accuracy target
+/// chose; the photons and seed of the run), with the per-layer absorptance
+/// where the solve had none; a method without a depth field adds a note.
+pub(crate) fn attach(
+    scene: &Scene,
+    solver: &MethodOptions,
+    sol: &mut Solution,
+) -> Result<(), KmError> {
+    let chosen = |key: &str| {
+        sol.accuracy.as_ref().and_then(|a| a.work.iter().find(|(k, _)| k == key).map(|w| w.1))
+    };
+    let mut opts = FieldOptions::default();
+    match solver {
+        MethodOptions::Multiflux(o) => {
+            opts.method = FieldMethod(Method::Multiflux);
+            opts.multiflux = o.clone();
+            if let Some(n) = chosen("streams") {
+                opts.multiflux.streams = Some(n as usize);
+            }
+        }
+        MethodOptions::Km(o) => {
+            opts.method = FieldMethod(Method::Km);
+            opts.km = *o;
+            if o.model == KmModel::FourFlux
+                && scene.channels().first().is_some_and(|c| c.light().mu0().is_some())
+            {
+                sol.notes.push(
+                    "the depth field is the two-flux model's (the four-flux beam is not resolved \
+                     in depth, docs/field.md §3): its net flux at depth 0 is 1 - R of two-flux"
+                        .into(),
+                );
+            }
+        }
+        MethodOptions::Mc(o) => {
+            opts.method = FieldMethod(Method::Mc);
+            opts.mc = o.clone();
+            if let Some(n) = chosen("samples") {
+                opts.mc.samples = n;
+            }
+            sol.notes.push(format!(
+                "the depth field comes from a second run of {} photons with the same seed \
+                 (an accuracy target or duplicate channels kept it out of the first)",
+                opts.mc.samples
+            ));
+        }
+        MethodOptions::Dipole(_) | MethodOptions::DirectionSet(_) => {
+            sol.notes.push(format!(
+                "[output] depths ignored: the {} method gives no depth field (km field \
+                 --method multiflux, km or mc)",
+                solver.method().name()
+            ));
+            return Ok(());
+        }
+    }
+    let f = field(scene, None, &opts)?;
+    for (c, layers) in sol.channels.iter_mut().zip(&f.absorptance_layers) {
+        if c.absorptance_layers.is_none() && !layers.is_empty() {
+            c.absorptance_layers = Some(layers.clone());
+        }
+    }
+    sol.field = Some(f.into());
+    Ok(())
 }

@@ -121,9 +121,20 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);
     let solved = work;
     let work = cut.as_ref().map_or(work, |(half, _)| half);
+    let depths = scene.depths();
+    // Monte Carlo tallies the depth field in the run that gives the answer
+    // (the same photons; docs/field.md §6), when nothing else re-runs it.
+    let mut field = None;
     let mut sol = match (options.cone_deg, &solver) {
         (Some(deg), MethodOptions::Multiflux(_)) => {
             cone::solve_mean(&solver, work, deg, options.tolerance)?
+        }
+        (None, MethodOptions::Mc(o))
+            if !depths.is_empty() && options.tolerance.is_none() && reduced.is_none() =>
+        {
+            let (s, f) = field::mc_solve_with_field(work, depths, o)?;
+            field = Some(f);
+            s
         }
         _ => match options.tolerance {
             Some(tol) => solver.solve_unplanned_to(work, tol)?,
@@ -155,6 +166,12 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
     // A spectral scene's JSON `channels` are its wavelengths (numbers, nm).
     if let Some(w) = scene.wavelengths_nm().filter(|w| w.len() > 1) {
         sol.diagnostics.wavelengths_nm = Some(w.to_vec());
+    }
+    if !depths.is_empty() {
+        match field {
+            Some(f) => sol.field = Some(f),
+            None => field::attach(scene, &solver, &mut sol)?,
+        }
     }
     sol.plan = Some(plan);
     Ok(sol)

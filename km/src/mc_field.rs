@@ -94,9 +94,34 @@ pub fn mc_depths(
         net_flux_se: Vec::new(),
         bins: f.clone(),
     };
+    // The bin centres each depth may be interpolated between: those of the
+    // bins inside its layer (a depth on an interface belongs to the layer
+    // above, docs/field.md §1), so that no value mixes in a bin across a
+    // jump of A or phi, or the empty bins below the stack.
+    let mut bounds = vec![0.0];
+    for l in scene.channels()[0].layers() {
+        bounds.push(bounds[bounds.len() - 1] + l.thickness());
+    }
+    let span = |z: f64| -> (f64, f64) {
+        let k = bounds.windows(2).position(|w| z <= w[1]).unwrap_or(bounds.len() - 2);
+        let (top, bottom) = (bounds[k], bounds[k + 1]);
+        let (lo, hi) = ((top / dz).ceil(), (bottom / dz).floor() - 1.0);
+        // A layer thinner than a bin: the bin holding z.
+        if hi < lo {
+            ((z / dz).floor().min(hi.max(0.0)), (z / dz).floor().min(hi.max(0.0)))
+        } else {
+            (lo, hi)
+        }
+    };
     for c in 0..f.phi.len() {
         let at_centres = |x: &[f64], se: &[f64]| -> (Vec<f64>, Vec<f64>) {
-            depths.iter().map(|&z| interpolate(x, se, z / dz - 0.5)).unzip()
+            depths
+                .iter()
+                .map(|&z| {
+                    let (lo, hi) = span(z);
+                    interpolate(x, se, (z / dz - 0.5).clamp(lo, hi))
+                })
+                .unzip()
         };
         let (p, ps) = at_centres(&f.phi[c], &f.phi_se[c]);
         let (a, as_) = at_centres(&f.a[c], &f.a_se[c]);

@@ -129,6 +129,7 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
         }
     }
     direction_rows(&mut s, sol, scene, spectral, width);
+    depth_rows(&mut s, sol);
     cone_lines(&mut s, sol);
     model_error_lines(&mut s, sol);
     if mc {
@@ -151,6 +152,46 @@ pub fn table(sol: &Solution, scene: Option<&Scene>) -> String {
         let _ = writeln!(s, "note: {note}");
     }
     s
+}
+
+/// Depth rows shown at most; more are thinned to every k-th.
+const DEPTH_ROWS: usize = 40;
+
+/// The field at the scene's depths (docs/field.md): a row per depth with
+/// `phi`, `A` and `F` of each channel (± one standard error for Monte
+/// Carlo), thinned to at most [`DEPTH_ROWS`] rows.
+fn depth_rows(s: &mut String, sol: &Solution) {
+    let Some(f) = &sol.field else { return };
+    let n = f.depths.len();
+    let step = n.div_ceil(DEPTH_ROWS).max(1);
+    let se = f.stderr.as_ref();
+    let width = if se.is_some() { 24 } else { 14 };
+    let several = f.fluence.len() > 1;
+    let _ = write!(s, "{:<24}", "depth");
+    for c in 0..f.fluence.len() {
+        for q in ["fluence", "absorbed", "net flux"] {
+            let head = if several { format!("{q} {}", sol.labels[c]) } else { q.to_string() };
+            let _ = write!(s, "{head:>width$}");
+        }
+    }
+    let _ = writeln!(s);
+    let mut rows: Vec<usize> = (0..n).step_by(step).collect();
+    if rows.last() != Some(&(n - 1)) {
+        rows.push(n - 1);
+    }
+    for i in rows {
+        let _ = write!(s, "{:<24}", number(f.depths[i]));
+        for c in 0..f.fluence.len() {
+            for (q, v) in [&f.fluence, &f.absorbed, &f.net_flux].into_iter().enumerate() {
+                let e = se.map(|e| e[q][c][i]);
+                let _ = write!(s, "{:>width$}", cell(v[c][i], e));
+            }
+        }
+        let _ = writeln!(s);
+    }
+    if step > 1 {
+        let _ = writeln!(s, "(every {step}th of {n} depths shown; --json has them all)");
+    }
 }
 
 /// The BRDF/BTDF rows: one per direction, a column per channel (for a

@@ -197,6 +197,30 @@ fn multi_channel_monte_carlo_and_accuracy_targets_validate() {
 }
 
 #[test]
+fn depth_fields_validate_for_one_and_several_channels() {
+    // The paint example (three channels) and the Fresnel slab (one), with
+    // depths added: the field's keys, and for Monte Carlo their standard
+    // errors inside `stderr`.
+    for name in ["paint-over-primer.toml", "fresnel-slab.toml"] {
+        let text = std::fs::read_to_string(root().join("examples").join(name)).unwrap();
+        let with = if text.contains("[output]") {
+            text.replace("[output]", "[output]\ndepths = [0.0, 0.001]")
+        } else {
+            format!("{text}\n[output]\ndepths = [0.0, 0.001]\n")
+        };
+        let scene = Scene::from_toml_str(&with).unwrap();
+        for opts in [Options::new(Method::Multiflux), mc(2_000)] {
+            let v = km::solve(&scene, &opts).unwrap().to_json();
+            assert!(v["depths"].is_array() && v["fluence"].is_array(), "{name}: {v}");
+            if opts.method() == Method::Mc {
+                assert!(v["stderr"]["net_flux"].is_array(), "{name}");
+            }
+            assert!(errors(&v).is_empty(), "{name}: {:?}", errors(&v));
+        }
+    }
+}
+
+#[test]
 fn spectral_channels_are_numeric_wavelengths_and_validate() {
     let text = "[spectrum]\nwavelengths_nm = [450, 550, 650]\n[[layer]]\nsigma_a = [0.1, 0.2, 0.3]\n\
                 sigma_s = 1\nthickness = 2\n";

@@ -136,6 +136,9 @@ class Solution:
     def absorptance_layers(self) -> npt.NDArray[np.float64] | None:
         """Absorbed fraction per layer, top first, when the method gives it."""
     @property
+    def field(self) -> dict[str, Any] | None:
+        """The field at the scene's ``[output] depths``, as ``km.field`` gives it, or None."""
+    @property
     def stderr(self) -> dict[str, _FloatOrArray] | None:
         """Standard errors by key (Monte Carlo), or None."""
     @property

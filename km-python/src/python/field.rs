@@ -10,7 +10,7 @@ use super::{PyScene, guarded, py_err};
 use crate::error::Error;
 
 /// Rows of equal length (channels x depths or x layers) as one 2-D array.
-fn rows(py: Python<'_>, v: Vec<Vec<f64>>) -> PyResult<Bound<'_, PyAny>> {
+pub(crate) fn rows(py: Python<'_>, v: Vec<Vec<f64>>) -> PyResult<Bound<'_, PyAny>> {
     let (r, c) = (v.len(), v.first().map_or(0, Vec::len));
     let flat: Vec<f64> = v.into_iter().flatten().collect();
     let a = flat.into_pyarray(py).reshape([r, c])?;

@@ -222,6 +222,30 @@ impl PySolution {
         }
         Ok(Some(flat.into_pyarray(py).reshape([ch.len(), d])?.into_any()))
     }
+    /// The field at the scene's ``[output] depths`` (docs/field.md), as
+    /// ``km.field`` gives it: ``depths`` and 2-D arrays (channels x depths)
+    /// ``fluence``, ``absorbed``, ``net_flux``, with ``stderr`` of the same
+    /// keys for Monte Carlo; None when the scene asks for no depths or the
+    /// method gives no depth field.
+    #[getter]
+    fn field<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        use super::field::rows;
+        let Some(f) = &self.sol.field else { return Ok(None) };
+        let d = PyDict::new(py);
+        d.set_item("depths", f.depths.clone().into_pyarray(py))?;
+        let values = [&f.fluence, &f.absorbed, &f.net_flux];
+        for (k, v) in km_core::solution::DEPTH_KEYS.iter().zip(values) {
+            d.set_item(*k, rows(py, v.clone())?)?;
+        }
+        if let Some(se) = &f.stderr {
+            let s = PyDict::new(py);
+            for (k, v) in km_core::solution::DEPTH_KEYS.iter().zip(se) {
+                s.set_item(*k, rows(py, v.clone())?)?;
+            }
+            d.set_item("stderr", s)?;
+        }
+        Ok(Some(d))
+    }
     /// Standard errors by key (Monte Carlo), or None.
     #[getter]
     fn stderr<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
