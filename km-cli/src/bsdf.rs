@@ -44,7 +44,8 @@ pub struct BsdfArgs {
     /// Write PNG and SVG pictures (in-plane polar plots, heat maps) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Factor on the grid budgets (angle pairs, table values; docs/limits.md).
+    /// Factor on the grid budgets (angle pairs, table values) and on the work
+    /// budget of the operators (docs/limits.md).
     #[arg(long, default_value_t = 1.0)]
     pub budget: f64,
 }

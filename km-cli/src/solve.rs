@@ -340,6 +340,7 @@ fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Opti
         all_effects: args.all_effects,
         cone_deg: args.cone,
         budget: 1.0,
+        cancel: None,
     };
     opts.with_budget(args.budget).map_err(option_flag)
 }

@@ -24,9 +24,11 @@
 //! * [`CoreError`]: every refusal, naming the offending key or value.
 //! * [`atomic_file`]: output files written whole or not at all, never over
 //!   a device, a link or an input.
+//! * [`Cancel`]: the flag that stops a long computation under way.
 #![deny(missing_docs)]
 
 pub mod atomic_file;
+pub mod cancel;
 pub mod error;
 pub mod fresnel;
 pub mod layer;
@@ -43,6 +45,7 @@ pub mod set;
 pub mod solution;
 pub mod two_flux;
 
+pub use cancel::Cancel;
 pub use error::CoreError;
 pub use layer::Layer;
 pub use scene::{

@@ -73,6 +73,10 @@ pub enum McError {
         /// Why.
         reason: String,
     },
+    /// The run was stopped by its [`crate::McOptions::cancel`] flag before it
+    /// finished; nothing of it is returned.
+    #[error("cancelled: the run was stopped before it finished (no result)")]
+    Cancelled,
     /// A malformed MCML input (`.mci`) file.
     #[error("line {line}: {field}: {reason}")]
     Mci {

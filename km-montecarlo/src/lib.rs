@@ -52,7 +52,8 @@ mod transport;
 
 pub use error::McError;
 pub use grid::{GridRaw, GridResult, McGrid};
-pub use options::{Estimator, McOptions, Progress, RadialBins};
+pub use km_core::Cancel;
+pub use options::{CANCEL_CHECK_PHOTONS, Estimator, McOptions, Progress, RadialBins};
 pub use run::{
     RadialProfile, merge_grid, projected_steps, radial_profile, run_shard, solve, solve_grid,
 };

@@ -53,7 +53,8 @@ pub struct RadialBins {
 /// Options of a Monte Carlo run.
 ///
 /// `Default` gives 10^6 photons, seed 1, survival biasing, all cores,
-/// 5 degree angular bins, no radial profile, no progress callback.
+/// 5 degree angular bins, no radial profile, no progress callback, no
+/// cancel flag.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct McOptions {
     /// Number of photons per channel (`>= 1`).
@@ -96,6 +97,12 @@ pub struct McOptions {
     /// this into a progress bar.
     #[serde(skip)]
     pub progress: Option<Progress>,
+    /// A flag that stops the run when raised ([`km_core::Cancel`]): read
+    /// before each batch and every [`CANCEL_CHECK_PHOTONS`] photons within
+    /// one; the run then returns [`McError::Cancelled`]. Never changes a
+    /// result that is returned.
+    #[serde(skip)]
+    pub cancel: Option<km_core::Cancel>,
     /// Switch the planner off (`docs/planner.md`): the Fresnel test is made
     /// at every boundary, also between equal indices (reflectance 0, but the
     /// reflectance is computed and the random draw made), and the angular
@@ -123,6 +130,10 @@ pub struct McOptions {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<McGrid>,
 }
+
+/// Photons traced between two reads of [`McOptions::cancel`] within a batch
+/// (about a millisecond for a photon of ten steps).
+pub const CANCEL_CHECK_PHOTONS: u64 = 4096;
 
 /// Default [`McOptions::max_events`]: 2 x 10^10 photon steps, about five
 /// minutes on one core at the ~7 x 10^7 steps per second measured for the
@@ -161,6 +172,7 @@ impl Default for McOptions {
             ring_mu_edges: None,
             radial: None,
             progress: None,
+            cancel: None,
             all_effects: false,
             force_threads: false,
             max_tally_bytes: DEFAULT_MAX_TALLY_BYTES,
@@ -263,11 +275,12 @@ impl McOptions {
     }
 
     /// The options with the fields that never change the result (threads,
-    /// progress) cleared: what two runs must share to be merged.
+    /// progress, cancel flag) cleared: what two runs must share to be merged.
     pub fn result_key(&self) -> McOptions {
         McOptions {
             threads: None,
             progress: None,
+            cancel: None,
             force_threads: false,
             max_tally_bytes: DEFAULT_MAX_TALLY_BYTES,
             max_events: Some(DEFAULT_MAX_EVENTS),

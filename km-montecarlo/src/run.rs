@@ -10,14 +10,14 @@ use rayon::prelude::*;
 
 use crate::error::McError;
 use crate::grid::{GridResult, grid_result};
-use crate::options::{McOptions, RadialBins};
+use crate::options::{CANCEL_CHECK_PHOTONS, McOptions, RadialBins};
 use crate::rng::batch_rng;
 use crate::shard::{
     BatchRecord, ChannelBatch, ChannelMeta, Merged, PARTIAL_FORMAT, Partial, accumulate,
     accumulate_in_memory, batch_photons, build_solution, fnv1a_hex, shard_batches,
 };
 use crate::tally::Layout;
-use crate::transport::Tracer;
+use crate::transport::{Counts, Tracer};
 
 /// Trace the whole scene: one [`Solution`] with one result per channel.
 ///
@@ -35,7 +35,8 @@ use crate::transport::Tracer;
 ///
 /// # Errors
 /// Invalid options ([`McError::Option`]), an invalid scene, a run over its
-/// budget ([`McError::TooExpensive`]), a thread pool that cannot be built.
+/// budget ([`McError::TooExpensive`]), a thread pool that cannot be built,
+/// a run stopped by its cancel flag ([`McError::Cancelled`]).
 ///
 /// ```
 /// use km_montecarlo::{McOptions, solve};
@@ -341,8 +342,15 @@ fn trace_batches_on(
     let refusal: Mutex<Option<McError>> = Mutex::new(None);
     let threads = if parallel { rayon::current_num_threads().max(1) as f64 } else { 1.0 };
 
+    let cancelled = || {
+        let c = km_core::cancel::cancelled(opts.cancel.as_ref());
+        if c {
+            abort.store(true, Ordering::Relaxed);
+        }
+        c
+    };
     let one = |&b: &u64| {
-        if abort.load(Ordering::Relaxed) {
+        if abort.load(Ordering::Relaxed) || cancelled() {
             return None;
         }
         let photons = batch_photons(opts.samples, batch_size, b);
@@ -351,7 +359,20 @@ fn trace_batches_on(
         for (c, t) in tracers.iter().enumerate() {
             let mut rng = batch_rng(opts.seed, c as u64, b);
             let mut sums = vec![0.0; t.layout().len()];
-            let k = t.run_batch(&mut rng, photons, &mut sums);
+            // In pieces of CANCEL_CHECK_PHOTONS when a flag may stop the run:
+            // the same photons on the same stream into the same sums, so the
+            // same result bit for bit.
+            let piece = if opts.cancel.is_some() { CANCEL_CHECK_PHOTONS } else { photons };
+            let mut k = Counts::default();
+            let mut left = photons;
+            while left > 0 {
+                if cancelled() {
+                    return None;
+                }
+                let n = left.min(piece);
+                k += t.run_batch(&mut rng, n, &mut sums);
+                left -= n;
+            }
             steps += k.steps;
             channels.push(ChannelBatch {
                 sums,
@@ -397,6 +418,11 @@ fn trace_batches_on(
         if parallel { mine.par_iter().map(one).collect() } else { mine.iter().map(one).collect() };
     if let Some(e) = refusal.into_inner().unwrap_or_else(|e| e.into_inner()) {
         return Err(e);
+    }
+    // A batch left out was left out for the cancel flag (the budget's abort
+    // returned above).
+    if records.iter().any(Option::is_none) {
+        return Err(McError::Cancelled);
     }
     Ok(records.into_iter().flatten().collect())
 }

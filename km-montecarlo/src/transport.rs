@@ -118,6 +118,14 @@ pub(crate) struct Counts {
     pub capped: u64,
 }
 
+impl std::ops::AddAssign for Counts {
+    fn add_assign(&mut self, o: Counts) {
+        self.interactions += o.interactions;
+        self.steps += o.steps;
+        self.capped += o.capped;
+    }
+}
+
 /// A prepared tracer for one channel.
 #[derive(Debug, Clone)]
 pub(crate) struct Tracer {

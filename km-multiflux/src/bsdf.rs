@@ -189,7 +189,9 @@ impl Bsdf {
     /// `[output]` directions are ignored.
     ///
     /// # Errors
-    /// Bad angles or options ([`BsdfError::Input`]), the solver's refusals.
+    /// Bad angles or options ([`BsdfError::Input`]), the solver's refusals,
+    /// a table over its work budget ([`crate::budget::check_bsdf`]), before
+    /// any operator is built.
     ///
     /// ```
     /// use km_multiflux::bsdf::{Bsdf, BsdfOptions};
@@ -211,6 +213,9 @@ impl Bsdf {
                 reason: "the BSDF table always obeys the plan".into(),
             });
         }
+        // The work, before any operator is built (eq. W1 with a beam per
+        // incidence angle: `crate::budget::estimate_bsdf`).
+        crate::budget::check_bsdf(scene, &opts.solver, theta_i, theta_o)?;
         faer::set_global_parallelism(faer::Par::Seq);
         let mut channels = Vec::with_capacity(scene.channels().len());
         let (mut transmits, mut n_in, mut n_out) = (false, 1.0, None);

@@ -110,7 +110,35 @@ pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
 }
 
 fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
-    let streams = opts.streams.unwrap_or_else(|| crate::options::default_streams(scene)) as f64;
+    let streams = opts.streams.unwrap_or_else(|| crate::options::default_streams(scene));
+    let beam = matches!(scene.light(), Light::Collimated { .. });
+    let dirs = scene.directions_deg();
+    let mut polar: Vec<f64> = dirs.iter().map(|d| d[0]).collect();
+    polar.sort_by(|a, b| a.total_cmp(b));
+    polar.dedup();
+    let parts = Parts {
+        streams,
+        beams: if beam { 1 } else { 0 },
+        probes: polar.len(),
+        angles: !dirs.is_empty() && beam,
+        exits: dirs.len(),
+    };
+    estimate_parts(scene, opts, parts)
+}
+
+/// What eq. W1 counts of a request besides the scene: the streams, the
+/// beams `B`, the distinct exit polar angles (probes on each side), whether
+/// angles are asked (the Fourier orders), and the exit values (`D`).
+struct Parts {
+    streams: usize,
+    beams: usize,
+    probes: usize,
+    angles: bool,
+    exits: usize,
+}
+
+fn estimate_parts(scene: &MonoScene, opts: &MultifluxOptions, parts: Parts) -> WorkEstimate {
+    let streams = parts.streams as f64;
     // Media top to bottom; the substrate is a medium when it is transparent.
     let mut media: Vec<f64> = vec![scene.ambient_n()];
     media.extend(scene.layers().iter().map(|l| l.n()));
@@ -121,26 +149,20 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut distinct: Vec<f64> = media.iter().copied().filter(|x| x.is_finite()).collect();
     distinct.sort_by(|a, b| a.total_cmp(b));
     distinct.dedup();
-    // The beam, and a probe per distinct exit polar angle above (and below
+    // The beams, and a probe per distinct exit polar angle above (and below
     // when the substrate is transparent), with up to three markers per probe
     // and peaked layer at order 0.
     let below = matches!(scene.substrate(), Substrate::Transparent { .. });
-    let beam = matches!(scene.light(), Light::Collimated { .. });
-    let beams = if beam { 1.0 } else { 0.0 };
-    let dirs = scene.directions_deg();
-    let mut polar: Vec<f64> = dirs.iter().map(|d| d[0]).collect();
-    polar.sort_by(|a, b| a.total_cmp(b));
-    polar.dedup();
-    let probes = polar.len() as f64 * if below { 2.0 } else { 1.0 };
+    let beams = parts.beams as f64;
+    let probes = parts.probes as f64 * if below { 2.0 } else { 1.0 };
     let peaked = scene.layers().iter().filter(|l| l.albedo() > 0.0 && l.g() != 0.0).count();
-    let markers = if beam && opts.delta_m { 3.0 * probes * peaked as f64 } else { 0.0 };
+    let markers = if parts.beams > 0 && opts.delta_m { 3.0 * probes * peaked as f64 } else { 0.0 };
     let nodes = |n: f64| streams * distinct.partition_point(|&x| x <= n).max(1) as f64;
     let size = |n: f64| nodes(n) + beams;
     // Per operator: the core's cubic cost, and the probes' and markers' rows.
-    let angles = !dirs.is_empty() && beam;
     let mut orders = if opts.all_effects {
         2.0 * streams
-    } else if angles {
+    } else if parts.angles {
         (2.0 * streams).min(TYPICAL_ORDERS as f64)
     } else {
         1.0
@@ -171,7 +193,7 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
         work += cost(n.max(last.n()));
         operators += 1;
     }
-    work += orders * dirs.len() as f64;
+    work += orders * parts.exits as f64;
     let neumann = opts.neumann_order.map_or(0.0, |k| k as f64);
     WorkEstimate {
         units: work * (1.0 + neumann),
@@ -180,6 +202,104 @@ fn estimate_mono(scene: &MonoScene, opts: &MultifluxOptions) -> WorkEstimate {
         operators,
         channels: 1,
     }
+}
+
+/// The work of a BSDF table ([`crate::bsdf::Bsdf::new`]) of `scene` at the
+/// incidence angles `theta_i` and exit polar angles `theta_o` (degrees):
+/// eq. W1 with every incidence a beam (`B = theta_i` count, carried through
+/// every operator: the cost grows as its cube), a probe per distinct exit
+/// polar angle, the table's Fourier orders, and a value per angle pair and
+/// order (eq. W2 of docs/limits.md). The streams are the options' or the
+/// table's default ([`crate::default_bsdf_streams`]).
+///
+/// ```
+/// use km_multiflux::{MultifluxOptions, budget::estimate_bsdf};
+/// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let o = MultifluxOptions { streams: Some(8), ..Default::default() };
+/// let w400 = estimate_bsdf(&s, &o, &vec![10.0; 400], &[0.0]).units;
+/// let w800 = estimate_bsdf(&s, &o, &vec![10.0; 800], &[0.0]).units;
+/// // Beams beside 8 nodes: doubling 400 angles multiplies the cubic part
+/// // by (808 / 408)^3 = 7.8, the probe's rows by (808 / 408)^2 = 3.9.
+/// assert!((6.5..8.0).contains(&(w800 / w400)), "{}", w800 / w400);
+/// ```
+pub fn estimate_bsdf(
+    scene: &Scene,
+    opts: &MultifluxOptions,
+    theta_i: &[f64],
+    theta_o: &[f64],
+) -> WorkEstimate {
+    let mut polar = theta_o.to_vec();
+    polar.sort_by(|a, b| a.total_cmp(b));
+    polar.dedup();
+    let mut est = WorkEstimate { units: 0.0, max_nodes: 0, orders: 0, operators: 0, channels: 0 };
+    for ch in scene.channels() {
+        let streams =
+            opts.streams.unwrap_or_else(|| crate::options::default_bsdf_streams(ch, theta_i));
+        let parts = Parts {
+            streams,
+            beams: theta_i.len(),
+            probes: polar.len(),
+            angles: true,
+            exits: theta_i.len() * theta_o.len(),
+        };
+        let w = estimate_parts(ch, opts, parts);
+        est.units += w.units;
+        est.max_nodes = est.max_nodes.max(w.max_nodes);
+        est.orders = est.orders.max(w.orders);
+        est.operators = est.operators.max(w.operators);
+        est.channels += 1;
+    }
+    est
+}
+
+/// Refuse a BSDF table whose estimate ([`estimate_bsdf`]) exceeds the
+/// budget `opts.max_work` (default [`DEFAULT_MAX_WORK`]), before any
+/// operator is built.
+///
+/// # Errors
+/// [`MultifluxError::TooExpensive`] naming the estimate and what to change;
+/// [`MultifluxError::Option`] for a budget that is not a positive number.
+pub fn check_bsdf(
+    scene: &Scene,
+    opts: &MultifluxOptions,
+    theta_i: &[f64],
+    theta_o: &[f64],
+) -> Result<WorkEstimate, MultifluxError> {
+    let budget = checked_budget(opts)?;
+    let est = estimate_bsdf(scene, opts, theta_i, theta_o);
+    if est.units > budget {
+        return Err(MultifluxError::TooExpensive {
+            work: est.units,
+            budget,
+            hint: format!(
+                "a BSDF table of {} channel(s), {} incidence angles (each a beam carried \
+                 through every operator: the work grows as the cube of their number plus the \
+                 nodes, {}) and {} exit polar angles, {} Fourier order(s); about {:.0} s at \
+                 0.7 ns per unit. Use fewer incidence angles (split the table), fewer streams \
+                 or channels, or raise the budget (km: --budget FACTOR; library: max_work)",
+                est.channels,
+                theta_i.len(),
+                est.max_nodes,
+                theta_o.len(),
+                est.orders,
+                est.units * 0.7e-9,
+            ),
+        });
+    }
+    Ok(est)
+}
+
+/// `opts.max_work` (default [`DEFAULT_MAX_WORK`]) when it is a positive number.
+fn checked_budget(opts: &MultifluxOptions) -> Result<f64, MultifluxError> {
+    let budget = opts.max_work.unwrap_or(DEFAULT_MAX_WORK);
+    if budget.is_nan() || budget <= 0.0 {
+        return Err(MultifluxError::Option {
+            name: "max_work",
+            value: budget,
+            reason: "must be a positive number",
+        });
+    }
+    Ok(budget)
 }
 
 /// Refuse a solve whose estimate (eq. W1) exceeds its budget
@@ -198,14 +318,7 @@ pub fn check(scene: &Scene, opts: &MultifluxOptions) -> Result<WorkEstimate, Mul
             reason: "must be <= 100000 (leave it unset for exact adding, which is cheaper)",
         });
     }
-    let budget = opts.max_work.unwrap_or(DEFAULT_MAX_WORK);
-    if budget.is_nan() || budget <= 0.0 {
-        return Err(MultifluxError::Option {
-            name: "max_work",
-            value: budget,
-            reason: "must be a positive number",
-        });
-    }
+    let budget = checked_budget(opts)?;
     let est = estimate(scene, opts);
     if est.units > budget {
         return Err(MultifluxError::TooExpensive {

@@ -47,6 +47,11 @@ pub struct Options {
     /// (`("km_mapping", "seed")`, `("budget", "4")`, `("repeat", "3")`):
     /// checked and read exactly as the `km solve` flags of the same names.
     pub settings: Vec<(String, String)>,
+    /// A flag that stops the solve under way ([`km::Options::cancel`]): the
+    /// Monte Carlo tracer reads it between batches and within them, a batch
+    /// or a sweep before each point; the solve then returns
+    /// [`Error::Cancelled`]. Never changes a result that is returned.
+    pub cancel: Option<km::Cancel>,
 }
 
 impl Default for Options {
@@ -64,11 +69,17 @@ impl Default for Options {
             km_model: None,
             cone: None,
             settings: Vec::new(),
+            cancel: None,
         }
     }
 }
 
 impl Options {
+    /// These options with the cancel flag `cancel` ([`Options::cancel`]).
+    pub fn with_cancel(&self, cancel: &km::Cancel) -> Options {
+        Options { cancel: Some(cancel.clone()), ..self.clone() }
+    }
+
     /// The Monte Carlo options these stand for.
     ///
     /// # Errors
@@ -91,6 +102,7 @@ impl Options {
                 km::Estimator::SurvivalBiasing
             },
             all_effects: self.all_effects,
+            cancel: self.cancel.clone(),
             ..d
         })
     }
@@ -147,7 +159,11 @@ impl Options {
     /// # Errors
     /// Those of [`Options::settings`] and of the budget.
     pub fn library(&self) -> Result<km::Options, Error> {
-        Ok(self.settings()?.options()?)
+        let o = self.settings()?.options()?;
+        Ok(match &self.cancel {
+            Some(c) => o.with_cancel(c.clone()),
+            None => o,
+        })
     }
 }
 
@@ -158,7 +174,8 @@ impl Options {
 ///
 /// # Errors
 /// Options outside their domain, and the library's refusals (a scene the
-/// method cannot treat, an accuracy target it cannot reach).
+/// method cannot treat, an accuracy target it cannot reach); a raised
+/// cancel flag ([`Error::Cancelled`]).
 ///
 /// ```
 /// let scene = km::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
@@ -168,7 +185,7 @@ impl Options {
 /// ```
 pub fn solve(scene: &Scene, opts: &Options) -> Result<Solution, Error> {
     let settings = opts.settings()?;
-    Ok(km::solve_repeated(scene, &settings.options()?, settings.repeat())?)
+    Ok(km::solve_repeated(scene, &opts.library()?, settings.repeat())?)
 }
 
 #[cfg(test)]

@@ -38,6 +38,10 @@ pub enum Error {
         #[source]
         source: Box<Error>,
     },
+    /// The work was stopped by its cancel flag ([`crate::engine::Options::cancel`])
+    /// before it finished (the bindings raise `KeyboardInterrupt` instead).
+    #[error("cancelled: the computation was stopped before it finished (no result)")]
+    Cancelled,
     /// A bug: a panic inside a solver, caught at the boundary.
     #[error("internal error (please report it with the scene): {0}")]
     Internal(String),
@@ -72,6 +76,9 @@ impl Error {
 
 impl From<km::KmError> for Error {
     fn from(e: km::KmError) -> Self {
+        if e.is_cancelled() {
+            return Error::Cancelled;
+        }
         match e {
             km::KmError::Scene(c) => Error::Scene(c),
             km::KmError::Multiflux(e) => e.into(),
@@ -106,6 +113,7 @@ impl From<km_montecarlo::McError> for Error {
     fn from(e: km_montecarlo::McError) -> Self {
         match e {
             km_montecarlo::McError::Scene(c) => Error::Scene(c),
+            km_montecarlo::McError::Cancelled => Error::Cancelled,
             other => Error::Solver(other.to_string()),
         }
     }

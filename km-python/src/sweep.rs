@@ -212,7 +212,9 @@ pub fn apply(base: &Scene, values: &[(Target, f64)]) -> Result<Scene, Error> {
 /// one thread each: the batch is the parallel unit). Results are in input order.
 ///
 /// # Errors
-/// A thread pool that cannot be built; each point's own error is in its slot.
+/// A thread pool that cannot be built, a raised cancel flag
+/// ([`Options::cancel`]: [`Error::Cancelled`]); each point's own error is in
+/// its slot.
 pub fn solve_many(
     scenes: &[Scene],
     opts: &Options,
@@ -223,7 +225,16 @@ pub fn solve_many(
     if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);
     }
-    in_pool(threads, || scenes.par_iter().map(|s| solve(s, &point)).collect::<Vec<_>>())
+    whole(in_pool(threads, || scenes.par_iter().map(|s| solve(s, &point)).collect::<Vec<_>>())?)
+}
+
+/// The results of a batch, or [`Error::Cancelled`] when its cancel flag
+/// stopped any point (a batch cut short is no answer).
+fn whole(results: Vec<Result<Solution, Error>>) -> Result<Vec<Result<Solution, Error>>, Error> {
+    if results.iter().any(|r| matches!(r, Err(Error::Cancelled))) {
+        return Err(Error::Cancelled);
+    }
+    Ok(results)
 }
 
 /// The most points of one batch or sweep (as `km sweep`).
@@ -278,7 +289,8 @@ fn check_batch<'a>(
 ///
 /// # Errors
 /// A `values` length that is not a multiple of the number of targets, a thread
-/// pool that cannot be built; each point's own error is in its slot.
+/// pool that cannot be built, a raised cancel flag; each point's own error is
+/// in its slot.
 pub fn solve_sweep(
     base: &Scene,
     targets: &[Target],
@@ -305,7 +317,7 @@ pub fn solve_sweep(
             })
             .collect::<Vec<_>>()
     };
-    in_pool(threads, run)
+    whole(in_pool(threads, run)?)
 }
 
 /// Run `f` on a pool of `threads` workers (`None`: rayon's global pool, all cores).

@@ -250,7 +250,8 @@ pub struct BsdfRequest {
     pub streams: Option<usize>,
     /// The file format.
     pub format: BsdfFormat,
-    /// Factor on the grid budgets of [`check_grid`] (default 1).
+    /// Factor on the grid budgets of [`check_grid`] and on the work budget
+    /// of the operators (default 1).
     pub budget: f64,
     /// For the Fourier file of a scene with other than 1 or 3 channels (a
     /// spectrum): the linear RGB each channel adds per unit value
@@ -376,8 +377,10 @@ pub fn totals_path(out: &Path) -> std::path::PathBuf {
 /// `scene_text` are recorded in the meta.
 ///
 /// # Errors
-/// The solver's refusals and failures, grids outside their domains, and a
-/// Fourier file asked for light from below.
+/// The solver's refusals and failures, grids outside their domains or over
+/// their budgets ([`check_grid`], and the work of the operators,
+/// `km_multiflux::budget::check_bsdf`, at the default multi-flux budget
+/// times `request.budget`), and a Fourier file asked for light from below.
 pub fn bsdf_file(
     scene: &Scene,
     scene_file: &str,
@@ -387,7 +390,14 @@ pub fn bsdf_file(
 ) -> Result<BsdfFile, BsdfError> {
     check_grid(scene.channels().len(), request, true, request.budget)?;
     let (theta_i, theta_o, phi) = (&request.theta_i, &request.theta_o, &request.phi);
-    let solver = MultifluxOptions { streams: request.streams, ..Default::default() };
+    // The work budget of the operators (eq. W1 with a beam per incidence
+    // angle), scaled as the grid's.
+    let max_work = crate::multiflux_budget::DEFAULT_MAX_WORK * request.budget;
+    let solver = MultifluxOptions {
+        streams: request.streams,
+        max_work: Some(max_work),
+        ..Default::default()
+    };
     let side = if request.from_below { Side::Below } else { Side::Above };
     let start = std::time::Instant::now();
     let options = BsdfOptions { solver: solver.clone(), side };

@@ -147,6 +147,10 @@ pub enum KmError {
         /// The target asked.
         target: f64,
     },
+    /// The work was stopped by the cancel flag of its options
+    /// ([`crate::Options::cancel`]) before it finished; nothing is returned.
+    #[error("cancelled: the computation was stopped before it finished (no result)")]
+    Cancelled,
     /// One point of a sweep failed; the point's edits name it.
     #[error("at sweep point {point}: {source}")]
     SweepPoint {
@@ -213,6 +217,18 @@ pub enum KmError {
         /// to raise it), in words.
         basis: String,
     },
+}
+
+impl KmError {
+    /// Whether the work was stopped by its cancel flag ([`KmError::Cancelled`],
+    /// the tracer's [`km_montecarlo::McError::Cancelled`], or either at a sweep point).
+    pub fn is_cancelled(&self) -> bool {
+        match self {
+            KmError::Cancelled | KmError::MonteCarlo(km_montecarlo::McError::Cancelled) => true,
+            KmError::SweepPoint { source, .. } => source.is_cancelled(),
+            _ => false,
+        }
+    }
 }
 
 /// `name = value: reason`, or `name: reason` without a value.

@@ -59,6 +59,7 @@ pub mod text;
 
 pub use direction_set::DirectionSetOptions;
 pub use error::{KmError, Reason, Unsupported};
+pub use km_core::Cancel;
 /// Output files written atomically, never over devices, links or inputs (`docs/limits.md`).
 pub use km_core::atomic_file;
 pub use km_core::plan::{Plan, Request, Simplification};
@@ -105,7 +106,8 @@ use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels}
 ///
 /// # Errors
 /// [`KmError::Unsupported`] when the method cannot treat the scene, the
-/// accuracy target's errors, and the solver's.
+/// accuracy target's errors, and the solver's; a raised cancel flag
+/// ([`Options::cancel`]; [`KmError::is_cancelled`]).
 ///
 /// ```
 /// let scene = km::Scene::from_toml_str("[[layer]]\ntau = 2\nalbedo = 0.9\ng = 0.5\n").unwrap();
@@ -116,6 +118,9 @@ use km_core::plan::{Plan as PlanT, expand_channels, plan_scene, reduce_channels}
 /// assert!(matches!(dipole, Err(km::KmError::Unsupported(_))));
 /// ```
 pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
+    if km_core::cancel::cancelled(options.cancel.as_ref()) {
+        return Err(KmError::Cancelled);
+    }
     let Prepared { plan, solver, reduced, cut } = prepare(scene, options)?;
     let method = options.method();
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);
@@ -208,7 +213,11 @@ fn prepare(scene: &Scene, options: &Options) -> Result<Prepared, KmError> {
     let method = options.method();
     let all_effects = options.all_effects || options.method.all_effects();
     let plan = plan_for(scene, method, all_effects);
-    let solver = cone::with_cone(options.method.with_all_effects(all_effects), options.cone_deg)?;
+    let mut solver =
+        cone::with_cone(options.method.with_all_effects(all_effects), options.cone_deg)?;
+    if let (MethodOptions::Mc(o), Some(c)) = (&mut solver, &options.cancel) {
+        o.cancel.get_or_insert_with(|| c.clone());
+    }
     // Channels with identical coefficients are solved once (`duplicate-channels`).
     let reduced = plan.skips(Simplification::DuplicateChannels).then(|| reduce_channels(scene));
     let work = reduced.as_ref().map_or(scene, |(r, _)| r);

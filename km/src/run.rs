@@ -4,6 +4,8 @@
 
 use km_core::{Scene, Solution};
 
+use km_montecarlo::McOptions;
+
 use crate::{KmError, MethodOptions, Options};
 
 impl Options {
@@ -96,5 +98,11 @@ pub fn mc_shard(
             reason: "shards are parts of a Monte Carlo run",
         });
     };
-    Ok(km_montecarlo::run_shard(scene, o, index, count)?)
+    match &options.cancel {
+        Some(c) if o.cancel.is_none() => {
+            let o = McOptions { cancel: Some(c.clone()), ..o.clone() };
+            Ok(km_montecarlo::run_shard(scene, &o, index, count)?)
+        }
+        _ => Ok(km_montecarlo::run_shard(scene, o, index, count)?),
+    }
 }

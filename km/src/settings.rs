@@ -544,6 +544,7 @@ impl Settings {
             all_effects,
             cone_deg: self.real("cone"),
             budget: 1.0,
+            cancel: None,
         };
         match self.get("budget") {
             Some(Value::Real(f)) => options.with_budget(*f),

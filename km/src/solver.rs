@@ -239,6 +239,15 @@ pub struct Options {
     /// (two-flux, dipole, direction set) is held to the default multi-flux
     /// budget times this factor ([`crate::request_budget`]).
     pub budget: f64,
+    /// A flag that stops the work under way when raised ([`km_core::Cancel`]):
+    /// [`crate::solve`] reads it before it starts and hands it to the Monte
+    /// Carlo tracer (between batches and every
+    /// [`km_montecarlo::CANCEL_CHECK_PHOTONS`] photons), so a sweep or a
+    /// repeated solve stops before its next point; the call then returns
+    /// [`KmError::Cancelled`] (or the tracer's `Cancelled`; see
+    /// [`KmError::is_cancelled`]). A multi-flux, two-flux, dipole or
+    /// direction-set solve is not stopped within: its work budget bounds it.
+    pub cancel: Option<km_core::Cancel>,
 }
 
 impl Options {
@@ -264,6 +273,12 @@ impl Options {
         self
     }
 
+    /// With a cancel flag ([`Options::cancel`]).
+    pub fn with_cancel(mut self, cancel: km_core::Cancel) -> Options {
+        self.cancel = Some(cancel);
+        self
+    }
+
     /// With BRDF/BTDF values that are means over cones of half-angle
     /// `deg` degrees (Monte Carlo, multi-flux; docs/montecarlo.md §6).
     pub fn with_cone(mut self, deg: f64) -> Options {
@@ -274,7 +289,14 @@ impl Options {
 
 impl From<MethodOptions> for Options {
     fn from(method: MethodOptions) -> Options {
-        Options { method, tolerance: None, all_effects: false, cone_deg: None, budget: 1.0 }
+        Options {
+            method,
+            tolerance: None,
+            all_effects: false,
+            cone_deg: None,
+            budget: 1.0,
+            cancel: None,
+        }
     }
 }
 

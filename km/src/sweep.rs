@@ -238,6 +238,7 @@ pub fn sweep(
         };
         match solve() {
             Ok(solution) => Ok(SweepPoint { values: point, solution }),
+            Err(e) if e.is_cancelled() => Err(KmError::Cancelled),
             Err(e) => Err(named(&point, e)),
         }
     };

@@ -6,6 +6,7 @@ use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use super::interrupt::interruptible;
 use super::settings::options_from;
 use super::{PyScene, PySolution, guarded, py_err};
 use crate::engine::Options;
@@ -126,7 +127,13 @@ pub(crate) fn _solve(
 ) -> PyResult<PySolution> {
     let opts = options_from(py, method, settings)?;
     let scene = &scene.get().scene;
-    let sol = guarded(py, || crate::engine::solve(scene, &opts))?;
+    // A Monte Carlo solve may last minutes: stoppable by Ctrl-C. The other
+    // methods are bounded by their work budget and keep the cheaper call.
+    let sol = if opts.method == Method::Mc {
+        interruptible(py, |c| crate::engine::solve(scene, &opts.with_cancel(c)))?
+    } else {
+        guarded(py, || crate::engine::solve(scene, &opts))?
+    };
     Ok(PySolution { sol })
 }
 
@@ -242,7 +249,8 @@ pub(crate) fn _solve_scenes<'py>(
         ));
     }
     let labels = first.labels().to_vec();
-    let results = guarded(py, || crate::sweep::solve_many(&list, &opts, threads))?;
+    let results =
+        interruptible(py, |c| crate::sweep::solve_many(&list, &opts.with_cancel(c), threads))?;
     columns_dict(py, results, channels, directions, labels, errors)
 }
 
@@ -273,7 +281,9 @@ pub(crate) fn _solve_sweep<'py>(
     let flat: Vec<f64> = view.iter().copied().collect();
     let base = &scene.get().scene;
     let (channels, directions) = (base.channels().len(), base.channels()[0].directions_deg().len());
-    let results = guarded(py, || crate::sweep::solve_sweep(base, &targets, &flat, &opts, threads))?;
+    let results = interruptible(py, |c| {
+        crate::sweep::solve_sweep(base, &targets, &flat, &opts.with_cancel(c), threads)
+    })?;
     columns_dict(py, results, channels, directions, base.labels().to_vec(), errors)
 }
 
@@ -303,7 +313,9 @@ pub(crate) fn run_shard(
         ..Default::default()
     };
     let scene = &scene.get().scene;
-    let part = guarded(py, || Ok(km_montecarlo::run_shard(scene, &opts.mc()?, index, count)?))?;
+    let part = interruptible(py, |c| {
+        Ok(km_montecarlo::run_shard(scene, &opts.with_cancel(c).mc()?, index, count)?)
+    })?;
     Ok(PyPartial { part })
 }
 

@@ -6,6 +6,7 @@ use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use super::interrupt::interruptible;
 use super::{PyScene, guarded, py_err};
 use crate::error::Error;
 
@@ -41,7 +42,19 @@ pub(crate) fn field<'py>(
     }
     opts.mc.seed = seed.unwrap_or(1);
     let scene = &scene.get().scene;
-    let f = guarded(py, || Ok(km_field(scene, depths.as_deref(), &opts)?))?;
+    // Monte Carlo is stoppable by Ctrl-C; the other methods are bounded by
+    // their work budget.
+    let f = if method == km::Method::Mc {
+        interruptible(py, |c| {
+            let opts = FieldOptions {
+                mc: km::McOptions { cancel: Some(c.clone()), ..opts.mc.clone() },
+                ..opts.clone()
+            };
+            Ok(km_field(scene, depths.as_deref(), &opts)?)
+        })?
+    } else {
+        guarded(py, || Ok(km_field(scene, depths.as_deref(), &opts)?))?
+    };
     let d = PyDict::new(py);
     d.set_item("method", f.method.name())?;
     d.set_item("labels", f.labels)?;

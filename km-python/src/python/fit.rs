@@ -11,6 +11,7 @@ use pyo3::types::PyList;
 use rayon::prelude::*;
 
 use super::convert::json_to_py;
+use super::interrupt::interruptible;
 use super::{guarded, py_err};
 use crate::error::Error;
 
@@ -275,15 +276,23 @@ pub(crate) fn _fit_many<'py>(
         ])
     })()
     .map_err(|e| py_err(py, e))?;
-    let results = guarded(py, || {
+    // Stoppable by Ctrl-C between points (one fit is short).
+    let results = interruptible(py, |cancel| {
         let set = how.setup()?;
-        Ok((0..n)
+        let fits = (0..n)
             .into_par_iter()
             .map(|i| {
+                if cancel.is_cancelled() {
+                    return Err(Error::Cancelled);
+                }
                 let p = (r[i], t[i], cols[0][i], cols[2][i], cols[3][i], cols[4][i], cols[1][i]);
                 fit_point(&set, &how, p)
             })
-            .collect::<Vec<_>>())
+            .collect::<Vec<_>>();
+        if cancel.is_cancelled() {
+            return Err(Error::Cancelled);
+        }
+        Ok(fits)
     })?;
     let list = PyList::empty(py);
     for r in results {
@@ -326,7 +335,7 @@ pub(crate) fn fit_file<'py>(
         let e = Error::option("path", format!("{}: cannot read: {io}", path.display()));
         return Err(super::file_err(py, &path, e));
     }
-    let list = guarded(py, || {
+    let list = interruptible(py, |cancel| {
         let name = path.display().to_string();
         let cannot = |e: String| Error::option("path", format!("{name}: {e}"));
         // The checked reader: a FIFO or /dev/zero is refused before opening.
@@ -364,10 +373,19 @@ pub(crate) fn fit_file<'py>(
             sigma_u,
         };
         let opts = FitOptions { g, streams };
+        // Stoppable by Ctrl-C between rows.
         let fits: Vec<RowFit> = rows
             .par_iter()
-            .flat_map_iter(|row| fit_rows(std::slice::from_ref(row), &over, &opts))
+            .flat_map_iter(|row| {
+                if cancel.is_cancelled() {
+                    return Vec::new();
+                }
+                fit_rows(std::slice::from_ref(row), &over, &opts)
+            })
             .collect();
+        if cancel.is_cancelled() {
+            return Err(Error::Cancelled);
+        }
         if !fits.is_empty() && fits.iter().all(|f| f.result.is_err()) {
             return Err(cannot("no row could be fitted".into()));
         }

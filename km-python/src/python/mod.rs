@@ -1,6 +1,7 @@
 //! The extension module `km._km` (feature `python`): thin wrappers of
 //! [`crate::engine`], [`crate::build`], [`crate::sweep`] and the Monte Carlo
-//! shards, with the GIL released while Rust works.
+//! shards, with the GIL released while Rust works; the long calls stop on
+//! Ctrl-C, and parallel work runs after a fork (module `interrupt`).
 //!
 //! Every error is a `km.KmError` (a `ValueError`) with attributes `key` and
 //! `line`; a panic inside a solver is caught at this boundary and becomes a
@@ -10,8 +11,6 @@
 //! `scene` (`km.Scene`), `solution` (`km.Solution`), `batch` (`km.solve`,
 //! batch solves, Monte Carlo shards), `bsdf` (`km.Bsdf`), `fit` (`km.fit`),
 //! `fit_km` (`km.fit_km`, `km.colour`).
-
-use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -24,6 +23,7 @@ mod convert;
 mod field;
 mod fit;
 mod fit_km;
+mod interrupt;
 mod scene;
 mod settings;
 mod solution;
@@ -102,27 +102,21 @@ pub(crate) fn file_err(py: Python<'_>, path: &std::path::Path, e: Error) -> PyEr
     err
 }
 
-/// Run `f` with the GIL released, turning a panic into [`Error::Internal`].
+/// Run `f` with the GIL released, turning a panic into [`Error::Internal`]
+/// (on a pool of this process after a fork: [`interrupt::fork_safe`]). A
+/// signal waits until `f` returns: for the calls whose work is short or
+/// bounded by a budget; the long ones are [`interrupt::interruptible`].
 pub(crate) fn guarded<T: Send>(
     py: Python<'_>,
     f: impl FnOnce() -> Result<T, Error> + Send,
 ) -> PyResult<T> {
-    py.detach(|| {
-        catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
-            let msg = p
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "panic".into());
-            Err(Error::Internal(msg))
-        })
-    })
-    .map_err(|e| py_err(py, e))
+    py.detach(|| interrupt::caught(|| interrupt::fork_safe(f))).map_err(|e| py_err(py, e))
 }
 
 /// The extension module `km._km`.
 #[pymodule]
 fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    interrupt::init();
     m.add("KmError", m.py().get_type::<KmError>())?;
     m.add_class::<PyScene>()?;
     m.add_class::<PySolution>()?;
