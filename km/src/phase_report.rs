@@ -556,7 +556,8 @@ pub struct MieSphere {
 /// host of real index `n_host` at the vacuum wavelength `wavelength_nm`:
 /// efficiencies, asymmetry, and at `angles_deg` (default
 /// [`default_angles`]) the amplitudes and the phase function; the moments
-/// `chi_0 .. chi_K` (`moments = Some(K)`), or all `2N + 1` of the series.
+/// `chi_0 .. chi_K` (`moments = Some(K)`), or all `2N + 1` of the series
+/// (their Gauss quadrature costs `O(N^2)`: `Some(0)` skips it).
 ///
 /// # Errors
 /// [`CoreError::Invalid`] naming the argument: `radius_um`,
@@ -620,7 +621,8 @@ pub fn mie_sphere(
     let (s1, s2): (Vec<Complex>, Vec<Complex>) =
         cos_theta.iter().map(|&c| sphere.amplitudes(c)).unzip();
     let p = cos_theta.iter().map(|&c| sphere.phase(c)).collect();
-    let mut chi = phase_moments(&sphere);
+    // The moments cost O(x^2) (Gauss quadrature of 2N + 2 nodes): none but chi_0 for K = 0.
+    let mut chi = if moments == Some(0) { vec![1.0] } else { phase_moments(&sphere) };
     if let Some(k) = moments {
         chi.resize(k + 1, 0.0);
     }

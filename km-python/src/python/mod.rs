@@ -9,7 +9,7 @@
 //! Modules: `convert` (Python values to scene TOML, JSON to Python),
 //! `scene` (`km.Scene`), `solution` (`km.Solution`), `batch` (`km.solve`,
 //! batch solves, Monte Carlo shards), `bsdf` (`km.Bsdf`), `fit` (`km.fit`),
-//! `fit_km` (`km.fit_km`, `km.colour`).
+//! `fit_km` (`km.fit_km`, `km.colour`), `phase` (`km.phase`, `km.mie`).
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
@@ -24,6 +24,7 @@ mod convert;
 mod field;
 mod fit;
 mod fit_km;
+mod phase;
 mod scene;
 mod settings;
 mod solution;
@@ -142,6 +143,8 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::run_shard, m)?)?;
     m.add_function(wrap_pyfunction!(batch::merge, m)?)?;
     m.add_function(wrap_pyfunction!(field::field, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::_phase, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::_mie, m)?)?;
     m.add_function(wrap_pyfunction!(settings::_settings, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
