@@ -76,7 +76,7 @@ pub fn run(args: &FieldArgs) -> Result<()> {
 }
 
 /// The directory and stem of `--plot FILE.svg` (the file must end in `.svg`).
-fn plot_target(path: &Path) -> Result<(PathBuf, String)> {
+pub(crate) fn plot_target(path: &Path) -> Result<(PathBuf, String)> {
     let is_svg = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg"));
     let stem = path.file_stem().and_then(|s| s.to_str()).filter(|s| !s.is_empty());
     let (Some(stem), true) = (stem, is_svg) else {

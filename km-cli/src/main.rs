@@ -17,6 +17,7 @@ mod colour;
 mod field;
 mod fit;
 mod mc;
+mod phase;
 mod progress;
 #[cfg(test)]
 mod settings_parity;
@@ -65,6 +66,9 @@ enum Command {
     /// Fluence rate, absorbed power density and net flux at the scene's [output] depths.
     #[command(after_help = help!("field"))]
     Field(field::FieldArgs),
+    /// Each layer's phase function, its Legendre moments, g, and the particles' Mie efficiencies.
+    #[command(after_help = help!("phase"))]
+    Phase(phase::PhaseArgs),
     /// Combine Monte Carlo shard files into the result of one run.
     #[command(after_help = help!("merge"))]
     Merge {
@@ -195,6 +199,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Bsdf(args) => bsdf::run(&args),
         Command::Mc(args) => mc::run(&args),
         Command::Field(args) => field::run(&args),
+        Command::Phase(args) => phase::run(&args),
         Command::Merge { parts, json, format, out } => {
             let sol = km_montecarlo::merge_files(&parts)?;
             if let Some(out) = &out {

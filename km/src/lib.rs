@@ -24,6 +24,8 @@
 //!   timing, work budgets, Monte Carlo shards; [`settings::SETTINGS`]: every
 //!   setting of a solve and the methods it applies to.
 //! * [`bsdf_file`]: the whole BSDF as an npz, CSV or Fourier BSDF file.
+//! * [`phase_report`]: each layer's phase function, moments and Mie
+//!   efficiencies as numbers; one sphere by Mie theory.
 //!
 //! The crates below: `km-core` (scene, layers, Fresnel, planner, two-flux,
 //! [`Solution`]), `km-multiflux`, `km-montecarlo`, `km-dipole`; see
@@ -49,6 +51,7 @@ pub mod field;
 pub mod mc_field;
 mod method;
 pub mod model_error;
+pub mod phase_report;
 mod profile;
 pub mod request_budget;
 mod run;
@@ -67,8 +70,8 @@ pub use km_core::set::SetEdit;
 pub use km_core::solution::{AccuracyReport, Diagnostics, MethodDiagnostics};
 pub use km_core::two_flux::{KmMapping, KmModel, KmOptions};
 pub use km_core::{
-    ChannelResult, Layer, Light, MonoScene, Scene, SceneLimits, Solution, Substrate, Uncertainty,
-    read_scene_text,
+    ChannelResult, CoreError, Layer, Light, MonoScene, Scene, SceneLimits, Solution, Substrate,
+    Uncertainty, read_scene_text,
 };
 pub use km_dipole::{DipoleModel, DipoleOptions, FdrModel};
 pub use km_montecarlo::{Estimator, McOptions, Progress};

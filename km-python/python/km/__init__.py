@@ -2,7 +2,8 @@
 
 Two-flux Kubelka-Munk, the multi-flux eigenvalue solver (discrete ordinates),
 a Monte Carlo reference and the diffusion dipole over one scene description;
-the whole BSDF of a stack; the inverse problems of ``km fit``; colour.
+the whole BSDF of a stack; the inverse problems of ``km fit``; colour; each
+layer's phase function and Mie theory (:func:`phase`, :func:`mie`).
 
     >>> import km
     >>> scene = km.Scene(layers=[km.layer(tau=1.0, albedo=0.9, g=0.5)])
@@ -24,6 +25,7 @@ from ._solve import Batch, field, layer, merge, run_shard, solve, solve_many
 from ._bsdf import Bsdf, bsdf
 from ._fit import FitResults, fit, fit_file, fit_km
 from ._colour import colour, delta_e2000, srgb
+from ._phase import mie, phase
 
 __all__ = [
     "Batch",
@@ -45,6 +47,8 @@ __all__ = [
     "fit_km",
     "layer",
     "merge",
+    "mie",
+    "phase",
     "run_shard",
     "solve",
     "solve_many",

@@ -11,8 +11,8 @@ import numpy.typing as npt
 __version__: str
 __all__ = ["KmError", "Scene", "Solution", "Partial", "_BsdfCore", "FitResult", "_fit",
            "_fit_many", "fit_file", "fit_km", "colour", "delta_e2000", "srgb", "_solve",
-           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "_settings",
-           "__version__"]
+           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "_phase", "_mie",
+           "_settings", "__version__"]
 
 _Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
 _FloatOrArray = float | npt.NDArray[np.float64]
@@ -220,6 +220,24 @@ def field(
     :class:`KmError` with the reason); ``streams`` [multiflux], ``samples``
     (default 10^5), ``seed``, ``dz`` (bin width) [mc].
     """
+
+def _phase(
+    scene: Scene,
+    angles_deg: Sequence[float] | None = None,
+    moments: int | None = None,
+) -> dict[str, Any]:
+    """The extension's phase report: ``km.phase`` (km/_phase.py) documents it."""
+
+def _mie(
+    radius_um: float,
+    n: float,
+    k: float,
+    wavelength_nm: float,
+    n_host: float = 1.0,
+    angles_deg: Sequence[float] | None = None,
+    moments: int | None = None,
+) -> dict[str, Any]:
+    """The extension's sphere by Mie theory: ``km.mie`` (km/_phase.py) documents it."""
 
 def run_shard(
     scene: Scene,

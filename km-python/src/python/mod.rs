@@ -10,7 +10,7 @@
 //! Modules: `convert` (Python values to scene TOML, JSON to Python),
 //! `scene` (`km.Scene`), `solution` (`km.Solution`), `batch` (`km.solve`,
 //! batch solves, Monte Carlo shards), `bsdf` (`km.Bsdf`), `fit` (`km.fit`),
-//! `fit_km` (`km.fit_km`, `km.colour`).
+//! `fit_km` (`km.fit_km`, `km.colour`), `phase` (`km.phase`, `km.mie`).
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -24,6 +24,7 @@ mod field;
 mod fit;
 mod fit_km;
 mod interrupt;
+mod phase;
 mod scene;
 mod settings;
 mod solution;
@@ -136,6 +137,8 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::run_shard, m)?)?;
     m.add_function(wrap_pyfunction!(batch::merge, m)?)?;
     m.add_function(wrap_pyfunction!(field::field, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::_phase, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::_mie, m)?)?;
     m.add_function(wrap_pyfunction!(settings::_settings, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
