@@ -14,7 +14,7 @@ use km_inverse::forward::Sample;
 use km_inverse::reflectance::{Fixed, fit_reflectance};
 use km_inverse::rxt::{parse_csv, parse_rxt};
 use km_inverse::slab::{FitOptions, Measurement, Setup};
-use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
+use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, fit_rows, rows_json};
 use km_inverse::sphere::{Sphere, SphereSetup};
 use km_inverse::text::{drawdown_report, fits_table};
 
@@ -89,12 +89,15 @@ pub struct FitArgs {
     /// Reflectance of the reflection standard with spheres (the .rxt header's; default 1).
     #[arg(long = "r-std")]
     pub r_std: Option<f64>,
-    /// Reflectance only (--m-r without --m-t): the scattering coefficient is fixed at this
-    /// value (1/length, iad -F) and mu_a is fitted.
-    #[arg(long = "fix-mu-s", value_name = "MU_S")]
-    pub fix_mu_s: Option<f64>,
-    /// Reflectance only: the absorption coefficient is fixed at this value (1/length) and
-    /// mu_s is fitted.
+    /// Reflectance only (--m-r without --m-t, or the rows of an .rxt file that give M_R
+    /// alone): the scattering coefficient is fixed (1/length) and mu_a is fitted. A number,
+    /// or as iad's -F a power law of the rows' wavelengths: 'P L0 MU_S0 EXP' for
+    /// mu_s = MU_S0 (lambda/L0)^EXP, 'R L0 MU_SP0 EXP' for mu_s' = mu_s (1 - g) the same.
+    #[arg(long = "fix-mu-s", value_name = "MU_S", value_parser = parse_fix_mu_s,
+          allow_hyphen_values = true)]
+    pub fix_mu_s: Option<RowFixed>,
+    /// Reflectance only (--m-r alone, or .rxt rows with M_R alone): the absorption
+    /// coefficient is fixed at this value (1/length) and mu_s is fitted.
     #[arg(long = "fix-mu-a", value_name = "MU_A")]
     pub fix_mu_a: Option<f64>,
     /// Reflectance only: the sample is semi-infinite (nothing returns from its far face) and
@@ -250,6 +253,12 @@ pub fn run(args: &FitArgs) -> Result<()> {
                 bail!("--m-u needs --m-t: a reflectance-only fit takes --m-r alone");
             }
             let g = args.g.unwrap_or(0.0);
+            let RowFixed::Same(fixed) = fixed else {
+                bail!(
+                    "--fix-mu-s: a power law needs wavelengths: give it with an .rxt file whose \
+                     rows give a wavelength and M_R alone"
+                );
+            };
             let r = fit_reflectance(&args.setup()?, m_r, args.sigma_r, fixed, g, args.streams)?;
             if args.json {
                 return stdout::print_json(&r.to_json());
@@ -270,7 +279,7 @@ pub fn run(args: &FitArgs) -> Result<()> {
         }
         return stdout::print(&fits_table(&[RowFit { wavelength_nm: None, result: Ok(r) }]));
     };
-    let fits = fit_file(args, &opts, path)?;
+    let fits = fit_file(args, &opts, path, fixed)?;
     if args.json {
         stdout::print_json(&rows_json(&fits))?;
     } else {
@@ -282,13 +291,43 @@ pub fn run(args: &FitArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--fix-mu-s`: a number, or iad's power law `P L0 MU_S0 EXP` (for `mu_s`)
+/// or `R L0 MU_SP0 EXP` (for `mu_s'`), docs/inverse.md eq. R3.
+fn parse_fix_mu_s(text: &str) -> std::result::Result<RowFixed, String> {
+    let words: Vec<&str> = text.split_whitespace().collect();
+    let num = |w: &str| {
+        w.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
+            format!(
+                "'{w}' is not a finite number (give MU_S, or 'P L0 MU_S0 EXP' / 'R L0 MU_SP0 EXP')"
+            )
+        })
+    };
+    match words.as_slice() {
+        [v] => Ok(RowFixed::Same(Fixed::MuS(num(v)?))),
+        [kind, l0, v, e] if kind.eq_ignore_ascii_case("p") || kind.eq_ignore_ascii_case("r") => {
+            let law = RowFixed::PowerLaw {
+                reduced: kind.eq_ignore_ascii_case("r"),
+                lambda0_nm: num(l0)?,
+                value: num(v)?,
+                exponent: num(e)?,
+            };
+            // The law's own numbers are checked here, before any file is read.
+            law.at(Some(num(l0)?), 0.0).map_err(|e| e.to_string())?;
+            Ok(law)
+        }
+        _ => Err(format!(
+            "'{text}': give MU_S, or a power law 'P L0 MU_S0 EXP' (mu_s) or 'R L0 MU_SP0 EXP' (mu_s')"
+        )),
+    }
+}
+
 /// The fixed quantity of a reflectance-only fit (`--fix-mu-s`, `--fix-mu-a`,
 /// `--semi-infinite`): at most one, and only with `--m-r` alone.
-fn reflectance_only_fixed(args: &FitArgs) -> Result<Option<Fixed>> {
-    let given: Vec<Fixed> = [
-        args.fix_mu_s.map(Fixed::MuS),
-        args.fix_mu_a.map(Fixed::MuA),
-        args.semi_infinite.then_some(Fixed::SemiInfinite),
+fn reflectance_only_fixed(args: &FitArgs) -> Result<Option<RowFixed>> {
+    let given: Vec<RowFixed> = [
+        args.fix_mu_s,
+        args.fix_mu_a.map(|a| RowFixed::Same(Fixed::MuA(a))),
+        args.semi_infinite.then_some(RowFixed::Same(Fixed::SemiInfinite)),
     ]
     .into_iter()
     .flatten()
@@ -307,7 +346,12 @@ fn reflectance_only_fixed(args: &FitArgs) -> Result<Option<Fixed>> {
 
 /// A spectrum file (`.rxt`, or `.csv` with the set-up of the flags), every
 /// row fitted with the flags' overrides (`km_inverse::spectrum`).
-fn fit_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> Result<Vec<RowFit>> {
+fn fit_file(
+    args: &FitArgs,
+    opts: &FitOptions,
+    path: &Path,
+    fixed: Option<RowFixed>,
+) -> Result<Vec<RowFit>> {
     if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
         bail!("give either a measurement file or --m-r/--m-t/--m-u, not both");
     }
@@ -319,6 +363,13 @@ fn fit_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> Result<Vec<RowFit
         _ => bail!("{}: expected a .rxt or .csv file", path.display()),
     }
     .with_context(|| format!("{}", path.display()))?;
+    if fixed.is_some() && !rows.iter().any(|r| r.reflectance_only) {
+        bail!(
+            "--fix-mu-s, --fix-mu-a and --semi-infinite apply to the rows of an .rxt file that give \
+             M_R alone; every row of {} gives M_T too (both mu_a and mu_s are fitted)",
+            path.display()
+        );
+    }
     // Flags that differ from the defaults override an .rxt file.
     let (c, c_t) = args.fractions();
     let over = RowOverrides {
@@ -327,6 +378,7 @@ fn fit_file(args: &FitArgs, opts: &FitOptions, path: &Path) -> Result<Vec<RowFit
         sigma_r: args.sigma_r,
         sigma_t: args.sigma_t,
         sigma_u: args.sigma_u,
+        fixed,
     };
     Ok(fit_rows(&rows, &over, opts))
 }
@@ -435,9 +487,9 @@ const FIT_FLAGS: &[(&str, &[Mode])] = &[
     ("exclude_unscattered", &[Slab, Rxt, Csv]),
     ("incidence", &[Slab, Csv]),
     ("streams", &[Slab, Rxt, Csv]),
-    ("fix_mu_s", &[Slab]),
-    ("fix_mu_a", &[Slab]),
-    ("semi_infinite", &[Slab]),
+    ("fix_mu_s", &[Slab, Rxt]),
+    ("fix_mu_a", &[Slab, Rxt]),
+    ("semi_infinite", &[Slab, Rxt]),
     ("spheres", &[Slab, Csv]),
     ("r_sphere", &[Slab, Csv]),
     ("t_sphere", &[Slab, Csv]),

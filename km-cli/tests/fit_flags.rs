@@ -80,7 +80,7 @@ refused! {
     rxt_refuses_t_sphere: "rxt", ["--t-sphere", "200", "25", "12", "1", "0.98"], "--t-sphere", ".rxt file";
     rxt_refuses_r_std: "rxt", ["--r-std", "0.98"], "--r-std", ".rxt file";
     km_refuses_spheres: "km", ["--spheres", "1"], "--spheres", "--km";
-    rxt_refuses_fix_mu_s: "rxt", ["--fix-mu-s", "1.8"], "--fix-mu-s", ".rxt file";
+    csv_refuses_fix_mu_s: "csv", ["--fix-mu-s", "1.8"], "--fix-mu-s", ".csv spectrum";
     csv_refuses_fix_mu_a: "csv", ["--fix-mu-a", "0.2"], "--fix-mu-a", ".csv spectrum";
     km_refuses_semi_infinite: "km", ["--semi-infinite"], "--semi-infinite", "--km";
 }

@@ -30,8 +30,13 @@ pub struct Row {
     pub wavelength_nm: Option<f64>,
     /// The set-up (sample, slides, spheres) at this row.
     pub setup: Setup,
-    /// The measurement.
+    /// The measurement. A row with `M_R` alone has `m_t = 0` there and
+    /// [`Row::reflectance_only`] set: its `m_t` is not a measurement.
     pub measurement: Measurement,
+    /// The row gives `M_R` alone (an `.rxt` legend `1` or without `t`): a
+    /// reflectance-only fit with a fixed quantity (iad's `-F`;
+    /// [`crate::spectrum::RowFixed`]), `docs/inverse.md` §7.
+    pub reflectance_only: bool,
     /// A fixed `g` given by the row (`None`: the caller's choice).
     pub g: Option<f64>,
     /// What the file gives that the fit does not model (beam diameter, lost
@@ -51,8 +56,7 @@ fn clean_lines(text: &str) -> Vec<(usize, String)> {
 ///
 /// # Errors
 /// [`InverseError::Parse`] with the line for a missing magic, a bad number,
-/// an unknown column letter, a sphere count other than 0, 1, 2, a row
-/// without `M_T`, or a constraint column (`a`, `A`, `b`, `F`, `E`) this
+/// an unknown column letter, a sphere count other than 0, 1, 2, or a constraint column (`a`, `A`, `b`, `F`, `E`) this
 /// inverse does not take.
 pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
     if !text.starts_with("IAD1") {
@@ -124,9 +128,8 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
         let (Read { m_r, m_t, m_u, lambda, g }, b) =
             read_row(&mut take, &base, numeric, k, &labels)?;
         let m_r = m_r.ok_or_else(|| InverseError::parse(Some(no), "row without M_R"))?;
-        let m_t = m_t.ok_or_else(|| {
-            InverseError::parse(Some(no), "row without M_T: km fit needs M_R and M_T")
-        })?;
+        let reflectance_only = m_t.is_none();
+        let m_t = m_t.unwrap_or(0.0);
         // iad treats M_U = 0 as "not measured".
         let m_u = m_u.filter(|&u| u > 0.0);
         let setup = b.setup().map_err(|e| InverseError::parse(Some(no), e.to_string()))?;
@@ -134,6 +137,7 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
             wavelength_nm: lambda,
             setup,
             measurement: Measurement { m_r, m_t, m_u, sigma_r: None, sigma_t: None, sigma_u: None },
+            reflectance_only,
             g,
             notes: unmodelled(h[4], &labels),
         });
@@ -430,6 +434,7 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
                 sigma_t: get("sigma_t"),
                 sigma_u: get("sigma_u"),
             },
+            reflectance_only: false,
             g: get("g"),
             notes: Vec::new(),
         });

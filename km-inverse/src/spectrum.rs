@@ -6,8 +6,81 @@
 use serde_json::{Value, json};
 
 use crate::InverseError;
+use crate::reflectance::{Fixed, fit_reflectance};
 use crate::rxt::Row;
 use crate::slab::{FitOptions, FitResult, fit};
+
+/// The quantity held fixed in the rows that give `M_R` alone (iad's `-F`;
+/// `docs/inverse.md` §7, eq. R3).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RowFixed {
+    /// The same fixed quantity at every row (`-F 1.0` for `mu_s`).
+    Same(Fixed),
+    /// `mu_s` (or, `reduced`, `mu_s' = mu_s (1 - g)`) as a power law of the
+    /// row's wavelength, `value (lambda / lambda0)^exponent` (eq. R3; iad's
+    /// `-F 'P lambda0 value exponent'` and `-F 'R ...'`).
+    PowerLaw {
+        /// The law is for `mu_s'` rather than `mu_s`.
+        reduced: bool,
+        /// The reference wavelength `lambda0`, nm.
+        lambda0_nm: f64,
+        /// The coefficient at `lambda0` (1/length).
+        value: f64,
+        /// The exponent.
+        exponent: f64,
+    },
+}
+
+impl RowFixed {
+    /// The fixed quantity at a row of wavelength `wavelength_nm` for
+    /// anisotropy `g`.
+    ///
+    /// # Errors
+    /// A power law at a row without a wavelength, or for `mu_s'` with
+    /// `g = 1`; a law whose numbers are not finite or whose `lambda0` or
+    /// value is not positive.
+    ///
+    /// ```
+    /// use km_inverse::reflectance::Fixed;
+    /// use km_inverse::spectrum::RowFixed;
+    /// let law = RowFixed::PowerLaw { reduced: true, lambda0_nm: 500.0, value: 1.0, exponent: -1.3 };
+    /// // mu_s' = 1 at 500 nm, so mu_s = 1 / (1 - 0.8) = 5 for g = 0.8.
+    /// assert_eq!(law.at(Some(500.0), 0.8).unwrap(), Fixed::MuS(5.000000000000001));
+    /// assert!(law.at(None, 0.0).is_err());
+    /// ```
+    pub fn at(self, wavelength_nm: Option<f64>, g: f64) -> Result<Fixed, InverseError> {
+        let (reduced, lambda0_nm, value, exponent) = match self {
+            RowFixed::Same(f) => return Ok(f),
+            RowFixed::PowerLaw { reduced, lambda0_nm, value, exponent } => {
+                (reduced, lambda0_nm, value, exponent)
+            }
+        };
+        let bad = |name: &str, v: f64, why: &str| Err(InverseError::invalid(name, v, why));
+        if !(lambda0_nm.is_finite() && lambda0_nm > 0.0) {
+            return bad("lambda0", lambda0_nm, "the power law's wavelength must be finite and > 0");
+        }
+        if !(value.is_finite() && value >= 0.0) {
+            return bad("mu_s", value, "the power law's value must be finite and >= 0");
+        }
+        if !exponent.is_finite() {
+            return bad("exponent", exponent, "the power law's exponent must be finite");
+        }
+        let Some(w) = wavelength_nm else {
+            return Err(InverseError::parse(
+                None,
+                "a power law for mu_s needs the rows' wavelengths (an .rxt column L)",
+            ));
+        };
+        let law = value * (w / lambda0_nm).powf(exponent);
+        if !reduced {
+            return Ok(Fixed::MuS(law));
+        }
+        if g >= 1.0 || g.is_nan() {
+            return bad("g", g, "mu_s' = mu_s (1 - g) fixes no mu_s at g = 1");
+        }
+        Ok(Fixed::MuS(law / (1.0 - g)))
+    }
+}
 
 /// What the caller sets over every row of a file (`km fit`'s flags).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -22,6 +95,8 @@ pub struct RowOverrides {
     pub sigma_t: Option<f64>,
     /// Standard uncertainty of `M_U` for rows that give none.
     pub sigma_u: Option<f64>,
+    /// The fixed quantity of the rows that give `M_R` alone (required for them).
+    pub fixed: Option<RowFixed>,
 }
 
 /// The fit of one row.
@@ -60,7 +135,24 @@ pub fn fit_rows(rows: &[Row], over: &RowOverrides, opts: &FitOptions) -> Vec<Row
             meas.sigma_t = meas.sigma_t.or(over.sigma_t);
             meas.sigma_u = meas.sigma_u.or(over.sigma_u);
             let o = FitOptions { g: row.g.or(opts.g), ..*opts };
-            let result = fit(&setup, &meas, &o).map(|mut r| {
+            let result = if row.reflectance_only {
+                // Eq. R1 with the fixed quantity at the row (R3); g as for
+                // M_R and M_T without M_U: the row's, the caller's, else 0.
+                let g = o.g.unwrap_or(0.0);
+                match over.fixed {
+                    Some(f) => f.at(row.wavelength_nm, g).and_then(|fx| {
+                        fit_reflectance(&setup, meas.m_r, meas.sigma_r, fx, g, o.streams)
+                    }),
+                    None => Err(InverseError::parse(
+                        None,
+                        "the row gives M_R alone: a reflectance-only fit needs a fixed quantity \
+                         (km fit --fix-mu-s, --fix-mu-a or --semi-infinite; iad's -F)",
+                    )),
+                }
+            } else {
+                fit(&setup, &meas, &o)
+            };
+            let result = result.map(|mut r| {
                 r.notes.extend(row.notes.iter().cloned());
                 r
             });

@@ -371,6 +371,9 @@ pub(crate) fn fit_file<'py>(
             sigma_r,
             sigma_t,
             sigma_u,
+            // Rows with M_R alone are reported as not fitted here (the
+            // command's --fix-mu-s, --fix-mu-a, --semi-infinite fit them).
+            fixed: None,
         };
         let opts = FitOptions { g, streams };
         // Stoppable by Ctrl-C between rows.
