@@ -19,6 +19,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use km_core::Scene;
+use km_core::mie::{Complex, Sphere, phase_moments};
 use km_core::phase::{Phase, PhaseFunction};
 use km_multiflux::{MultifluxOptions, solve};
 
@@ -87,10 +88,63 @@ fn hg_path(c: &mut Criterion) {
     g.finish();
 }
 
+/// Two-term Henyey–Greenstein (w = 0.9, g1 = 0.9, g2 = -0.3; chi_1 = 0.78)
+/// written out as 1000 Legendre moments, `chi_l = w g1^l + (1 - w) g2^l`.
+fn thousand_moments() -> String {
+    let (w, g1, g2) = (0.9_f64, 0.9_f64, -0.3_f64);
+    let chi: Vec<String> =
+        (1..=1000).map(|l| format!("{:e}", w * g1.powi(l) + (1.0 - w) * g2.powi(l))).collect();
+    format!("phase = {{ kind = \"legendre\", moments = [{}] }}", chi.join(", "))
+}
+
+fn moments(c: &mut Criterion) {
+    let hg = "g = 0.78";
+    let legendre = thousand_moments();
+    let o = MultifluxOptions { streams: Some(32), ..Default::default() };
+    let mut g = c.benchmark_group("phase moments");
+    for (name, phase) in [("hg", hg), ("1000 moments", legendre.as_str())] {
+        let totals = scene(&slab(phase));
+        let brdf = scene(&format!("{}{}", slab(phase), directions()));
+        g.bench_function(format!("{name} totals N=32"), |b| {
+            b.iter(|| solve(black_box(&totals), &o).expect("solve"))
+        });
+        g.bench_function(format!("{name} 30 directions N=32"), |b| {
+            b.iter(|| solve(black_box(&brdf), &o).expect("solve"))
+        });
+    }
+    g.finish();
+}
+
+fn mie(c: &mut Criterion) {
+    // Wiscombe's (1979) test index of water, m = 1.33 + 1e-5 i, at x = 1000.
+    let m = Complex::new(1.33, 1e-5);
+    let x = 1000.0;
+    let mut g = c.benchmark_group("mie");
+    g.bench_function("x=1000 efficiencies and g", |b| {
+        b.iter(|| {
+            let s = Sphere::new(black_box(m), black_box(x)).expect("sphere");
+            (s.q_ext(), s.q_sca(), s.q_back(), s.g())
+        })
+    });
+    let s = Sphere::new(m, x).expect("sphere");
+    g.bench_function("x=1000 amplitudes at 10 angles", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            for k in 0..10 {
+                let (s1, s2) = s.amplitudes(black_box(1.0 - 0.2 * k as f64));
+                sum += s1.norm_sqr() + s2.norm_sqr();
+            }
+            sum
+        })
+    });
+    g.bench_function("x=1000 Legendre moments", |b| b.iter(|| phase_moments(black_box(&s))));
+    g.finish();
+}
+
 // Criterion's plots need a font plotters cannot find here (two_flux.rs).
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(40).without_plots();
-    targets = hg_path
+    targets = hg_path, moments, mie
 }
 criterion_main!(benches);

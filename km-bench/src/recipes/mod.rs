@@ -6,6 +6,7 @@ pub mod accuracy;
 pub mod common;
 pub mod diffusion_limits;
 pub mod dipole;
+pub mod paint;
 pub mod paper;
 pub mod pareto;
 pub mod savings;
@@ -30,5 +31,6 @@ pub fn all() -> Vec<Recipe> {
         ("pareto", pareto::recipe),
         ("stability", stability::recipe),
         ("savings", savings::recipe),
+        ("paint", paint::recipe),
     ]
 }
