@@ -152,6 +152,15 @@ def test_integers_out_of_range_name_the_argument(name, value):
         km.solve(s, method, **{name: value})
 
 
+@pytest.mark.parametrize("args", [(-1, 4), (2**70, 4), (0, -4)])
+def test_positional_integers_out_of_range_are_named(args):
+    # run_shard's index and count are positional: a bad one is named too.
+    s = km.Scene.from_toml(SCENE)
+    want = "index" if args[0] != 0 else "count"
+    with pytest.raises(km.KmError, match=f"^{want}: out of range"):
+        km.run_shard(s, *args, samples=1000)
+
+
 def test_bsdf_evaluations_and_tables_over_their_budget_are_refused_before_work():
     # 10^7 azimuths in one call took 870 MB; a 1024 x 1024 x 72 table 1.45 GB.
     # The tables are held to `km bsdf`'s grid budget: 2^18 angle pairs, 2^22

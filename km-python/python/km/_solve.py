@@ -11,6 +11,7 @@ flags follow too; their documentation below is written from that table
 from __future__ import annotations
 
 import functools
+import inspect
 import textwrap
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, Literal, TypeVar
@@ -32,12 +33,34 @@ def _integers_named(f: F) -> F:
     2^64 - 1 where a count is asked; beyond a float's range for a float) a
     :class:`KmError` naming the argument, not a bare ``OverflowError``."""
 
+    try:
+        signature: inspect.Signature | None = inspect.signature(f)
+    except (TypeError, ValueError):
+        signature = None
+
+    def arguments(args: tuple[Any, ...], kwargs: dict[str, Any]) -> dict[str, Any]:
+        """The call's arguments by name, positional ones included."""
+        if signature is None:
+            return kwargs
+        try:
+            bound = signature.bind_partial(*args, **kwargs).arguments
+        except TypeError:
+            return kwargs
+        named: dict[str, Any] = {}
+        for name, value in bound.items():
+            kind = signature.parameters[name].kind
+            if kind is inspect.Parameter.VAR_KEYWORD:
+                named.update(value)
+            elif kind is not inspect.Parameter.VAR_POSITIONAL:
+                named[name] = value
+        return named
+
     @functools.wraps(f)
     def checked(*args: Any, **kwargs: Any) -> Any:
         try:
             return f(*args, **kwargs)
         except OverflowError as e:
-            bad = [k for k, v in kwargs.items()
+            bad = [k for k, v in arguments(args, kwargs).items()
                    if isinstance(v, int) and not isinstance(v, bool)
                    and not (0 <= v < 2**64)]
             what = ", ".join(bad) if bad else "an integer argument (or an integer scene value)"
