@@ -93,7 +93,7 @@ pub struct FitArgs {
     /// alone): the scattering coefficient is fixed (1/length) and mu_a is fitted. A number,
     /// or as iad's -F a power law of the rows' wavelengths: 'P L0 MU_S0 EXP' for
     /// mu_s = MU_S0 (lambda/L0)^EXP, 'R L0 MU_SP0 EXP' for mu_s' = mu_s (1 - g) the same.
-    #[arg(long = "fix-mu-s", value_name = "MU_S", value_parser = parse_fix_mu_s,
+    #[arg(long = "fix-mu-s", value_name = "MU_S", value_parser = RowFixed::parse_mu_s,
           allow_hyphen_values = true)]
     pub fix_mu_s: Option<RowFixed>,
     /// Reflectance only (--m-r alone, or .rxt rows with M_R alone): the absorption
@@ -289,36 +289,6 @@ pub fn run(args: &FitArgs) -> Result<()> {
         bail!("no row of {} could be fitted", path.display());
     }
     Ok(())
-}
-
-/// `--fix-mu-s`: a number, or iad's power law `P L0 MU_S0 EXP` (for `mu_s`)
-/// or `R L0 MU_SP0 EXP` (for `mu_s'`), docs/inverse.md eq. R3.
-fn parse_fix_mu_s(text: &str) -> std::result::Result<RowFixed, String> {
-    let words: Vec<&str> = text.split_whitespace().collect();
-    let num = |w: &str| {
-        w.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-            format!(
-                "'{w}' is not a finite number (give MU_S, or 'P L0 MU_S0 EXP' / 'R L0 MU_SP0 EXP')"
-            )
-        })
-    };
-    match words.as_slice() {
-        [v] => Ok(RowFixed::Same(Fixed::MuS(num(v)?))),
-        [kind, l0, v, e] if kind.eq_ignore_ascii_case("p") || kind.eq_ignore_ascii_case("r") => {
-            let law = RowFixed::PowerLaw {
-                reduced: kind.eq_ignore_ascii_case("r"),
-                lambda0_nm: num(l0)?,
-                value: num(v)?,
-                exponent: num(e)?,
-            };
-            // The law's own numbers are checked here, before any file is read.
-            law.at(Some(num(l0)?), 0.0).map_err(|e| e.to_string())?;
-            Ok(law)
-        }
-        _ => Err(format!(
-            "'{text}': give MU_S, or a power law 'P L0 MU_S0 EXP' (mu_s) or 'R L0 MU_SP0 EXP' (mu_s')"
-        )),
-    }
 }
 
 /// The fixed quantity of a reflectance-only fit (`--fix-mu-s`, `--fix-mu-a`,

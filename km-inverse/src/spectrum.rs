@@ -32,6 +32,51 @@ pub enum RowFixed {
 }
 
 impl RowFixed {
+    /// `mu_s` fixed by a text: a number, or iad's power law `P L0 MU_S0 EXP`
+    /// (for `mu_s`) or `R L0 MU_SP0 EXP` (for `mu_s'`), eq. R3 (`km fit
+    /// --fix-mu-s`, Python's `fix_mu_s`).
+    ///
+    /// # Errors
+    /// Any other text, a number that is not finite, a law whose `L0` is not
+    /// positive or whose value is negative.
+    ///
+    /// ```
+    /// use km_inverse::reflectance::Fixed;
+    /// use km_inverse::spectrum::RowFixed;
+    /// assert_eq!(RowFixed::parse_mu_s("1.8").unwrap(), RowFixed::Same(Fixed::MuS(1.8)));
+    /// assert!(matches!(RowFixed::parse_mu_s("R 500 1 -1.3"), Ok(RowFixed::PowerLaw { reduced: true, .. })));
+    /// assert!(RowFixed::parse_mu_s("P 500 1").is_err());
+    /// ```
+    pub fn parse_mu_s(text: &str) -> Result<RowFixed, String> {
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let num = |w: &str| {
+            w.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
+                format!(
+                    "'{w}' is not a finite number (give MU_S, or 'P L0 MU_S0 EXP' / 'R L0 MU_SP0 EXP')"
+                )
+            })
+        };
+        match words.as_slice() {
+            [v] => Ok(RowFixed::Same(Fixed::MuS(num(v)?))),
+            [kind, l0, v, e]
+                if kind.eq_ignore_ascii_case("p") || kind.eq_ignore_ascii_case("r") =>
+            {
+                let law = RowFixed::PowerLaw {
+                    reduced: kind.eq_ignore_ascii_case("r"),
+                    lambda0_nm: num(l0)?,
+                    value: num(v)?,
+                    exponent: num(e)?,
+                };
+                // The law's own numbers, checked before any file is read.
+                law.at(Some(num(l0)?), 0.0).map_err(|e| e.to_string())?;
+                Ok(law)
+            }
+            _ => Err(format!(
+                "'{text}': give MU_S, or a power law 'P L0 MU_S0 EXP' (mu_s) or 'R L0 MU_SP0 EXP' (mu_s')"
+            )),
+        }
+    }
+
     /// The fixed quantity at a row of wavelength `wavelength_nm` for
     /// anisotropy `g`.
     ///

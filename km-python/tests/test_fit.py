@@ -164,3 +164,43 @@ def test_fit_file_refusals(tmp_path):
         km.fit_file(bad)
     with pytest.raises(km.KmError, match="m.csv"):
         km.fit_file(tmp_path / "m.csv", thickness=1)
+
+
+def _reflectance_only_rxt(tmp_path):
+    """The phantom's header and M_R column alone (iad legend `L r`)."""
+    text = (REPO / "examples" / "fit-phantom.rxt").read_text()
+    head, _, rows = text.partition("L r t")
+    data = [line.split()[:2] for line in rows.splitlines()[1:] if line.strip()]
+    body = "".join(f"{w} {r}\n" for w, r in data)
+    path = tmp_path / "r-only.rxt"
+    path.write_text(head + "L r  # M_R alone\n" + body)
+    return path
+
+
+@pytest.mark.parametrize("kwargs,flags", [
+    (dict(fix_mu_s=1.8), ["--fix-mu-s", "1.8"]),
+    (dict(fix_mu_s="P 500 1.8 -1.3"), ["--fix-mu-s", "P 500 1.8 -1.3"]),
+    (dict(fix_mu_s="R 500 0.9 -1.3", g=0.5), ["--fix-mu-s", "R 500 0.9 -1.3", "--g", "0.5"]),
+    (dict(fix_mu_a=0.1), ["--fix-mu-a", "0.1"]),
+    (dict(semi_infinite=True), ["--semi-infinite"]),
+], ids=["mu_s", "P law", "R law", "mu_a", "semi-infinite"])
+def test_fit_file_reflectance_only_rows_equal_km_fit(km_cli, tmp_path, kwargs, flags):
+    # Rows with M_R alone and a fixed quantity: the same rows as
+    # `km fit FILE --json` with the same flags (docs/inverse.md eq. R1-R3).
+    path = _reflectance_only_rxt(tmp_path)
+    got = km.fit_file(path, **kwargs)
+    same(got.rows, cli(km_cli, str(path), *flags))
+
+
+def test_fit_file_reflectance_only_refusals(tmp_path):
+    path = _reflectance_only_rxt(tmp_path)
+    with pytest.raises(km.KmError, match="no row could be fitted"):
+        km.fit_file(path)
+    with pytest.raises(km.KmError, match="one of") as e:
+        km.fit_file(path, fix_mu_s=1.0, fix_mu_a=0.1)
+    assert e.value.key == "fix_mu_s"
+    for bad in ("Q 500 1 -1.3", "P 500 1", "P 0 1 -1.3", float("nan"), [1.0]):
+        with pytest.raises(km.KmError, match="fix_mu_s"):
+            km.fit_file(path, fix_mu_s=bad)  # type: ignore[arg-type]
+    with pytest.raises(km.KmError, match="M_T too"):
+        km.fit_file(REPO / "examples" / "fit-phantom.rxt", semi_infinite=True)

@@ -237,7 +237,8 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              sigma_r: float | None = None, sigma_t: float | None = None,
              sigma_u: float | None = None, specular_in_m_r: float = 1.0,
              unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
-             streams: int | None = None) -> FitResults:
+             streams: int | None = None, fix_mu_s: float | str | None = None,
+             fix_mu_a: float | None = None, semi_infinite: bool = False) -> FitResults:
     """Fit every row of a measurement file, as ``km fit FILE --json`` does.
 
     iad's ``.rxt`` (sample and spheres from its header) or a ``.csv`` with
@@ -258,6 +259,17 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
         Angle of incidence, degrees.
     streams : int, optional
         Streams of the forward model.
+    fix_mu_s : float or str, optional
+        For the rows of an ``.rxt`` that give ``M_R`` alone (``km fit
+        --fix-mu-s``, iad's ``-F``): ``mu_s`` fixed (1/length) and ``mu_a``
+        fitted; or a power law of the row's wavelength, ``"P L0 MU_S0 EXP"``
+        for ``mu_s`` or ``"R L0 MU_SP0 EXP"`` for ``mu_s'`` (docs/inverse.md
+        eq. R3).
+    fix_mu_a : float, optional
+        For those rows: ``mu_a`` fixed and ``mu_s`` fitted.
+    semi_infinite : bool, default False
+        For those rows: a semi-infinite sample, the albedo fitted. At most
+        one of ``fix_mu_s``, ``fix_mu_a``, ``semi_infinite``.
 
     Returns
     -------
@@ -284,7 +296,8 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
     rows = _km.fit_file(path, thickness=thickness, n_sample=n_sample, n_slide=n_slide, g=g,
                         sigma_r=sigma_r, sigma_t=sigma_t, sigma_u=sigma_u,
                         specular_in_m_r=specular_in_m_r, unscattered_in_m_t=unscattered_in_m_t,
-                        incidence=incidence, streams=streams)
+                        incidence=incidence, streams=streams, fix_mu_s=fix_mu_s,
+                        fix_mu_a=fix_mu_a, semi_infinite=semi_infinite)
     return FitResults(rows, (len(rows),), "slab")
 
 

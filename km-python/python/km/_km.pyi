@@ -379,7 +379,9 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              sigma_r: float | None = None, sigma_t: float | None = None,
              sigma_u: float | None = None, specular_in_m_r: float = 1.0,
              unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
-             streams: int | None = None) -> list[dict[str, Any]]:
+             streams: int | None = None, fix_mu_s: float | str | None = None,
+             fix_mu_a: float | None = None,
+             semi_infinite: bool = False) -> list[dict[str, Any]]:
     """The rows of ``km fit FILE --json`` (``km.fit_file`` wraps them as
     ``km.FitResults``, km/_fit.py).
 

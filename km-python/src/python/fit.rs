@@ -3,8 +3,9 @@
 //! point or many in parallel (a spectrum) with the GIL released.
 
 use km_inverse::forward::Sample;
+use km_inverse::reflectance::Fixed;
 use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
-use km_inverse::spectrum::{RowFit, RowOverrides, fit_rows, rows_json};
+use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, fit_rows, rows_json};
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyList;
@@ -304,6 +305,52 @@ pub(crate) fn _fit_many<'py>(
     Ok(list)
 }
 
+/// The fixed quantity of the rows that give M_R alone (`km fit`'s
+/// `--fix-mu-s`, `--fix-mu-a`, `--semi-infinite`): at most one; `fix_mu_s` a
+/// number or iad's power law text (`km_inverse::spectrum::RowFixed::parse_mu_s`).
+fn row_fixed(
+    fix_mu_s: Option<&Bound<'_, PyAny>>,
+    fix_mu_a: Option<f64>,
+    semi_infinite: bool,
+) -> Result<Option<RowFixed>, Error> {
+    let mu_s = match fix_mu_s {
+        None => None,
+        Some(v) => Some(if let Ok(x) = v.extract::<f64>() {
+            if !x.is_finite() {
+                return Err(Error::option("fix_mu_s", format!("{x}: must be finite")));
+            }
+            RowFixed::Same(Fixed::MuS(x))
+        } else if let Ok(t) = v.extract::<String>() {
+            RowFixed::parse_mu_s(&t).map_err(|e| Error::option("fix_mu_s", e))?
+        } else {
+            return Err(Error::option(
+                "fix_mu_s",
+                "a number or a power law text 'P L0 MU_S0 EXP' / 'R L0 MU_SP0 EXP'",
+            ));
+        }),
+    };
+    if let Some(a) = fix_mu_a
+        && !(a.is_finite() && a >= 0.0)
+    {
+        return Err(Error::option("fix_mu_a", format!("{a}: must be finite and >= 0")));
+    }
+    let given: Vec<RowFixed> = [
+        mu_s,
+        fix_mu_a.map(|a| RowFixed::Same(Fixed::MuA(a))),
+        semi_infinite.then_some(RowFixed::Same(Fixed::SemiInfinite)),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if given.len() > 1 {
+        return Err(Error::option(
+            "fix_mu_s",
+            "give one of fix_mu_s, fix_mu_a and semi_infinite: M_R determines one unknown",
+        ));
+    }
+    Ok(given.first().copied())
+}
+
 /// Largest measurement file read (bytes): a spectrum of 10^5 rows is ~5 MB.
 const MAX_FILE_BYTES: u64 = 64 << 20;
 
@@ -312,7 +359,8 @@ const MAX_FILE_BYTES: u64 = 64 << 20;
 #[pyfunction]
 #[pyo3(signature = (path, *, thickness=None, n_sample=1.0, n_slide=None, g=None, sigma_r=None,
                     sigma_t=None, sigma_u=None, specular_in_m_r=1.0, unscattered_in_m_t=1.0,
-                    incidence=0.0, streams=None))]
+                    incidence=0.0, streams=None, fix_mu_s=None, fix_mu_a=None,
+                    semi_infinite=false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fit_file<'py>(
     py: Python<'py>,
@@ -328,7 +376,11 @@ pub(crate) fn fit_file<'py>(
     unscattered_in_m_t: f64,
     incidence: f64,
     streams: Option<usize>,
+    fix_mu_s: Option<Bound<'py, PyAny>>,
+    fix_mu_a: Option<f64>,
+    semi_infinite: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let fixed = row_fixed(fix_mu_s.as_ref(), fix_mu_a, semi_infinite).map_err(|e| py_err(py, e))?;
     if let Err(io) = std::fs::metadata(&path)
         && io.kind() == std::io::ErrorKind::NotFound
     {
@@ -362,6 +414,15 @@ pub(crate) fn fit_file<'py>(
             _ => return Err(cannot("expected a .rxt or .csv file".into())),
         }
         .map_err(|e| cannot(e.to_string()))?;
+        if fixed.is_some() && !rows.iter().any(|r| r.reflectance_only) {
+            return Err(Error::option(
+                "fix_mu_s",
+                format!(
+                    "fix_mu_s, fix_mu_a and semi_infinite apply to the rows that give M_R alone; \
+                     every row of {name} gives M_T too (both mu_a and mu_s are fitted)"
+                ),
+            ));
+        }
         // As `km fit FILE` (km_inverse::spectrum): fractions other than 1
         // override the file, the sigmas and g given here stand where a row
         // has none; the rows are fitted in parallel, each as the command does.
@@ -371,9 +432,7 @@ pub(crate) fn fit_file<'py>(
             sigma_r,
             sigma_t,
             sigma_u,
-            // Rows with M_R alone are reported as not fitted here (the
-            // command's --fix-mu-s, --fix-mu-a, --semi-infinite fit them).
-            fixed: None,
+            fixed,
         };
         let opts = FitOptions { g, streams };
         // Stoppable by Ctrl-C between rows.
