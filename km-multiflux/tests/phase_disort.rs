@@ -113,7 +113,9 @@ fn errors_of(scene: &Scene, c: &Value, opts: &MultifluxOptions) -> (f64, f64, f6
 /// §5) approximate the double scattering inside the truncated diffraction
 /// peak, whose error near the peak Buras, Dowling & Emde (2011) put at a few
 /// percent; the reference itself moves by 0.8 % there from 256 to 254
-/// streams. Measured: printed by the test (docs/phase.md §6).
+/// streams. Monte Carlo (km/tests/cloud_lobe.rs) sides with DISORT there:
+/// the lobe error is km's (docs/phase.md §5). Measured: printed by the test
+/// (docs/phase.md §6).
 #[test]
 fn default_settings_meet_the_bounds() {
     let d = data();
