@@ -271,10 +271,10 @@ fn fit_files_go_through_the_checked_reader() {
 }
 
 /// Cases 29 to 31: a fit file of 10^6 rows (valid CSV, valid `.rxt`, rows
-/// with `M_R + M_T > 1`) is refused by the row budget (10^4 rows at budget
-/// 1) with the count and the flag, within the harness's time and 500 MB of
-/// address space (before: over 10 s, 382 MB and 656 MB, SIGABRT under the
-/// limit). `--budget` scales the budget and applies to files only.
+/// with `M_R + M_T > 1`) is refused by the row budget (10^4 rows at the
+/// default budget) with the count and the flag, within the harness's time
+/// and 500 MB of address space (before: over 10 s, 382 MB and 656 MB,
+/// SIGABRT under the limit). `--budget` scales the budget and applies to files only.
 #[test]
 fn fit_files_over_the_row_budget_are_refused_with_their_count() {
     let d = dir("fit-rows");
