@@ -12,7 +12,7 @@ use km_bench::chart::{LineChart, Mark, Series, write_chart};
 use km_inverse::drawdown::{DrawdownFit, DrawdownInputs, Input, InputError, hiding_curves};
 use km_inverse::forward::Sample;
 use km_inverse::reflectance::{Fixed, fit_reflectance};
-use km_inverse::rxt::{parse_csv, parse_rxt};
+use km_inverse::rxt::{parse_csv_within, parse_rxt_within};
 use km_inverse::slab::{FitOptions, Measurement, Setup};
 use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, fit_rows, rows_json};
 use km_inverse::sphere::{Sphere, SphereSetup};
@@ -128,6 +128,10 @@ pub struct FitArgs {
     /// --km: also draw the fitted film's hiding curves into this directory (SVG and PNG).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// A measurement file: multiply its row budget (10^4 rows, about 0.5 ms of fitting a row)
+    /// by this factor; see docs/limits.md.
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub budget: f64,
     /// --km: reflectance of an opaque (infinitely thick) film.
     #[arg(long = "r-inf")]
     pub r_inf: Option<f64>,
@@ -325,11 +329,16 @@ fn fit_file(
     if args.m_r.is_some() || args.m_t.is_some() || args.m_u.is_some() {
         bail!("give either a measurement file or --m-r/--m-t/--m-u, not both");
     }
+    if !(args.budget.is_finite() && args.budget > 0.0) {
+        bail!("--budget must be a finite factor > 0, not {}", args.budget);
+    }
     let text = km_inverse::rxt::read_file(path)?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+    let max = km_inverse::rxt::max_rows(args.budget);
+    let raise = "raise it with --budget FACTOR (x FACTOR) or fit the file in parts";
     let rows = match ext.as_str() {
-        "rxt" => parse_rxt(&text),
-        "csv" => parse_csv(&text, &args.setup()?),
+        "rxt" => parse_rxt_within(&text, max, raise),
+        "csv" => parse_csv_within(&text, &args.setup()?, max, raise),
         _ => bail!("{}: expected a .rxt or .csv file", path.display()),
     }
     .with_context(|| format!("{}", path.display()))?;
@@ -469,6 +478,7 @@ const FIT_FLAGS: &[(&str, &[Mode])] = &[
     ("r_white_ground", &[Km]),
     ("r_black_ground", &[Km]),
     ("plot", &[Km]),
+    ("budget", &[Rxt, Csv]),
     ("r_inf", &[Km]),
     ("r_zero", &[Km]),
     ("k2", &[Km]),

@@ -270,6 +270,40 @@ fn fit_files_go_through_the_checked_reader() {
     refused(&r, &["regular file"]);
 }
 
+/// Cases 29 to 31: a fit file of 10^6 rows (valid CSV, valid `.rxt`, rows
+/// with `M_R + M_T > 1`) is refused by the row budget (10^4 rows at the
+/// default budget) with the count and the flag, within the harness's time
+/// and 500 MB of address space (before: over 10 s, 382 MB and 656 MB,
+/// SIGABRT under the limit). `--budget` scales the budget and applies to files only.
+#[test]
+fn fit_files_over_the_row_budget_are_refused_with_their_count() {
+    let d = dir("fit-rows");
+    let n = 1_000_000;
+    let csv = write(&d, "big.csv", &format!("wavelength_nm,m_r,m_t\n{}", "400,.2,.3\n".repeat(n)));
+    let bad = write(&d, "bad.csv", &format!("m_r,m_t\n{}", ".7,.6\n".repeat(n)));
+    let head = "IAD1 1.4 1.5 1 1 5 1 0 200 25 12 1 .96 200 25 12 1 .96\n2\n";
+    let rxt = write(&d, "big.rxt", &format!("{head}{}", "500 .2 .3\n".repeat(n)));
+    let runs = [vec!["fit", s(&csv), "--thickness", "1"], vec!["fit", s(&bad), "--thickness", "1"]];
+    for args in runs.iter().map(Vec::as_slice).chain([["fit", s(&rxt)].as_slice()]) {
+        let r = km(args);
+        refused(&r, &["1000000 measurement rows", "budget of 10000 rows", "--budget"]);
+    }
+    // Three rows: within the default budget, over a budget of one row.
+    let three = write(&d, "three.csv", "m_r,m_t\n.2,.3\n.25,.3\n.3,.3\n");
+    let r = km(&["fit", s(&three), "--thickness", "1", "--json"]);
+    ok(&r);
+    assert_eq!(r.stdout.matches("\"status\": \"converged\"").count(), 3, "{}", r.stdout);
+    let r = km(&["fit", s(&three), "--thickness", "1", "--budget", "1e-4"]);
+    refused(&r, &["3 measurement rows", "budget of 1 rows"]);
+    for b in ["0", "-1", "nan"].map(|b| format!("--budget={b}")) {
+        let r = km(&["fit", s(&three), "--thickness", "1", &b]);
+        refused(&r, &["--budget"]);
+    }
+    // One reading is one fit: --budget is for files.
+    let r = km(&["fit", "--m-r", ".2", "--m-t", ".3", "--thickness", "1", "--budget", "2"]);
+    refused(&r, &["--budget does not apply"]);
+}
+
 // ---------------------------------------------------------------------------
 // Wrong answers
 

@@ -44,26 +44,67 @@ pub struct Row {
     pub notes: Vec<String>,
 }
 
-/// Strip `#` comments; return the lines with their 1-based numbers.
-fn clean_lines(text: &str) -> Vec<(usize, String)> {
-    text.lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("").to_string()))
-        .collect()
+/// Strip `#` comments; the lines with their 1-based numbers, one by one
+/// (nothing is copied: a file's memory is its text and its rows).
+fn clean_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines().enumerate().map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("")))
 }
 
-/// Parse an iad `.rxt` file.
+/// The default row budget of a measurement file, or of one request of fits
+/// (`docs/limits.md` §1): one row's fit takes about 0.5 ms, so 10^4 rows
+/// are about 5 s.
+pub const MAX_ROWS: usize = 10_000;
+
+/// The row budget at a budget factor (`--budget F`, Python `budget=`):
+/// [`MAX_ROWS`] times the factor, at least one row.
+#[must_use]
+pub fn max_rows(factor: f64) -> usize {
+    // `as` saturates: a huge factor is no limit.
+    ((MAX_ROWS as f64 * factor).ceil() as usize).max(1)
+}
+
+/// The refusal of more rows than the budget allows; `raise` says how to
+/// raise it (the flag or keyword of the caller), appended after `; `.
+#[must_use]
+pub fn too_many_rows(rows: usize, more: bool, max: usize, raise: &str) -> InverseError {
+    let or_more = if more { " or more" } else { "" };
+    let raise = if raise.is_empty() { String::new() } else { format!("; {raise}") };
+    InverseError::parse(
+        None,
+        format!(
+            "{rows}{or_more} measurement rows, over the budget of {max} rows a request (about \
+             0.5 ms of fitting a row){raise}"
+        ),
+    )
+}
+
+/// Parse an iad `.rxt` file, without a row budget (see [`parse_rxt_within`]).
 ///
 /// # Errors
+/// As [`parse_rxt_within`].
+pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
+    parse_rxt_within(text, usize::MAX, "")
+}
+
+/// Parse an iad `.rxt` file of at most `max_rows` rows: the rows are
+/// counted as they are read and the file is refused at the first row past
+/// the budget (then only counted on, not kept), so its memory stays bounded.
+///
+/// # Errors
+/// [`too_many_rows`] (with `raise`) past `max_rows`;
 /// [`InverseError::Parse`] with the line for a missing magic, a bad number,
 /// an unknown column letter, a sphere count other than 0, 1, 2, or a constraint column (`a`, `A`, `b`, `F`, `E`) this
 /// inverse does not take.
-pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
+pub fn parse_rxt_within(
+    text: &str,
+    max_rows: usize,
+    raise: &str,
+) -> Result<Vec<Row>, InverseError> {
     if !text.starts_with("IAD1") {
         return Err(InverseError::parse(Some(1), "an .rxt file must begin with IAD1"));
     }
-    let lines = clean_lines(&text[4..]);
-    let (header, (legend_line, legend), rest, li) = read_header(&lines)?;
+    let mut lines = clean_lines(&text[4..]);
+    let (header, (legend_line, legend), rest) = read_header(&mut lines)?;
     let numeric = legend.len() == 1 && ('1'..='7').contains(&legend.chars().next().unwrap_or(' '));
     let labels: Vec<char> = if numeric { Vec::new() } else { legend.chars().collect() };
     for c in &labels {
@@ -107,26 +148,36 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
         theta: 0.0,
     };
 
-    // Data values, number by number, with their lines.
-    let mut tokens = Vec::new();
-    for (no, tok) in &rest {
-        tokens.push((*no, number(tok, *no)?));
-    }
-    for (no, l) in &lines[li..] {
-        for tok in l.split_whitespace() {
-            tokens.push((*no, number(tok, *no)?));
-        }
-    }
+    // Data values, number by number, with their lines, read as needed.
+    let data = lines.flat_map(|(no, l)| l.split_whitespace().map(move |t| (no, t)));
+    let mut it =
+        rest.into_iter().chain(data).map(|(no, t)| number(t, no).map(|x| (no, x))).peekable();
     let mut rows = Vec::new();
-    let mut it = tokens.into_iter().peekable();
-    while let Some(&(no, _)) = it.peek() {
-        let mut take = || {
-            it.next().map(|t| t.1).ok_or_else(|| {
-                InverseError::parse(Some(no), "the file ends in the middle of a row")
-            })
+    let mut counted = 0usize;
+    loop {
+        let no = match it.peek() {
+            None => break,
+            Some(&Ok((no, _))) => no,
+            Some(Err(_)) if counted >= max_rows => {
+                return Err(too_many_rows(counted, true, max_rows, raise));
+            }
+            Some(Err(e)) => return Err(e.clone()),
         };
-        let (Read { m_r, m_t, m_u, lambda, g }, b) =
-            read_row(&mut take, &base, numeric, k, &labels)?;
+        let mut take = || match it.next() {
+            Some(t) => t.map(|t| t.1),
+            None => Err(InverseError::parse(Some(no), "the file ends in the middle of a row")),
+        };
+        let read = read_row(&mut take, &base, numeric, k, &labels);
+        if counted >= max_rows {
+            // Past the budget: count the rest (to name it), keep nothing.
+            match read {
+                Ok(_) => counted += 1,
+                Err(_) => return Err(too_many_rows(counted, true, max_rows, raise)),
+            }
+            continue;
+        }
+        let (Read { m_r, m_t, m_u, lambda, g }, b) = read?;
+        counted += 1;
         let m_r = m_r.ok_or_else(|| InverseError::parse(Some(no), "row without M_R"))?;
         let reflectance_only = m_t.is_none();
         let m_t = m_t.unwrap_or(0.0);
@@ -141,6 +192,9 @@ pub fn parse_rxt(text: &str) -> Result<Vec<Row>, InverseError> {
             g,
             notes: unmodelled(h[4], &labels),
         });
+    }
+    if counted > max_rows {
+        return Err(too_many_rows(counted, false, max_rows, raise));
     }
     if rows.is_empty() {
         return Err(InverseError::parse(None, "no measurement rows"));
@@ -164,32 +218,32 @@ fn unmodelled(beam: f64, labels: &[char]) -> Vec<String> {
     notes
 }
 
-/// The header's 17 numbers, the legend (its line and text), the tokens that
-/// follow the legend on the header's last line (iad's terse form), and the
-/// index of the first line after the legend.
-type Header = (Vec<f64>, (usize, String), Vec<(usize, String)>, usize);
+/// The header's 17 numbers, the legend (its line and text), and the tokens
+/// that follow the legend on the header's last line (iad's terse form);
+/// `lines` is left at the first line after the legend.
+type Header<'a> = (Vec<f64>, (usize, String), Vec<(usize, &'a str)>);
 
 /// Read the header and legend of an `.rxt` file from its cleaned lines.
-fn read_header(lines: &[(usize, String)]) -> Result<Header, InverseError> {
+fn read_header<'a>(
+    lines: &mut dyn Iterator<Item = (usize, &'a str)>,
+) -> Result<Header<'a>, InverseError> {
     // Tokens of the header, line by line, until 17 numbers are read. iad
     // reads the file as a stream of tokens, so a "terse" file may carry the
     // legend and the data on the header's last line (iad's `terse_A.rxt`):
     // what follows the 17th number on its line is kept for them.
     let mut header = Vec::with_capacity(17);
-    let mut li = 0;
-    let mut rest: Vec<(usize, String)> = Vec::new();
+    let mut rest: Vec<(usize, &str)> = Vec::new();
     while header.len() < 17 {
-        let Some((no, l)) = lines.get(li) else {
+        let Some((no, l)) = lines.next() else {
             return Err(InverseError::parse(None, "the header ends before its 17 numbers"));
         };
         for tok in l.split_whitespace() {
             if header.len() == 17 {
-                rest.push((*no, tok.to_string()));
+                rest.push((no, tok));
             } else {
-                header.push(number(tok, *no)?);
+                header.push(number(tok, no)?);
             }
         }
-        li += 1;
     }
     // The legend: the next token on the header's line, else the next line with content.
     let legend = if !rest.is_empty() {
@@ -197,17 +251,16 @@ fn read_header(lines: &[(usize, String)]) -> Result<Header, InverseError> {
         (no, tok.chars().filter(|c| *c != '-').collect::<String>())
     } else {
         loop {
-            let Some((no, l)) = lines.get(li) else {
+            let Some((no, l)) = lines.next() else {
                 return Err(InverseError::parse(None, "no legend line after the header"));
             };
-            li += 1;
             let s: String = l.chars().filter(|c| !c.is_whitespace() && *c != '-').collect();
             if !s.is_empty() {
-                break (*no, s);
+                break (no, s);
             }
         }
     };
-    Ok((header, legend, rest, li))
+    Ok((header, legend, rest))
 }
 
 /// What one row gives besides the set-up.
@@ -367,11 +420,11 @@ fn number(tok: &str, line: usize) -> Result<f64, InverseError> {
         .ok_or_else(|| InverseError::parse(Some(line), format!("'{tok}' is not a number")))
 }
 
-/// Parse a CSV of spectra for the given sample set-up.
+/// Parse a CSV of spectra for the given sample set-up, without a row
+/// budget (see [`parse_csv_within`]).
 ///
 /// # Errors
-/// [`InverseError::Parse`] for a missing header or column (`m_r`, `m_t`),
-/// an unknown column, a bad number or a row of the wrong length.
+/// As [`parse_csv_within`].
 ///
 /// ```
 /// use km_inverse::{forward::Sample, rxt::parse_csv, slab::Setup};
@@ -380,9 +433,27 @@ fn number(tok: &str, line: usize) -> Result<f64, InverseError> {
 /// assert_eq!(rows[0].wavelength_nm, Some(500.0));
 /// ```
 pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
+    parse_csv_within(text, setup, usize::MAX, "")
+}
+
+/// Parse a CSV of spectra of at most `max_rows` rows for the given sample
+/// set-up: the file is refused at the first row past the budget (the
+/// remaining lines are then only counted), so its memory stays bounded.
+///
+/// # Errors
+/// [`too_many_rows`] (with `raise`) past `max_rows`;
+/// [`InverseError::Parse`] for a missing header or column (`m_r`, `m_t`),
+/// an unknown column, a bad number or a row of the wrong length.
+///
+pub fn parse_csv_within(
+    text: &str,
+    setup: &Setup,
+    max_rows: usize,
+    raise: &str,
+) -> Result<Vec<Row>, InverseError> {
     // A byte order mark (spreadsheets write one) is not part of the header.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = clean_lines(text).into_iter().filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = clean_lines(text).filter(|(_, l)| !l.trim().is_empty());
     let Some((hno, head)) = lines.next() else {
         return Err(InverseError::parse(None, "empty CSV"));
     };
@@ -405,7 +476,11 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
         return Err(InverseError::parse(Some(hno), "the header needs columns m_r and m_t"));
     };
     let mut rows = Vec::new();
-    for (no, l) in lines {
+    while let Some((no, l)) = lines.next() {
+        if rows.len() == max_rows {
+            let count = max_rows + 1 + lines.count();
+            return Err(too_many_rows(count, false, max_rows, raise));
+        }
         let vals: Vec<f64> =
             l.split(',').map(|t| number(t.trim(), no)).collect::<Result<_, _>>()?;
         if vals.len() != names.len() {
@@ -448,6 +523,36 @@ pub fn parse_csv(text: &str, setup: &Setup) -> Result<Vec<Row>, InverseError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The row budget counts the rows of either format as it reads them:
+    /// a file of exactly the budget is read whole, one row more is refused
+    /// naming the count and the way to raise it (the count of the CSV's
+    /// lines, and of the `.rxt` rows read on past the budget).
+    #[test]
+    fn files_over_the_row_budget_are_refused_with_their_count() {
+        let set = Setup::new(Sample::new(1.0, 1.4, None).unwrap());
+        let csv = |n: usize| format!("wavelength_nm,m_r,m_t\n{}", "400,.2,.3\n".repeat(n));
+        assert_eq!(parse_csv_within(&csv(5), &set, 5, "raise it").unwrap().len(), 5);
+        let e = parse_csv_within(&csv(9), &set, 5, "raise it with --budget").unwrap_err();
+        let m = e.to_string();
+        assert!(m.contains("9 measurement rows") && m.contains("budget of 5 rows"), "{m}");
+        assert!(m.ends_with("; raise it with --budget"), "{m}");
+        let rxt = |n: usize| {
+            format!(
+                "IAD1 1.4 1.5 1 1 5 1 0 200 25 12 1 .96 200 25 12 1 .96\n2\n{}",
+                "500 .2 .3\n".repeat(n)
+            )
+        };
+        assert_eq!(parse_rxt_within(&rxt(5), 5, "").unwrap().len(), 5);
+        let m = parse_rxt_within(&rxt(7), 5, "x").unwrap_err().to_string();
+        assert!(m.contains("7 measurement rows") && m.contains("budget of 5 rows"), "{m}");
+        // Without a budget the same files are read whole.
+        assert_eq!(parse_rxt(&rxt(7)).unwrap().len(), 7);
+        assert_eq!(parse_csv(&csv(9), &set).unwrap().len(), 9);
+        assert_eq!(max_rows(1.0), MAX_ROWS);
+        assert_eq!(max_rows(2.5), 25_000);
+        assert_eq!(max_rows(1e-9), 1);
+    }
 
     /// iad's `tests/rxt/1_sphere/terse_A.rxt` puts the header, the legend
     /// and two rows on one line; it reads as the same file written out.

@@ -190,3 +190,78 @@ def test_bsdf_evaluations_and_tables_over_their_budget_are_refused_before_work()
     assert lines[1].startswith("refused:") and "angle pairs" in lines[1], lines[1]
     assert lines[2].startswith("refused:") and "table values" in lines[2], lines[2]
     assert lines[3] == "(1000,)", lines[3]
+
+
+def test_the_largest_batch_fits_in_the_limits_and_one_more_point_is_refused():
+    # Case 33: 10^5 points a call were accepted and took 6.5 s and 274 MB
+    # resident, aborting under 500 MB of address space. The cap (5 x 10^4)
+    # answers every point within the child's limits; one more is refused
+    # naming the cap.
+    r = run_child(
+        f"""
+        import numpy as np
+        s = km.Scene.from_toml({SCENE!r})
+        b = km.solve_many([s] * 50_000)
+        assert b.shape == (50_000,) and np.isfinite(b.reflectance).all()
+        # Every point is the same scene: the answer of one solve.
+        assert np.all(b.reflectance == km.solve(s).reflectance)
+        try:
+            km.solve_many([s] * 50_001)
+        except km.KmError as e:
+            print("refused:", e)
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "refused:" in r.stdout and "at most 50000" in r.stdout, r.stdout
+
+
+def _rows_csv(path, n):
+    path.write_text("wavelength_nm,m_r,m_t\n" + "400,.2,.3\n" * n)
+    return str(path)
+
+
+def test_fits_over_the_row_budget_are_refused_with_their_count(tmp_path):
+    # Cases 29 to 32: 10^6 rows of a fit file (382 MB, SIGABRT under 500
+    # MB) and 10^5 readings of km.fit (over 20 s) were accepted. The budget
+    # is 10^4 rows a call, times `budget`.
+    big = _rows_csv(tmp_path / "big.csv", 1_000_000)
+    r = run_child(
+        f"""
+        import numpy as np
+        for call in (lambda: km.fit_file({big!r}, thickness=1.0),
+                     lambda: km.fit(np.full(100_000, .2), np.full(100_000, .3), thickness=1.0)):
+            try:
+                call()
+            except km.KmError as e:
+                print("refused:", e)
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 2, r.stdout
+    assert "1000000 measurement rows" in lines[0] and "budget=" in lines[0], lines[0]
+    assert "100000 readings" in lines[1] and "budget=" in lines[1], lines[1]
+    # Within a budget the rows are fitted, each as one km.fit.
+    three = _rows_csv(tmp_path / "three.csv", 3)
+    one = km.fit(.2, .3, thickness=1.0)
+    rows = km.fit_file(three, thickness=1.0, budget=3e-4)
+    np_albedo = rows["albedo"]
+    assert np_albedo.shape == (3,) and all(abs(a - one.albedo) < 1e-9 for a in np_albedo)
+    many = km.fit([.2] * 3, [.3] * 3, thickness=1.0, budget=3e-4)
+    assert all(abs(a - one.albedo) < 1e-9 for a in many["albedo"])
+    with pytest.raises(km.KmError, match="3 measurement rows"):
+        km.fit_file(three, thickness=1.0, budget=1e-4)
+    with pytest.raises(km.KmError, match="3 readings"):
+        km.fit([.2] * 3, [.3] * 3, thickness=1.0, budget=1e-4)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(km.KmError, match="budget"):
+            km.fit_file(three, thickness=1.0, budget=bad)
+
+
+def test_integers_beyond_a_float_name_their_key():
+    # Case 72: a bare OverflowError before.
+    with pytest.raises(km.KmError, match=r"tau.*beyond the largest float"):
+        km.Scene(layers=[dict(tau=10**400, albedo=0.5)])
+    s = km.Scene.from_toml(SCENE)
+    with pytest.raises(km.KmError, match=r"layer\[1\]\.tau.*beyond the largest float"):
+        km.solve_many(s, params={"layer[1].tau": [10**400]})

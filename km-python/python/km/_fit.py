@@ -138,7 +138,8 @@ def fit(m_r: npt.ArrayLike, m_t: npt.ArrayLike, m_u: npt.ArrayLike | None = None
         sigma_t: npt.ArrayLike | None = None, sigma_u: npt.ArrayLike | None = None,
         specular_in_m_r: float = 1.0, unscattered_in_m_t: float = 1.0,
         incidence: float = 0.0, streams: int | None = None,
-        errors: Literal["raise", "keep"] = "raise") -> FitResult | FitResults:
+        errors: Literal["raise", "keep"] = "raise",
+        budget: float = 1.0) -> FitResult | FitResults:
     """Albedo, optical thickness and g of a slab from its measured readings.
 
     The slab inverse of ``km fit`` (after Prahl's inverse adding-doubling;
@@ -174,6 +175,10 @@ def fit(m_r: npt.ArrayLike, m_t: npt.ArrayLike, m_u: npt.ArrayLike | None = None
         For arrays: a point that cannot be fitted raises (naming the point),
         or (``"keep"``) is NaN with ``status == "invalid"`` and its message
         in ``error``.
+    budget : float, default 1.0
+        For arrays: factor on the budget of readings a call (10**4, about
+        0.5 ms of fitting each; docs/limits.md); more readings are refused
+        before any is fitted.
 
     Returns
     -------
@@ -220,7 +225,7 @@ def fit(m_r: npt.ArrayLike, m_t: npt.ArrayLike, m_u: npt.ArrayLike | None = None
            for k in per_point}
     out = _km._fit_many(np.ascontiguousarray(arrays["m_r"].ravel()),
                         np.ascontiguousarray(arrays["m_t"].ravel()), col["m_u"], col["g"],
-                        col["sigma_r"], col["sigma_t"], col["sigma_u"], **kw)
+                        col["sigma_r"], col["sigma_t"], col["sigma_u"], budget=budget, **kw)
     rows: list[dict[str, Any]] = []
     for i, r in enumerate(out):
         if isinstance(r, BaseException):
@@ -238,7 +243,8 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              sigma_u: float | None = None, specular_in_m_r: float = 1.0,
              unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
              streams: int | None = None, fix_mu_s: float | str | None = None,
-             fix_mu_a: float | None = None, semi_infinite: bool = False) -> FitResults:
+             fix_mu_a: float | None = None, semi_infinite: bool = False,
+             budget: float = 1.0) -> FitResults:
     """Fit every row of a measurement file, as ``km fit FILE --json`` does.
 
     iad's ``.rxt`` (sample and spheres from its header) or a ``.csv`` with
@@ -270,6 +276,10 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
     semi_infinite : bool, default False
         For those rows: a semi-infinite sample, the albedo fitted. At most
         one of ``fix_mu_s``, ``fix_mu_a``, ``semi_infinite``.
+    budget : float, default 1.0
+        Factor on the row budget of a file (10**4 rows, about 0.5 ms of
+        fitting each; docs/limits.md): a file of more rows is refused,
+        naming its count, as soon as the count is passed.
 
     Returns
     -------
@@ -284,7 +294,7 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
         The file does not exist (a ``FileNotFoundError`` too).
     KmError
         Not a ``.rxt`` or ``.csv``, a ``.csv`` without ``thickness``, a file
-        of which no row can be fitted.
+        of which no row can be fitted, a file of more rows than the budget.
 
     Examples
     --------
@@ -297,7 +307,7 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
                         sigma_r=sigma_r, sigma_t=sigma_t, sigma_u=sigma_u,
                         specular_in_m_r=specular_in_m_r, unscattered_in_m_t=unscattered_in_m_t,
                         incidence=incidence, streams=streams, fix_mu_s=fix_mu_s,
-                        fix_mu_a=fix_mu_a, semi_infinite=semi_infinite)
+                        fix_mu_a=fix_mu_a, semi_infinite=semi_infinite, budget=budget)
     return FitResults(rows, (len(rows),), "slab")
 
 

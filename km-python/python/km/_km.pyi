@@ -336,8 +336,8 @@ def _fit_many(m_r: npt.NDArray[np.float64], m_t: npt.NDArray[np.float64],
               sigma_u: npt.NDArray[np.float64] | None, *, thickness: float,
               n_sample: float = 1.0, n_slide: float | None = None,
               specular_in_m_r: float = 1.0, unscattered_in_m_t: float = 1.0,
-              incidence: float = 0.0,
-              streams: int | None = None) -> list[FitResult | KmError]: ...
+              incidence: float = 0.0, streams: int | None = None,
+              budget: float = 1.0) -> list[FitResult | KmError]: ...
 
 def fit_km(*, r_black: float | None = None, r_white: float | None = None,
            r_white_ground: float | None = None, r_black_ground: float | None = None,
@@ -380,8 +380,8 @@ def fit_file(path: str | PathLike[str], *, thickness: float | None = None,
              sigma_u: float | None = None, specular_in_m_r: float = 1.0,
              unscattered_in_m_t: float = 1.0, incidence: float = 0.0,
              streams: int | None = None, fix_mu_s: float | str | None = None,
-             fix_mu_a: float | None = None,
-             semi_infinite: bool = False) -> list[dict[str, Any]]:
+             fix_mu_a: float | None = None, semi_infinite: bool = False,
+             budget: float = 1.0) -> list[dict[str, Any]]:
     """The rows of ``km fit FILE --json`` (``km.fit_file`` wraps them as
     ``km.FitResults``, km/_fit.py).
 

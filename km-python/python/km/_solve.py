@@ -24,6 +24,16 @@ from ._errors import KmError
 from ._km import Partial, Scene, Solution
 from ._repr import batch_html
 
+
+def _param_values(key: str, v: Any) -> npt.NDArray[np.float64]:
+    """The values of one ``params`` key as floats; an integer beyond the
+    largest float (``10**400``) is refused naming the key."""
+    try:
+        return np.asarray(v, dtype=np.float64)
+    except OverflowError:
+        raise KmError(f"params: {key}: an integer beyond the largest float (1.8e308)") from None
+
+
 Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -323,7 +333,7 @@ def solve_many(
         if not params:
             raise KmError("solve_many: params= needs at least one key")
         keys = list(params)
-        arrays = np.broadcast_arrays(*[np.asarray(params[k], dtype=np.float64) for k in keys])
+        arrays = np.broadcast_arrays(*[_param_values(k, params[k]) for k in keys])
         shape = arrays[0].shape
         values = np.ascontiguousarray(np.stack([a.ravel() for a in arrays], axis=1))
         cols = _km._solve_sweep(scenes, keys, values, method, errors=errors, **options)

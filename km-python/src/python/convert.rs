@@ -27,7 +27,18 @@ pub(crate) fn to_toml(py: Python<'_>, key: &str, obj: &Bound<'_, PyAny>) -> PyRe
     if obj.is_instance_of::<PyInt>() {
         return match obj.extract::<i64>() {
             Ok(i) => Ok(toml::Value::Integer(i)),
-            Err(_) => Ok(toml::Value::Float(obj.extract::<f64>()?)),
+            // Beyond i64: a float, or (beyond the largest float, 10**400)
+            // a refusal naming the key, not a bare OverflowError.
+            Err(_) => obj.extract::<f64>().map(toml::Value::Float).map_err(|_| {
+                py_err(
+                    py,
+                    Error::Scene(km_core::CoreError::scene(
+                        key,
+                        None,
+                        "an integer beyond the largest float (1.8e308)",
+                    )),
+                )
+            }),
         };
     }
     if obj.is_instance_of::<PyFloat>() {

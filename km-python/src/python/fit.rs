@@ -233,7 +233,7 @@ fn column(a: &Option<PyReadonlyArray1<'_, f64>>, n: usize) -> Result<Vec<Option<
 #[pyfunction]
 #[pyo3(signature = (m_r, m_t, m_u, g, sigma_r, sigma_t, sigma_u, *, thickness, n_sample=1.0,
                     n_slide=None, specular_in_m_r=1.0, unscattered_in_m_t=1.0, incidence=0.0,
-                    streams=None))]
+                    streams=None, budget=1.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn _fit_many<'py>(
     py: Python<'py>,
@@ -251,6 +251,7 @@ pub(crate) fn _fit_many<'py>(
     unscattered_in_m_t: f64,
     incidence: f64,
     streams: Option<usize>,
+    budget: f64,
 ) -> PyResult<Bound<'py, PyList>> {
     let how = How {
         thickness,
@@ -265,6 +266,16 @@ pub(crate) fn _fit_many<'py>(
         (m_r.as_array().to_vec(), m_t.as_array().iter().copied().collect());
     let n = r.len();
     let cols = (|| -> Result<_, Error> {
+        let max = row_budget(budget)?;
+        if n > max {
+            return Err(Error::option(
+                "m_r",
+                format!(
+                    "{n} readings, over the budget of {max} fits a call (about 0.5 ms a fit): \
+                     raise it with budget= or fit in chunks"
+                ),
+            ));
+        }
         if t.len() != n {
             return Err(Error::option("m_t", "every column has the length of m_r"));
         }
@@ -351,6 +362,15 @@ fn row_fixed(
     Ok(given.first().copied())
 }
 
+/// The row budget of a call at `budget` (`km_inverse::rxt::max_rows`,
+/// 10^4 rows at 1), refusing a factor that is not finite and `> 0`.
+fn row_budget(budget: f64) -> Result<usize, Error> {
+    if !(budget.is_finite() && budget > 0.0) {
+        return Err(Error::option("budget", format!("must be a finite factor > 0, not {budget}")));
+    }
+    Ok(km_inverse::rxt::max_rows(budget))
+}
+
 /// Largest measurement file read (bytes): a spectrum of 10^5 rows is ~5 MB.
 const MAX_FILE_BYTES: u64 = 64 << 20;
 
@@ -360,7 +380,7 @@ const MAX_FILE_BYTES: u64 = 64 << 20;
 #[pyo3(signature = (path, *, thickness=None, n_sample=1.0, n_slide=None, g=None, sigma_r=None,
                     sigma_t=None, sigma_u=None, specular_in_m_r=1.0, unscattered_in_m_t=1.0,
                     incidence=0.0, streams=None, fix_mu_s=None, fix_mu_a=None,
-                    semi_infinite=false))]
+                    semi_infinite=false, budget=1.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fit_file<'py>(
     py: Python<'py>,
@@ -379,8 +399,11 @@ pub(crate) fn fit_file<'py>(
     fix_mu_s: Option<Bound<'py, PyAny>>,
     fix_mu_a: Option<f64>,
     semi_infinite: bool,
+    budget: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
     let fixed = row_fixed(fix_mu_s.as_ref(), fix_mu_a, semi_infinite).map_err(|e| py_err(py, e))?;
+    let max = row_budget(budget).map_err(|e| py_err(py, e))?;
+    let raise = "raise it with budget= or fit the file in parts";
     if let Err(io) = std::fs::metadata(&path)
         && io.kind() == std::io::ErrorKind::NotFound
     {
@@ -395,7 +418,7 @@ pub(crate) fn fit_file<'py>(
             .map_err(|e| cannot(e.to_string()))?;
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
         let rows = match ext.as_str() {
-            "rxt" => km_inverse::rxt::parse_rxt(&text),
+            "rxt" => km_inverse::rxt::parse_rxt_within(&text, max, raise),
             "csv" => {
                 let Some(thickness) = thickness else {
                     return Err(Error::option("thickness", "is required for a .csv file"));
@@ -409,7 +432,7 @@ pub(crate) fn fit_file<'py>(
                     unscattered_in_m_t,
                     streams,
                 };
-                km_inverse::rxt::parse_csv(&text, &how.setup()?)
+                km_inverse::rxt::parse_csv_within(&text, &how.setup()?, max, raise)
             }
             _ => return Err(cannot("expected a .rxt or .csv file".into())),
         }
