@@ -71,10 +71,13 @@ fn one_solve_of_2000_channels_is_estimated_near_its_cost() {
         assert_eq!(s.channels.len(), 2000);
     }
     // No timed assertion that a fast machine could fail: only that the
-    // estimate, priced at the fastest calibration, is not below a third of
-    // the time measured (before `c_0` it was 35 times below).
+    // estimate, priced at the fastest calibration, is not below a tenth of
+    // the time measured. Before `c_0` it was 35 times below (0.014 s
+    // against 0.4 s measured here, so this fails on the old estimate); now
+    // it is 0.29 s, leaving a machine 7 times slower or more loaded than the
+    // one measured room to pass.
     assert!(
-        work * FASTEST_SECONDS_PER_UNIT >= best / 3.0,
+        work * FASTEST_SECONDS_PER_UNIT >= best / 10.0,
         "estimate {work:.3e} units ({:.3} s at 0.7 ns) against {best:.3} s measured",
         work * FASTEST_SECONDS_PER_UNIT
     );
