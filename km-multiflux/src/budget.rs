@@ -11,7 +11,7 @@
 //! not the layer count, is what grows. The estimate, in units of one
 //! `N^3` step, is
 //!
-//! `W = sum_channels sum_{operators o} [M (N_o + B)^3 + c_p (M P + Q) (N_o + B)^2] (1 + K)`   (eq. W1)
+//! `W = sum_channels sum_{operators o} [M (N_o + B)^3 + c_p (M P + Q) (N_o + B)^2 + M c_0] (1 + K)`   (eq. W1)
 //!
 //! where the operators are the layers and the interfaces between media of
 //! different index (every boundary with `all_effects`), `N_o` the node count
@@ -28,7 +28,11 @@
 //! the truncation order of the
 //! Neumann series (`neumann_order`; 0 for exact adding, whose cost the `1`
 //! accounts for). The exit directions themselves cost a cosine sum each per
-//! order, `D M` (counted with the same unit).
+//! order, `D M` (counted with the same unit). `c_0` ([`OPERATOR_WORK`]) is
+//! what an operator costs at each order besides its cubic steps (the phase
+//! matrix's Fourier blocks, the eigen set-up, the boundary matrices, the
+//! allocations): it dominates for small `N`, i.e. for scenes of many
+//! channels of a few layers each.
 //!
 //! Calibration (2026-11, a 2-core machine): a stack of 60 layers of distinct
 //! indices at 16 streams (`W = 2.8e10`) took 17.7 s unloaded, about 0.7 ns
@@ -53,6 +57,22 @@ pub const DEFAULT_MAX_WORK: f64 = 1e10;
 /// against about 2 for the core's `N^3` steps, so that the 0.7 ns per unit of
 /// the calibration below holds for both with `c_p = 50`.
 pub const PROBE_WEIGHT: f64 = 50.0;
+
+/// The work of one operator at one Fourier order besides its `(N_o + B)^3`
+/// steps (eq. W1's `c_0`), in the same units. Measured (2026-12, 2 cores
+/// at a load of 6 to 8) on a two-layer scene of index 1 (16 streams, `N_o +
+/// B = 17`, eq. W1 without `c_0` 4 913 units per operator) with 500, 2000
+/// and 8000 spectral channels of distinct albedos: 0.05, 0.22 and 0.87 s of
+/// CPU, linear in the channels, 110 us a channel (55 us an operator), 11 ns
+/// per unit of the cubic term alone; the profile (`perf`) shows the eigen
+/// set-up, the phase matrix's blocks, the LU and boundary matrices and
+/// `exp` each at a few per cent, none cubic. 55 us is 3.7e4 units at the
+/// calibration's 1.5 ns per unit; with the margin of the calibration's
+/// spread (0.7 to 2.6 ns) and a sweep point's reading of the scene (0.35 s
+/// of CPU a point of the 2000-channel scene, against 0.22 s for the solve
+/// alone) `c_0 = 1e5`: a 2000-channel solve of this scene is estimated at
+/// 4.2e8 units (0.3 to 1.1 s), a 100-point sweep of it at 4.2e10.
+pub const OPERATOR_WORK: f64 = 1e5;
 
 /// Fourier orders assumed when angles are asked (eq. W1's `M`), unless the
 /// streams resolve fewer.
@@ -92,9 +112,9 @@ pub struct WorkEstimate {
 /// let s = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\nn = 1.5\n").unwrap();
 /// let w = estimate(&s, &MultifluxOptions { streams: Some(16), ..Default::default() });
 /// // Ambient 1.0 and layer 1.5: 32 nodes in the layer, 1 extra column (the
-/// // beam); one layer and two interfaces.
+/// // beam); one layer and two interfaces, each with its set-up `c_0`.
 /// assert_eq!(w.max_nodes, 32);
-/// assert_eq!(w.units, 3.0 * 33f64.powi(3));
+/// assert_eq!(w.units, 3.0 * (33f64.powi(3) + km_multiflux::budget::OPERATOR_WORK));
 /// ```
 pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut est = WorkEstimate { units: 0.0, max_nodes: 0, orders: 0, operators: 0, channels: 0 };
@@ -171,7 +191,8 @@ fn estimate_parts(scene: &MonoScene, opts: &MultifluxOptions, parts: Parts) -> W
         orders = orders.min(m as f64 + 1.0);
     }
     let cost = |n: f64| {
-        orders * size(n).powi(3) + PROBE_WEIGHT * (orders * probes + markers) * size(n).powi(2)
+        orders * (size(n).powi(3) + OPERATOR_WORK)
+            + PROBE_WEIGHT * (orders * probes + markers) * size(n).powi(2)
     };
     let mut work = 0.0;
     let mut operators = 0;
