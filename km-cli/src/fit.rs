@@ -11,10 +11,10 @@ use clap::Args;
 use km_bench::chart::{LineChart, Mark, Series, write_chart};
 use km_inverse::drawdown::{DrawdownFit, DrawdownInputs, Input, InputError, hiding_curves};
 use km_inverse::forward::Sample;
-use km_inverse::reflectance::{Fixed, fit_reflectance};
+use km_inverse::reflectance::fit_reflectance;
 use km_inverse::rxt::{parse_csv_within, parse_rxt_within};
 use km_inverse::slab::{FitOptions, Measurement, Setup};
-use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, fit_rows, rows_json};
+use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, check_fixed, fit_rows, rows_json};
 use km_inverse::sphere::{Sphere, SphereSetup};
 use km_inverse::text::{drawdown_report, fits_table};
 
@@ -298,24 +298,15 @@ pub fn run(args: &FitArgs) -> Result<()> {
 /// The fixed quantity of a reflectance-only fit (`--fix-mu-s`, `--fix-mu-a`,
 /// `--semi-infinite`): at most one, and only with `--m-r` alone.
 fn reflectance_only_fixed(args: &FitArgs) -> Result<Option<RowFixed>> {
-    let given: Vec<RowFixed> = [
-        args.fix_mu_s,
-        args.fix_mu_a.map(|a| RowFixed::Same(Fixed::MuA(a))),
-        args.semi_infinite.then_some(RowFixed::Same(Fixed::SemiInfinite)),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    if given.len() > 1 {
-        bail!("give one of --fix-mu-s, --fix-mu-a and --semi-infinite: M_R determines one unknown");
-    }
-    if !given.is_empty() && args.m_t.is_some() {
+    let fixed = RowFixed::one_of(args.fix_mu_s, args.fix_mu_a, args.semi_infinite)
+        .map_err(|e| anyhow!("--fix-mu-s, --fix-mu-a, --semi-infinite: {e}"))?;
+    if fixed.is_some() && args.m_t.is_some() {
         bail!(
             "--fix-mu-s, --fix-mu-a and --semi-infinite are for a reflectance-only fit (--m-r \
              alone); with --m-t both mu_a and mu_s are fitted"
         );
     }
-    Ok(given.first().copied())
+    Ok(fixed)
 }
 
 /// A spectrum file (`.rxt`, or `.csv` with the set-up of the flags), every
@@ -342,13 +333,9 @@ fn fit_file(
         _ => bail!("{}: expected a .rxt or .csv file", path.display()),
     }
     .with_context(|| format!("{}", path.display()))?;
-    if fixed.is_some() && !rows.iter().any(|r| r.reflectance_only) {
-        bail!(
-            "--fix-mu-s, --fix-mu-a and --semi-infinite apply to the rows of an .rxt file that give \
-             M_R alone; every row of {} gives M_T too (both mu_a and mu_s are fitted)",
-            path.display()
-        );
-    }
+    check_fixed(&rows, fixed).map_err(|e| {
+        anyhow!("--fix-mu-s, --fix-mu-a, --semi-infinite with {}: {e}", path.display())
+    })?;
     // Flags that differ from the defaults override an .rxt file.
     let (c, c_t) = args.fractions();
     let over = RowOverrides {

@@ -32,6 +32,35 @@ pub enum RowFixed {
 }
 
 impl RowFixed {
+    /// The one fixed quantity of a reflectance-only fit from its three ways
+    /// in (`km fit --fix-mu-s/--fix-mu-a/--semi-infinite`, Python's
+    /// `fix_mu_s`, `fix_mu_a`, `semi_infinite`), `None` when none is given.
+    ///
+    /// # Errors
+    /// More than one given: `M_R` determines one unknown.
+    pub fn one_of(
+        mu_s: Option<RowFixed>,
+        mu_a: Option<f64>,
+        semi_infinite: bool,
+    ) -> Result<Option<RowFixed>, InverseError> {
+        let given: Vec<RowFixed> = [
+            mu_s,
+            mu_a.map(|a| RowFixed::Same(Fixed::MuA(a))),
+            semi_infinite.then_some(RowFixed::Same(Fixed::SemiInfinite)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if given.len() > 1 {
+            return Err(InverseError::parse(
+                None,
+                "give one of the fixed quantities (mu_s, mu_a, a semi-infinite sample): M_R \
+                 determines one unknown",
+            ));
+        }
+        Ok(given.first().copied())
+    }
+
     /// `mu_s` fixed by a text: a number, or iad's power law `P L0 MU_S0 EXP`
     /// (for `mu_s`) or `R L0 MU_SP0 EXP` (for `mu_s'`), eq. R3 (`km fit
     /// --fix-mu-s`, Python's `fix_mu_s`).
@@ -142,6 +171,23 @@ pub struct RowOverrides {
     pub sigma_u: Option<f64>,
     /// The fixed quantity of the rows that give `M_R` alone (required for them).
     pub fixed: Option<RowFixed>,
+}
+
+/// Refuse a fixed quantity for rows that all give `M_T` too (both unknowns
+/// are fitted there); in a file mixing both kinds it applies to the rows
+/// that give `M_R` alone.
+///
+/// # Errors
+/// `fixed` given and no row with `M_R` alone.
+pub fn check_fixed(rows: &[Row], fixed: Option<RowFixed>) -> Result<(), InverseError> {
+    if fixed.is_some() && !rows.iter().any(|r| r.reflectance_only) {
+        return Err(InverseError::parse(
+            None,
+            "a fixed quantity (mu_s, mu_a, a semi-infinite sample) applies to the rows that give \
+             M_R alone; every row gives M_T too (both mu_a and mu_s are fitted)",
+        ));
+    }
+    Ok(())
 }
 
 /// The fit of one row.

@@ -99,6 +99,17 @@ pub struct WorkEstimate {
     pub channels: usize,
 }
 
+impl WorkEstimate {
+    /// Add one channel's estimate: the units summed, the sizes the largest.
+    fn add_channel(&mut self, w: WorkEstimate) {
+        self.units += w.units;
+        self.max_nodes = self.max_nodes.max(w.max_nodes);
+        self.orders = self.orders.max(w.orders);
+        self.operators = self.operators.max(w.operators);
+        self.channels += 1;
+    }
+}
+
 /// Estimate the work of solving `scene` with `opts` (eq. W1), without
 /// building anything: `O(channels x layers log layers)` arithmetic.
 ///
@@ -120,11 +131,7 @@ pub fn estimate(scene: &Scene, opts: &MultifluxOptions) -> WorkEstimate {
     let mut est = WorkEstimate { units: 0.0, max_nodes: 0, orders: 0, operators: 0, channels: 0 };
     for ch in scene.channels() {
         let w = estimate_mono(ch, opts);
-        est.units += w.units;
-        est.max_nodes = est.max_nodes.max(w.max_nodes);
-        est.orders = est.orders.max(w.orders);
-        est.operators = est.operators.max(w.operators);
-        est.channels += 1;
+        est.add_channel(w);
     }
     est
 }
@@ -264,11 +271,7 @@ pub fn estimate_bsdf(
             exits: theta_i.len() * theta_o.len(),
         };
         let w = estimate_parts(ch, opts, parts);
-        est.units += w.units;
-        est.max_nodes = est.max_nodes.max(w.max_nodes);
-        est.orders = est.orders.max(w.orders);
-        est.operators = est.operators.max(w.operators);
-        est.channels += 1;
+        est.add_channel(w);
     }
     est
 }

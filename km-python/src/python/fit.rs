@@ -5,7 +5,7 @@
 use km_inverse::forward::Sample;
 use km_inverse::reflectance::Fixed;
 use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
-use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, fit_rows, rows_json};
+use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, check_fixed, fit_rows, rows_json};
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyList;
@@ -345,21 +345,8 @@ fn row_fixed(
     {
         return Err(Error::option("fix_mu_a", format!("{a}: must be finite and >= 0")));
     }
-    let given: Vec<RowFixed> = [
-        mu_s,
-        fix_mu_a.map(|a| RowFixed::Same(Fixed::MuA(a))),
-        semi_infinite.then_some(RowFixed::Same(Fixed::SemiInfinite)),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    if given.len() > 1 {
-        return Err(Error::option(
-            "fix_mu_s",
-            "give one of fix_mu_s, fix_mu_a and semi_infinite: M_R determines one unknown",
-        ));
-    }
-    Ok(given.first().copied())
+    RowFixed::one_of(mu_s, fix_mu_a, semi_infinite)
+        .map_err(|e| Error::option("fix_mu_s", e.to_string()))
 }
 
 /// The row budget of a call at `budget` (`km_inverse::rxt::max_rows`,
@@ -437,15 +424,7 @@ pub(crate) fn fit_file<'py>(
             _ => return Err(cannot("expected a .rxt or .csv file".into())),
         }
         .map_err(|e| cannot(e.to_string()))?;
-        if fixed.is_some() && !rows.iter().any(|r| r.reflectance_only) {
-            return Err(Error::option(
-                "fix_mu_s",
-                format!(
-                    "fix_mu_s, fix_mu_a and semi_infinite apply to the rows that give M_R alone; \
-                     every row of {name} gives M_T too (both mu_a and mu_s are fitted)"
-                ),
-            ));
-        }
+        check_fixed(&rows, fixed).map_err(|e| Error::option("fix_mu_s", format!("{name}: {e}")))?;
         // As `km fit FILE` (km_inverse::spectrum): fractions other than 1
         // override the file, the sigmas and g given here stand where a row
         // has none; the rows are fitted in parallel, each as the command does.
