@@ -407,6 +407,24 @@ fn a_sweep_is_one_request_under_one_budget() {
     // 10^4 points of 10^6 photons: 10^10 photons, more steps than one run may take.
     let r = km(&["sweep", s(&scene), "--set", "layer[1].tau=0.1:10:10000", "--method", "mc"]);
     refused(&r, &["10000 points", "photon steps"]);
+    // Case 27: 10^3 points of the default 10^6 photons (about 15 min of
+    // tracing) are refused at once by the request's share of photon steps
+    // (eq. L5), naming the budget that would let them run.
+    let r = km(&["sweep", s(&scene), "--set", "layer[1].tau=0.1:10:1000", "--method", "mc"]);
+    refused(&r, &["1000 points", "photon steps", "--budget"]);
+    // A few points of the same fit the same budget and run.
+    let r = km(&[
+        "sweep",
+        s(&scene),
+        "--set",
+        "layer[1].tau=0.1:10:3",
+        "--method",
+        "mc",
+        "--samples",
+        "20000",
+    ]);
+    ok(&r);
+    assert_eq!(r.stdout.lines().filter(|l| !l.trim().is_empty()).count(), 4, "{}", r.stdout);
 }
 
 #[test]
@@ -415,4 +433,141 @@ fn profile_radius_near_the_largest_double_is_not_called_infinite() {
     let r = km(&["profile", &marble, "--r-max", "1e308", "--json"]);
     assert!(!r.stderr.contains("inf"), "{}", r.stderr);
     assert!(matches!(r.status.code(), Some(0 | 2)));
+}
+
+// ---------------------------------------------------------------------------
+// The cases docs/limits.md §8 had checked by a run only (8, 12, 15, 19, 48,
+// 49), replayed here under the same limits.
+
+#[test]
+fn a_full_stderr_during_a_failing_sweep_or_a_plot_is_exit_status_2() {
+    // Cases 8 and 12: the failing point's message and the plot's progress
+    // line go to a full stderr.
+    let d = dir("stderr-more");
+    let scene = write(&d, "s.toml", TWO_LAYERS);
+    let plot = d.join("plots");
+    let runs: [&[&str]; 2] = [
+        &["sweep", s(&scene), "--set", "layer[1].g=0.5:5:3"],
+        &[
+            "bsdf",
+            s(&scene),
+            "--plot",
+            s(&plot),
+            "--theta-i",
+            "0",
+            "--theta-o",
+            "0:90:30",
+            "--phi",
+            "0",
+            "--streams",
+            "4",
+        ],
+    ];
+    for args in runs {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let t0 = Instant::now();
+        let child = command(args).stdout(Stdio::null()).stderr(full).spawn().unwrap();
+        let r = finish(child, &args.join(" "), t0);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {:?}", r.status);
+    }
+}
+
+#[test]
+fn parallel_hiding_charts_into_one_directory_all_succeed() {
+    // Case 15: six `km fit --km ... --plot same/` at once.
+    let d = dir("fit-plots");
+    let plot = d.join("same");
+    let t0 = Instant::now();
+    let children: Vec<Child> = (0..6)
+        .map(|_| {
+            command(&[
+                "fit",
+                "--km",
+                "--r-black",
+                "0.3",
+                "--r-white",
+                "0.5",
+                "--r-white-ground",
+                "0.8",
+                "--thickness",
+                "0.05",
+                "--plot",
+                s(&plot),
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+        })
+        .collect();
+    for c in children {
+        let r = finish_within(c, 6.0 * SECONDS, t0);
+        assert!(r.status.success(), "{}", r.stderr);
+    }
+    let names: Vec<String> = std::fs::read_dir(&plot)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains(".tmp")), "temporary files left: {names:?}");
+    assert!(names.iter().any(|n| n.ends_with(".svg")), "no chart: {names:?}");
+}
+
+#[test]
+fn an_m_u_column_of_inconsistent_rows_refuses_those_rows_at_once() {
+    // Case 19: the rows of case 16-18 as a CSV with an m_u column; the row
+    // whose M_U no slab can give is refused naming m_u, the others answer.
+    let d = dir("mu-csv");
+    let csv = write(
+        &d,
+        "m.csv",
+        "wavelength_nm,m_r,m_t,m_u\n500,0.2,0.3,0.5\n510,0.2726,0.2991,0.27\n520,0.2726,0.2991,0.1244\n",
+    );
+    let r = km(&[
+        "fit",
+        s(&csv),
+        "--thickness",
+        "1",
+        "--n-sample",
+        "1.4",
+        "--n-slide",
+        "1.5",
+        "--json",
+    ]);
+    assert!(!r.stderr.contains("panicked"), "{}", r.stderr);
+    let rows: serde_json::Value = serde_json::from_str(&r.stdout).expect("a JSON list");
+    let rows = rows.as_array().expect("a list of rows");
+    assert_eq!(rows.len(), 3, "{}", r.stdout);
+    let text = rows[0].to_string();
+    assert!(text.contains("m_u") || text.contains("M_U"), "row 1 not refused by M_U: {text}");
+    for row in &rows[1..] {
+        assert!(row.get("mu_a").and_then(serde_json::Value::as_f64).is_some(), "{row}");
+    }
+}
+
+#[test]
+fn many_exit_directions_are_answered_within_the_limits() {
+    // Cases 48 and 49: 1000 copies of one exit direction (refused before,
+    // then 0.01 s) and 500 distinct ones (estimated at 28 s before, took
+    // 0.27 s): the estimate follows the engine's cost, and both answer.
+    let d = dir("directions");
+    let one: Vec<String> = (0..1000).map(|_| "[30.0, 0.0]".to_string()).collect();
+    let distinct: Vec<String> =
+        (0..500).map(|i| format!("[{:.3}, {:.3}]", 0.17 * i as f64, 0.7 * i as f64)).collect();
+    for (name, dirs) in [("same", one), ("distinct", distinct)] {
+        let text = format!(
+            "[light]\ntheta_deg = 30.0\n{TWO_LAYERS}[output]\ndirections_deg = [{}]\n",
+            dirs.join(", ")
+        );
+        let scene = write(&d, &format!("{name}.toml"), &text);
+        let r = km(&["solve", s(&scene), "--json"]);
+        ok(&r);
+        let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
+        let brdf = v["brdf"].as_array().unwrap_or_else(|| panic!("{name}: no brdf: {}", r.stdout));
+        assert_eq!(brdf.len(), dirs_len(name), "{name}");
+        assert!(brdf.iter().all(|x| x.as_f64().is_some_and(|f| f.is_finite() && f >= 0.0)));
+    }
+}
+
+fn dirs_len(name: &str) -> usize {
+    if name == "same" { 1000 } else { 500 }
 }

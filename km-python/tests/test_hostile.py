@@ -71,6 +71,38 @@ def test_monte_carlo_batches_do_not_nest_thread_pools():
     assert r.stdout.strip() == "ok"
 
 
+def test_monte_carlo_batches_at_the_default_photon_count_are_held_to_the_request_budget():
+    # Case 5 (four Python threads, each a 200-point Monte Carlo batch at the
+    # default 10^6 photons: minutes of tracing) and case 27's batch twin (a
+    # 1000-point params sweep): each call is refused at once by the request's
+    # share of photon steps (docs/limits.md eq. L5), naming the budget.
+    r = run_child(
+        f"""
+        import threading
+        s = km.Scene.from_toml({SCENE!r})
+        out = []
+        def call(f):
+            try:
+                f()
+            except km.KmError as e:
+                out.append("refused: " + str(e))
+            else:
+                out.append("accepted")
+        ts = [threading.Thread(target=call, args=(lambda: km.solve_many([s] * 200, "mc"),))
+              for _ in range(4)]
+        [t.start() for t in ts]
+        [t.join() for t in ts]
+        call(lambda: km.solve_many(s, "mc", params={{"layer[1].g": [0.1 * (i % 9) for i in range(1000)]}}))
+        print("\\n".join(out))
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 5, r.stdout
+    for line in lines:
+        assert line.startswith("refused:") and "photon steps" in line and "budget" in line, line
+
+
 def test_a_batch_over_its_budget_is_refused_before_work():
     r = run_child(
         f"""
@@ -265,3 +297,42 @@ def test_integers_beyond_a_float_name_their_key():
     s = km.Scene.from_toml(SCENE)
     with pytest.raises(km.KmError, match=r"layer\[1\]\.tau.*beyond the largest float"):
         km.solve_many(s, params={"layer[1].tau": [10**400]})
+
+
+def test_the_cases_once_checked_by_hand():
+    # docs/limits.md §8, cases 2, 35 and 71, each in a process of its own
+    # under the same limits: a batch of 2000 Monte Carlo points of 2000
+    # photons answers; a 10^7-point params sweep is refused by the batch cap
+    # before any work; an out-of-range max_fourier_order names the argument.
+    prelude = f"""
+        import numpy as np
+        s = km.Scene.from_toml({SCENE!r})
+        """
+    r = run_child(prelude + """
+        b = km.solve_many([s] * 2000, "mc", samples=2000)
+        assert b.shape == (2000,) and np.isfinite(b.reflectance).all(), b.errors
+        print("batch", b.shape[0])
+        """)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip() == "batch 2000", r.stdout
+    r = run_child(prelude + """
+        try:
+            km.solve_many(s, params={"layer[1].tau": np.ones(10**7)})
+        except km.KmError as e:
+            print("refused:", e)
+        """)
+    assert r.returncode == 0, r.stderr[-2000:]
+    line = r.stdout.strip()
+    assert "10000000 points" in line and "at most" in line, line
+    r = run_child(prelude + """
+        for m in (-1, 2**70):
+            try:
+                km.bsdf(s, max_fourier_order=m)
+            except km.KmError as e:
+                print("refused:", e)
+        """)
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 2, r.stdout
+    for line in lines:
+        assert line.startswith("refused:") and "max_fourier_order" in line, line

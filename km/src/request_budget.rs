@@ -32,10 +32,20 @@ pub const DIPOLE_POINT_WORK: f64 = 8e5;
 /// scaling used for other counts).
 pub const DIRECTION_SET_303_WORK: f64 = 3.8e8;
 
+/// Multi-flux work units one Monte Carlo photon step costs, for the budget
+/// of a request of many points (eq. L5 of `docs/limits.md`): a step took 28 ns
+/// of CPU (4 x 10^6 photons of a two-layer scene, 3.47 x 10^7 steps in
+/// 0.96 s, one thread, unloaded) against 0.7 ns a multi-flux unit unloaded.
+/// A single run keeps its own step budget (`max_events`, 2 x 10^10 steps:
+/// the guard of one deliberate long run); a request of many points is held
+/// to the request budget every method shares (the default multi-flux work
+/// budget, 7 to 25 s), that is 2.5 x 10^8 photon steps at `--budget 1`.
+pub const MC_STEP_WORK: f64 = 40.0;
+
 /// Work of one point of a request, in the units of the method's budget, and
 /// that budget: multi-flux work units (eq. W1 of `km-multiflux/src/budget.rs`)
 /// against `max_work`; Monte Carlo photon steps projected by the pilot of
-/// eq. L2 against `max_events`. The methods without a budget of their own
+/// eq. L2 against the request's share of steps ([`MC_STEP_WORK`], eq. L5). The methods without a budget of their own
 /// (two-flux, dipole, direction set) are charged their measured cost per
 /// point ([`KM_POINT_WORK`], [`DIPOLE_POINT_WORK`],
 /// [`DIRECTION_SET_303_WORK`]) in multi-flux work units against the default
@@ -50,7 +60,11 @@ pub fn point_work(scene: &Scene, options: &Options) -> Option<(f64, f64, &'stati
             Some((w, budget, "multi-flux work units"))
         }
         MethodOptions::Mc(o) => {
-            let budget = o.max_events? as f64;
+            // The request's share of the shared budget, in photon steps
+            // (eq. L5), scaled as the run's own step budget is (by
+            // `--budget`, or a library caller's `max_events`).
+            let scale = o.max_events? as f64 / km_montecarlo::options::DEFAULT_MAX_EVENTS as f64;
+            let budget = crate::multiflux_budget::DEFAULT_MAX_WORK / MC_STEP_WORK * scale;
             // The pilot of the run's own budget check (eq. L2); at least
             // one step per photon if the options are refused (the run then
             // reports them).
