@@ -336,3 +336,46 @@ def test_the_cases_once_checked_by_hand():
     assert len(lines) == 2, r.stdout
     for line in lines:
         assert line.startswith("refused:") and "max_fourier_order" in line, line
+
+
+def test_batches_of_random_sizes_complete_or_are_refused_up_front():
+    # The property of docs/limits.md eq. L4/L5 over batches (the Rust tests
+    # km/tests/request_property.rs and bsdf_request_property.rs hold it for
+    # sweeps and BSDF grids): random point counts (10^0..10^5.5), methods,
+    # photon counts and budgets; each call either answers every point or is
+    # refused before any work with the numbers, under the child's limits.
+    r = run_child(
+        f"""
+        import time
+        import numpy as np
+        s = km.Scene.from_toml({SCENE!r})
+        rng = np.random.default_rng(29)
+        for case in range(16):
+            n = int(10 ** rng.uniform(0, 5.5))
+            method = ["multiflux", "mc", "km"][case % 3]
+            kw = dict(budget=float(10 ** rng.uniform(-2, 0.5)))
+            if method == "mc":
+                kw["samples"] = int(10 ** rng.uniform(2, 5))
+            sweep = case % 2 == 0
+            t = time.perf_counter()
+            try:
+                if sweep:
+                    b = km.solve_many(s, method, params={{"layer[1].tau": np.linspace(0.5, 2, n)}}, **kw)
+                else:
+                    b = km.solve_many([s] * n, method, **kw)
+            except km.KmError as e:
+                dt = time.perf_counter() - t
+                assert "points" in str(e) and dt < 2.0, (n, method, kw, dt, str(e))
+                print("refused", n, method, f"{{dt:.2f}}")
+            else:
+                dt = time.perf_counter() - t
+                assert b.shape == (n,) and np.isfinite(b.reflectance).all(), (n, method, b.errors)
+                print("answered", n, method, f"{{dt:.2f}}")
+        """
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 16, r.stdout
+    # Both outcomes occur with these draws (a test of the test).
+    assert any(l.startswith("refused") for l in lines), r.stdout
+    assert any(l.startswith("answered") for l in lines), r.stdout
