@@ -194,8 +194,10 @@ pub(crate) const OWN_MAX: usize = 64;
 pub(crate) const SMALL: usize = 12;
 
 /// Up to this size the symmetric eigenproblem of [`small_modes`] is solved
-/// by Jacobi rotations, above it by tridiagonal QL (faster from about 7 on).
-const JACOBI_MAX: usize = 6;
+/// by Jacobi rotations, above it by tridiagonal QL (faster from 5 on: the
+/// totals of one slab at 5 and 6 streams took 4.4 and 5.3 us by QL against
+/// 4.9 and 6.4 us by Jacobi, where 7 took 6.2; docs/benchmarks.md §9).
+const JACOBI_MAX: usize = 4;
 
 /// Eq. EG1 for `N <= SMALL`: the Cholesky factor of `H+` by the textbook
 /// recurrence, `S = L^T H- L` by loops, `S = Y diag(k^2) Y^T` by [`jacobi`]
@@ -211,7 +213,7 @@ fn small_modes(
     // of the cost at these sizes).
     match hp.nrows() {
         0..=3 => small_modes_in::<3>(hp, hm, conservative, ws),
-        4..=JACOBI_MAX => small_modes_in::<JACOBI_MAX>(hp, hm, conservative, ws),
+        4..=6 => small_modes_in::<6>(hp, hm, conservative, ws),
         7..=8 => small_modes_in::<8>(hp, hm, conservative, ws),
         _ => small_modes_in::<SMALL>(hp, hm, conservative, ws),
     }
