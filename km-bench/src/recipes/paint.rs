@@ -14,10 +14,10 @@ use km::{
 use km_core::{Scene, Solution};
 use km_inverse::kubelka::{Film, Saunderson, Specular, from_black_white, reflectance_over_ground};
 
-use crate::chart::{LineChart, Mark, Series, format_number};
 use crate::context::{Ctx, Size};
 use crate::data::Csv;
 use crate::report::{Section, Table};
+use km_plot::chart::{LineChart, Mark, Series, format_number};
 
 /// Vacuum wavelengths of the scenes, nm.
 pub const WAVELENGTHS_NM: [f64; 3] = [450.0, 550.0, 650.0];
