@@ -19,7 +19,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use km_bench::chart::{LineChart, Mark, Series, write_chart};
+use km_plot::chart::{LineChart, Mark, Series, write_chart};
 
 /// Criterion's file-name form of a benchmark name (its `make_filename_safe`).
 fn safe(name: &str) -> String {

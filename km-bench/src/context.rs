@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use crate::chart::{Chart, ChartLayout, write_chart_layout};
 use crate::data::Csv;
 use crate::report::Section;
+use km_plot::chart::{Chart, ChartLayout, write_chart_layout};
 
 /// How much work a run does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -4,9 +4,8 @@
 //! directory, `report.md` with every chart (PNG and SVG) and table, and the
 //! CSV of every chart's data. `km reproduce [--quick | --full]` calls it.
 //!
-//! * [`chart`]: line charts (linear or log axes, also used for the Pareto
-//!   charts), polar plots in the plane of incidence, heat maps; each drawn
-//!   as SVG and PNG with an embedded font ([`font`]).
+//! * charts: the chart crate's ([`km_plot::chart`]: line charts, polar
+//!   plots, heat maps, each drawn as SVG and PNG with an embedded font).
 //! * [`data`]: CSV files with the parameters and the seed in their header.
 //! * [`report`]: the Markdown report.
 //! * [`context`]: what every recipe gets (output directory, run size, seed).
@@ -18,11 +17,8 @@
 //! * [`recipes`]: one function per figure of the seed's §4 and per study.
 #![deny(missing_docs)]
 
-pub mod bsdf_plot;
-pub mod chart;
 pub mod context;
 pub mod data;
-pub mod font;
 pub mod km_models;
 pub mod methods;
 pub mod recipes;

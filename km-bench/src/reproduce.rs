@@ -8,10 +8,10 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::chart::ChartLayout;
 pub use crate::context::{Ctx, Recipe, Size};
 use crate::recipes;
 use crate::report::{Report, Section, Table};
+use km_plot::chart::ChartLayout;
 
 /// Options of [`reproduce`].
 #[derive(Debug, Clone, PartialEq)]

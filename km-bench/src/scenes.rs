@@ -7,7 +7,7 @@ use km_core::{Layer, Light, MonoScene, Scene, Substrate};
 /// 0 to `theta_max` (degrees) in `count` equal steps on both the back side
 /// (`phi = 0`) and the mirror side (`phi = 180`). Returns the directions and,
 /// for each, its signed plane angle for a reflected direction
-/// ([`crate::chart::plane_angle`]).
+/// ([`km_plot::chart::plane_angle`]).
 pub fn plane_directions(count: usize, theta_max: f64) -> (Vec<[f64; 2]>, Vec<(f64, bool)>) {
     let mut dirs = Vec::with_capacity(2 * count);
     let mut meta = Vec::with_capacity(2 * count);

@@ -143,11 +143,9 @@ fn flagged(e: RequestError) -> anyhow::Error {
 /// the curves are smooth whatever the table's grid.
 fn plots(c: &BsdfFile, scene: &km::Scene, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let picks: Vec<f64> = km_bench::bsdf_plot::chosen_incidences(&c.bsdf)
-        .into_iter()
-        .map(|i| c.bsdf.theta_i[i])
-        .collect();
+    let picks: Vec<f64> =
+        km_plot::bsdf::chosen_incidences(&c.bsdf).into_iter().map(|i| c.bsdf.theta_i[i]).collect();
     let dense: Vec<f64> = (0..90).map(f64::from).collect();
     let b = Bsdf::new(scene, &picks, &dense, &c.options)?;
-    km_bench::bsdf_plot::write_all(&b, dir)
+    km_plot::bsdf::write_all(&b, dir)
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use km::Method;
 use km::field::{Field, FieldMethod, FieldOptions, field};
-use km_bench::chart::{LineChart, Mark, Series, write_chart};
+use km_plot::chart::{LineChart, Mark, Series, write_chart};
 
 use crate::solve::{OutputFormat, SceneArg, method_parser};
 use crate::stdout;

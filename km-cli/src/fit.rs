@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
-use km_bench::chart::{LineChart, Mark, Series, write_chart};
 use km_inverse::drawdown::{DrawdownFit, DrawdownInputs, Input, InputError, hiding_curves};
 use km_inverse::forward::Sample;
 use km_inverse::reflectance::fit_reflectance;
@@ -17,6 +16,7 @@ use km_inverse::slab::{FitOptions, Measurement, Setup};
 use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, check_fixed, fit_rows, rows_json};
 use km_inverse::sphere::{Sphere, SphereSetup};
 use km_inverse::text::{drawdown_report, fits_table};
+use km_plot::chart::{LineChart, Mark, Series, write_chart};
 
 use crate::stdout;
 

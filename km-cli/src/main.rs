@@ -201,7 +201,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Field(args) => field::run(&args),
         Command::Phase(args) => phase::run(&args),
         Command::Merge { parts, json, format, out } => {
-            let sol = km_montecarlo::merge_files(&parts)?;
+            let sol = km::mc_merge_files(&parts)?;
             if let Some(out) = &out {
                 solve::write_json(out, &sol.to_json(), &parts)?;
             }

@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use km_montecarlo::McOptions;
-use km_montecarlo::mcml::{MciRun, Mco, parse_mci, run_mci};
+use km::McOptions;
+use km::mcml::{MciRun, Mco, parse_mci, run_mci};
 
 /// Largest `.mci` file read, bytes.
 const MAX_MCI_BYTES: u64 = 16 << 20;
@@ -120,7 +120,7 @@ type Pair = [Vec<f64>; 2];
 
 /// The `.npz` of a run: MCML's arrays and their standard errors (`_se`),
 /// the bin centres, `phi_z` and `flux_z` (docs/mcml.md).
-fn npz_bytes(run: &MciRun, m: &Mco, g: &km_montecarlo::GridResult) -> Vec<u8> {
+fn npz_bytes(run: &MciRun, m: &Mco, g: &km::GridResult) -> Vec<u8> {
     use km::bsdf::write::{npy, zip_stored};
     let f64s = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
     let (nz, nr, na) = (run.nz, run.nr, run.na);

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use km::phase_report::{ChannelPhase, NORMALISATION, PhaseOptions, PhaseReport, phase_report};
-use km_bench::chart::{LineChart, Mark, Series, write_chart};
+use km_plot::chart::{LineChart, Mark, Series, write_chart};
 
 use crate::solve::{OutputFormat, SceneArg};
 use crate::stdout;

@@ -32,7 +32,8 @@ pub const DEFAULT_STREAMS_ANGULAR: usize = 48;
 /// up to 75 degrees 16 streams miss by 1.5e-4, 32 by 2e-5), and for totals
 /// at incidence beyond 80 degrees on an index-matched stack
 /// [`DEFAULT_STREAMS_PEAKED`] (89 degrees: 2e-2 at 16 streams, 2e-3 at 32,
-/// 1.5e-3 at 64, 9e-5 at 128 for w = 0.99, 1.5e-4 for w = 0.5; 4.5 ms).
+/// 1.5e-3 at 64, 9e-5 at 128 for w = 0.99, 1.5e-4 for w = 0.5; its time
+/// in docs/benchmarks.md, "Times behind limits and defaults").
 /// With BRDF/BTDF directions the answer is the angular distribution and the
 /// rule follows its convergence (measured against DISORT at 256 streams, the
 /// worst value of 48 slabs at 30-85 degrees, `docs/multiflux.md` §8): 32

@@ -24,7 +24,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let scene = km_core::Scene::from_toml_str(
+    let scene = km::Scene::from_toml_str(
         "[[layer]]\nsigma_a = 0.1\nsigma_s = 2.0\nthickness = 1.0\ng = 0.5\nn = 1.0\n",
     )
     .expect("scene");

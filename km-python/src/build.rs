@@ -2,12 +2,12 @@
 //!
 //! A scene built from keyword arguments is first written as the TOML table of
 //! the scene file (`docs/scene-file.md`) and then parsed by
-//! [`km_core::Scene::from_toml_str`], so it meets exactly the validation and
+//! [`km::Scene::from_toml_str`], so it meets exactly the validation and
 //! the messages of `km check` and `km solve`. The line numbers of such a
 //! message would point into generated text, so they are dropped: the error
 //! names the key (`layer[2].albedo`) and the problem.
 
-use km_core::{CoreError, Scene};
+use km::{CoreError, Scene};
 
 use crate::error::Error;
 

@@ -80,33 +80,6 @@ impl Options {
         Options { cancel: Some(cancel.clone()), ..self.clone() }
     }
 
-    /// The Monte Carlo options these stand for.
-    ///
-    /// # Errors
-    /// Zero samples or threads.
-    pub fn mc(&self) -> Result<km::McOptions, Error> {
-        if self.samples == Some(0) {
-            return Err(Error::option("samples", "must be at least 1"));
-        }
-        if self.threads == Some(0) {
-            return Err(Error::option("threads", "must be at least 1"));
-        }
-        let d = km::McOptions::default();
-        Ok(km::McOptions {
-            samples: self.samples.unwrap_or(d.samples),
-            seed: self.seed.unwrap_or(d.seed),
-            threads: self.threads,
-            estimator: if self.analog {
-                km::Estimator::Analog
-            } else {
-                km::Estimator::SurvivalBiasing
-            },
-            all_effects: self.all_effects,
-            cancel: self.cancel.clone(),
-            ..d
-        })
-    }
-
     /// The settings of the solve, checked against [`km::settings::SETTINGS`]
     /// as the `km solve` flags are: a setting the method does not read (a
     /// silent no-op would mislead), a value outside its range or two settings

@@ -1,6 +1,6 @@
 //! Errors of the bindings: one enum; every message names the offending key or value.
 
-use km_core::CoreError;
+use km::CoreError;
 use thiserror::Error;
 
 /// An error of a solve, a scene or an option, as `km.KmError` reports it.
@@ -100,29 +100,29 @@ impl From<km::KmError> for Error {
     }
 }
 
-impl From<km_multiflux::MultifluxError> for Error {
-    fn from(e: km_multiflux::MultifluxError) -> Self {
+impl From<km::MultifluxError> for Error {
+    fn from(e: km::MultifluxError) -> Self {
         match e {
-            km_multiflux::MultifluxError::Scene(c) => Error::Scene(c),
+            km::MultifluxError::Scene(c) => Error::Scene(c),
             other => Error::Solver(other.to_string()),
         }
     }
 }
 
-impl From<km_montecarlo::McError> for Error {
-    fn from(e: km_montecarlo::McError) -> Self {
+impl From<km::McError> for Error {
+    fn from(e: km::McError) -> Self {
         match e {
-            km_montecarlo::McError::Scene(c) => Error::Scene(c),
-            km_montecarlo::McError::Cancelled => Error::Cancelled,
+            km::McError::Scene(c) => Error::Scene(c),
+            km::McError::Cancelled => Error::Cancelled,
             other => Error::Solver(other.to_string()),
         }
     }
 }
 
-impl From<km_dipole::DipoleError> for Error {
-    fn from(e: km_dipole::DipoleError) -> Self {
+impl From<km::DipoleError> for Error {
+    fn from(e: km::DipoleError) -> Self {
         match e {
-            km_dipole::DipoleError::Scene(c) => Error::Scene(c),
+            km::DipoleError::Scene(c) => Error::Scene(c),
             other => Error::Solver(other.to_string()),
         }
     }

@@ -15,8 +15,8 @@
 
 use std::str::FromStr;
 
-use km_core::phase::Phase;
-use km_core::{CoreError, Layer, Light, MonoScene, Scene, Solution, Substrate};
+use km::phase::Phase;
+use km::{CoreError, Layer, Light, MonoScene, Scene, Solution, Substrate};
 use rayon::prelude::*;
 
 use crate::engine::{Options, solve};
@@ -133,7 +133,7 @@ impl Target {
 ///
 /// ```
 /// use _km::sweep::{Target, apply};
-/// let base = km_core::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
+/// let base = km::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
 /// let t: Target = "layer[1].tau".parse().unwrap();
 /// let s = apply(&base, &[(t, 2.0)]).unwrap();
 /// assert!((s.channels()[0].layers()[0].tau() - 2.0).abs() < 1e-15);
@@ -379,14 +379,12 @@ impl Columns {
         let mut btdf = vec![f64::NAN; nc * directions];
         // Keys of the uncertainties (scalar entries only: list entries, e.g.
         // the BRDF's, are per direction), from every successful point.
-        let keys = |get: fn(&km_core::ChannelResult) -> Option<&km_core::Uncertainty>| {
+        let keys = |get: fn(&km::ChannelResult) -> Option<&km::Uncertainty>| {
             let mut keys: Vec<&'static str> = Vec::new();
             for s in results.iter().flatten() {
                 for c in &s.channels {
-                    for (k, v) in get(c).map(km_core::Uncertainty::entries).unwrap_or_default() {
-                        if matches!(v, km_core::solution::UncertaintyValue::Number(_))
-                            && !keys.contains(&k)
-                        {
+                    for (k, v) in get(c).map(km::Uncertainty::entries).unwrap_or_default() {
+                        if matches!(v, km::UncertaintyValue::Number(_)) && !keys.contains(&k) {
                             keys.push(k);
                         }
                     }

@@ -37,7 +37,8 @@ pub const MIN_DIRECTIONS: usize = 4;
 /// to the sets of the denser media (measured: 1000 downward directions in air
 /// become 1560 at n = 1.3, 1818 at n = 2.5; five more indices, 1.2 to 3.0,
 /// make 3456). The solver keeps about ten `N x N` matrices of f64 per layer,
-/// 320 MB at this bound; one layer with 1818 takes about 12 s on one core.
+/// 320 MB at this bound (the time of one such layer: docs/benchmarks.md,
+/// "Times behind limits and defaults").
 pub const MAX_SET_DIRECTIONS: usize = 2000;
 
 /// Settings of the direction-set method.

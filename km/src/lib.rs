@@ -71,7 +71,7 @@ pub use km_core::solution::{AccuracyReport, Diagnostics, MethodDiagnostics};
 pub use km_core::two_flux::{KmMapping, KmModel, KmOptions};
 pub use km_core::{
     ChannelResult, CoreError, Layer, Light, MonoScene, Scene, SceneLimits, Solution, Substrate,
-    Uncertainty, read_scene_text,
+    Uncertainty, read_checked_text, read_scene_text,
 };
 pub use km_dipole::{DipoleModel, DipoleOptions, FdrModel};
 pub use km_montecarlo::{Estimator, McOptions, Progress};
@@ -81,6 +81,21 @@ pub use km_multiflux::MultifluxOptions;
 pub use km_multiflux::bsdf;
 /// The multi-flux work budget (eq. W1; `docs/limits.md`).
 pub use km_multiflux::budget as multiflux_budget;
+// The front ends' face beyond solving (the `km` command and the Python
+// package depend on no other crate of the solvers): what they read, write
+// and match on, named here one by one rather than whole crates.
+/// Mie theory: spheres, size distributions, the moments of their phase function.
+pub use km_core::mie;
+/// Phase functions of a layer (`Phase`, its tables and Legendre moments).
+pub use km_core::phase;
+pub use km_core::solution::{DEPTH_KEYS, UncertaintyValue};
+pub use km_dipole::DipoleError;
+/// MCML's `.mci` input and `.mco` output files (`km mc`, docs/mcml.md).
+pub use km_montecarlo::mcml;
+pub use km_montecarlo::{GridResult, McError, Partial};
+/// Monte Carlo shards merged into one run (`km merge`, Python's `km.merge`).
+pub use km_montecarlo::{merge as mc_merge, merge_files as mc_merge_files};
+pub use km_multiflux::{MultifluxError, default_bsdf_streams};
 pub use method::{Method, UnknownMethod};
 pub use profile::{Profile, ProfileOptions, profile};
 pub use run::{mc_shard, solve_repeated};

@@ -3,13 +3,13 @@
 
 use km_multiflux::direction_set::{Distribution, StackResponse};
 
-use crate::chart::{PolarChart, PolarCurve, PolarSpike, format_number};
 use crate::data::{Csv, num};
+use km_plot::chart::{PolarChart, PolarCurve, PolarSpike, format_number};
 
 /// The nodes of a distribution nearest to the plane of incidence: for each
 /// ring (polar angle), the node of azimuth nearest 0 (back towards the
 /// source) and nearest 180 (forward). Returns `(psi, value, theta, phi)`
-/// sorted by `psi` (see [`crate::chart::PolarCurve`]); transmitted
+/// sorted by `psi` (see [`km_plot::chart::PolarCurve`]); transmitted
 /// directions use `psi` in `(90, 270)` so the curve is continuous through
 /// the downward normal.
 pub fn plane_cut(

@@ -16,12 +16,12 @@ use km_core::fresnel::{critical_cos, reflectance};
 use km_core::quadrature::integrate_gl;
 use km_core::{Scene, Substrate};
 
-use crate::chart::{LineChart, Mark, Series, format_number};
 use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods;
 use crate::report::{Section, Table};
 use crate::scenes::slab;
+use km_plot::chart::{LineChart, Mark, Series, format_number};
 
 mod profiles;
 

@@ -5,12 +5,12 @@
 
 use km_core::Substrate;
 
-use crate::chart::{LineChart, Mark, Series, format_number};
 use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods::{self, Method};
 use crate::report::{Section, Table};
 use crate::scenes::slab;
+use km_plot::chart::{LineChart, Mark, Series, format_number};
 
 /// `Rd(r)`: dipole against Monte Carlo, and totals against multi-flux.
 ///

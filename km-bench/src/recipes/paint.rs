@@ -14,10 +14,10 @@ use km::{
 use km_core::{Scene, Solution};
 use km_inverse::kubelka::{Film, Saunderson, Specular, from_black_white, reflectance_over_ground};
 
-use crate::chart::{LineChart, Mark, Series, format_number};
 use crate::context::{Ctx, Size};
 use crate::data::Csv;
 use crate::report::{Section, Table};
+use km_plot::chart::{LineChart, Mark, Series, format_number};
 
 /// Vacuum wavelengths of the scenes, nm.
 pub const WAVELENGTHS_NM: [f64; 3] = [450.0, 550.0, 650.0];
@@ -329,15 +329,87 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
     let deterministic_s = t0.elapsed().as_secs_f64();
     // Monte Carlo at the chart's wavelength, f_v = 0.2, both grounds.
     let mc_fv = 0.2;
+    let mc = mc_runs(&plan, mc_fv, ctx.seed)?;
+    let opaque = opaque_runs(&plan, mc_fv, &points)?;
+    write_csvs(ctx, &plan, &points, &mc, mc_fv)?;
+    let at_chart: Vec<&Point> = points.iter().filter(|p| p.wavelength_nm == CHART_NM).collect();
+    draw_charts(ctx, &plan, &at_chart, &mc, mc_fv)?;
+    let (ks, methods_t, opaque_t, worst_z) = tables(&at_chart, &mc, &opaque, mc_fv);
+    let conv = points
+        .iter()
+        .flat_map(|p| (0..2).map(move |i| (p.r_mf[i] - p.r_mf_half[i]).abs()))
+        .fold(0.0, f64::max);
+    let round_trip = points
+        .iter()
+        .flat_map(|p| {
+            [(Ground::Black, p.r_mf[0]), (Ground::White, p.r_mf[1])]
+                .map(|(g, r)| forward(&p.film, g).map(|f| (f - r).abs()).unwrap_or(f64::NAN))
+        })
+        .fold(0.0, f64::max);
+    let best = |fv: f64| {
+        at_chart
+            .iter()
+            .filter(|p| p.fv == fv)
+            .max_by(|a, b| a.film.s.total_cmp(&b.film.s))
+            .map(|p| (p.radius_um, p.film.s))
+            .unwrap_or((f64::NAN, f64::NAN))
+    };
+    let found =
+        Found { mc_fv, conv, round_trip, best: [best(0.1).0, best(0.2).0, best(0.3).0], worst_z };
+    let sec = section(&plan, &found, [ks, methods_t, opaque_t]);
+    ctx.headline = format!(
+        "{} radii x {} f_v x {} wavelengths in {:.1} s; S peaks at r = {} um (f_v 0.2); \
+         round trip {:.0e}; MC within {worst_z:.1} s.e.",
+        plan.radii.len(),
+        VOLUME_FRACTIONS.len(),
+        WAVELENGTHS_NM.len(),
+        deterministic_s,
+        format_number(best(0.2).0),
+        round_trip
+    );
+    Ok(sec)
+}
+
+/// One Monte Carlo run of the recipe: radius (um), ground, R, its standard
+/// error, seconds.
+type McRun = (f64, Ground, f64, f64, f64);
+
+/// The opaque paint at one radius (um): multi-flux R, the dipole's R, and
+/// `R_inf` of the inverted `K/S`.
+type Opaque = (f64, f64, f64, f64);
+
+/// What the report's text quotes besides the tables.
+#[derive(Clone, Copy)]
+struct Found {
+    /// The volume fraction of the Monte Carlo runs.
+    mc_fv: f64,
+    /// The largest change of any R from half the streams.
+    conv: f64,
+    /// The largest |two-flux forward of the inverted K, S - multi-flux R|.
+    round_trip: f64,
+    /// The radius of the largest S at f_v = 0.1, 0.2, 0.3 (um).
+    best: [f64; 3],
+    /// The largest |MC - MF| in standard errors.
+    worst_z: f64,
+}
+
+/// Monte Carlo at the chart's wavelength, volume fraction `mc_fv`, over
+/// both grounds, at the plan's radii.
+fn mc_runs(plan: &Plan, mc_fv: f64, base_seed: u64) -> anyhow::Result<Vec<McRun>> {
     let mut mc = Vec::new();
     for (k, &r) in plan.mc_radii.iter().enumerate() {
         for (j, ground) in [Ground::Black, Ground::White].into_iter().enumerate() {
-            let seed = ctx.seed.wrapping_add(100 * k as u64 + j as u64);
+            let seed = base_seed.wrapping_add(100 * k as u64 + j as u64);
             let (v, se, secs) = monte_carlo(r, mc_fv, ground, plan.photons, seed)?;
             mc.push((r, ground, v, se, secs));
         }
     }
-    // Opaque film (half-space): multi-flux, the dipole and R_inf of the inverted K/S.
+    Ok(mc)
+}
+
+/// The opaque film (half-space): multi-flux, the dipole and `R_inf` of the
+/// inverted `K/S`, at the Monte Carlo radii.
+fn opaque_runs(plan: &Plan, mc_fv: f64, points: &[Point]) -> anyhow::Result<Vec<Opaque>> {
     let mut opaque = Vec::new();
     for &r in &plan.mc_radii {
         let s = scene(r, mc_fv, Ground::Opaque, &[CHART_NM])?;
@@ -352,7 +424,17 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         };
         opaque.push((r, mf, dip, r_inf));
     }
+    Ok(opaque)
+}
 
+/// The CSV of every point (`paint-points`) and of the Monte Carlo runs (`paint-mc`).
+fn write_csvs(
+    ctx: &mut Ctx,
+    plan: &Plan,
+    points: &[Point],
+    mc: &[McRun],
+    mc_fv: f64,
+) -> anyhow::Result<()> {
     // CSV of every point.
     let mut csv = Csv::new(&[
         "radius_um",
@@ -384,7 +466,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         plan.streams / 2,
         plan.directions
     ));
-    for p in &points {
+    for p in points {
         csv.push_nums(&[
             p.radius_um,
             p.fv,
@@ -412,7 +494,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         "Monte Carlo at {CHART_NM} nm, f_v = {mc_fv}, {} photons per run, base seed {}",
         plan.photons, ctx.seed
     ));
-    for (r, g, v, se, secs) in &mc {
+    for (r, g, v, se, secs) in mc {
         mc_csv.push(vec![
             format!("{r:e}"),
             format!("{g:?}").to_lowercase(),
@@ -422,8 +504,17 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         ]);
     }
     ctx.csv("paint-mc", &mut mc_csv)?;
+    Ok(())
+}
 
-    let at_chart: Vec<&Point> = points.iter().filter(|p| p.wavelength_nm == CHART_NM).collect();
+/// The charts of R against radius over each ground, and of K and S.
+fn draw_charts(
+    ctx: &mut Ctx,
+    plan: &Plan,
+    at_chart: &[&Point],
+    mc: &[McRun],
+    mc_fv: f64,
+) -> anyhow::Result<()> {
     // Charts of R against radius, one per ground.
     for (gi, ground, name) in [(0, Ground::Black, "black"), (1, Ground::White, "white")] {
         let mut series = Vec::new();
@@ -490,7 +581,17 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
             ..Default::default()
         },
     )?;
+    Ok(())
+}
 
+/// The report's tables (K and S; every method where Monte Carlo ran; the
+/// opaque paint) and the largest |MC - MF| in standard errors.
+fn tables(
+    at_chart: &[&Point],
+    mc: &[McRun],
+    opaque: &[Opaque],
+    mc_fv: f64,
+) -> (Table, Table, Table, f64) {
     // Tables.
     let mut ks = Table::new(&[
         "radius (um)",
@@ -504,7 +605,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         "g",
         "S change at half the streams",
     ]);
-    for p in &at_chart {
+    for p in at_chart {
         ks.push(vec![
             format_number(p.radius_um),
             format_number(p.fv),
@@ -529,7 +630,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
         "direction set",
     ]);
     let mut worst_z: f64 = 0.0;
-    for (r, ground, v, se, _) in &mc {
+    for (r, ground, v, se, _) in mc {
         let gi = usize::from(*ground == Ground::White);
         let Some(p) = at_chart.iter().find(|p| p.fv == mc_fv && (p.radius_um - r).abs() < 1e-12)
         else {
@@ -550,7 +651,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
     }
     let mut opaque_t =
         Table::new(&["radius (um)", "multi-flux", "dipole", "R_inf of the inverted K/S"]);
-    for (r, mf, dip, kinf) in &opaque {
+    for (r, mf, dip, kinf) in opaque {
         opaque_t.push(vec![
             format_number(*r),
             format!("{mf:.4}"),
@@ -558,25 +659,12 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
             format!("{kinf:.4}"),
         ]);
     }
-    let conv = points
-        .iter()
-        .flat_map(|p| (0..2).map(move |i| (p.r_mf[i] - p.r_mf_half[i]).abs()))
-        .fold(0.0, f64::max);
-    let round_trip = points
-        .iter()
-        .flat_map(|p| {
-            [(Ground::Black, p.r_mf[0]), (Ground::White, p.r_mf[1])]
-                .map(|(g, r)| forward(&p.film, g).map(|f| (f - r).abs()).unwrap_or(f64::NAN))
-        })
-        .fold(0.0, f64::max);
-    let best = |fv: f64| {
-        at_chart
-            .iter()
-            .filter(|p| p.fv == fv)
-            .max_by(|a, b| a.film.s.total_cmp(&b.film.s))
-            .map(|p| (p.radius_um, p.film.s))
-            .unwrap_or((f64::NAN, f64::NAN))
-    };
+    (ks, methods_t, opaque_t, worst_z)
+}
+
+/// The report's section: what was computed and how, the figures and the tables.
+fn section(plan: &Plan, found: &Found, [ks, methods_t, opaque_t]: [Table; 3]) -> Section {
+    let Found { mc_fv, conv, round_trip, best, worst_z } = *found;
     let (n_o, n_e, n_avg) = rutile_index(CHART_NM);
     let mut sec = Section::new("A white paint from Mie theory: rutile in resin");
     sec.text(format!(
@@ -634,9 +722,9 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
          mapping show how far the diffusion-theory constants are from the film's effective \
          ones.",
         round_trip,
-        format_number(best(0.1).0),
-        format_number(best(0.2).0),
-        format_number(best(0.3).0),
+        format_number(best[0]),
+        format_number(best[1]),
+        format_number(best[2]),
     ))
     .figure_data("paint-ks", "K and S against sphere radius", "paint-points")
     .table(ks)
@@ -651,17 +739,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
          Saunderson's correction):"
     ))
     .table(opaque_t);
-    ctx.headline = format!(
-        "{} radii x {} f_v x {} wavelengths in {:.1} s; S peaks at r = {} um (f_v 0.2); \
-         round trip {:.0e}; MC within {worst_z:.1} s.e.",
-        plan.radii.len(),
-        VOLUME_FRACTIONS.len(),
-        WAVELENGTHS_NM.len(),
-        deterministic_s,
-        format_number(best(0.2).0),
-        round_trip
-    );
-    Ok(sec)
+    sec
 }
 
 #[cfg(test)]

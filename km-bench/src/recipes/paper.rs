@@ -10,13 +10,13 @@ use km_core::Substrate;
 use km_multiflux::direction_set::{self, Combine, StackResponse};
 use km_multiflux::flatland;
 
-use crate::chart::{LineChart, Mark, PolarChart, PolarCurve, PolarSpike, Series, format_number};
 use crate::context::Ctx;
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::recipes::common::{response_chart, response_csv, response_csv_new};
 use crate::report::{Section, Table};
 use crate::scenes::slab;
+use km_plot::chart::{LineChart, Mark, PolarChart, PolarCurve, PolarSpike, Series, format_number};
 
 /// Directions of the direction-set solver: the seed's 303 (§4.2) except at the tiny size.
 pub fn n_directions(ctx: &Ctx) -> usize {

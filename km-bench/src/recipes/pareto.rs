@@ -5,13 +5,13 @@
 
 use km_core::Scene;
 
-use crate::chart::{LineChart, Mark, Series, format_number};
 use crate::context::{Ctx, Size};
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::recipes::accuracy::{rel, rel_rms, rel_rms_noise};
 use crate::report::{Section, Table};
 use crate::scenes::{StudyScene, study_scenes};
+use km_plot::chart::{LineChart, Mark, Series, format_number};
 
 /// One method at one setting on one scene.
 #[derive(Debug, Clone, PartialEq)]

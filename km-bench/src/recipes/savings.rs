@@ -6,11 +6,11 @@
 
 use km::{McOptions, Method, MultifluxOptions, Options, Scene};
 
-use crate::chart::format_number;
 use crate::context::Ctx;
 use crate::data::Csv;
 use crate::recipes::common::{Spread, ratio_text};
 use crate::report::{Section, Table};
+use km_plot::chart::format_number;
 
 /// Multi-flux agreement where the skipped work is exact (an identity
 /// interface, a zero scattering term, an order that is not excited): rounding only.

@@ -11,7 +11,6 @@ use std::time::Instant;
 use km_core::{Scene, Solution};
 use km_multiflux::direction_set::{self, Combine};
 
-use crate::chart::{LineChart, Mark, PolarChart, PolarCurve, Series, format_number, plane_angle};
 use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods::{self, Method};
@@ -20,6 +19,7 @@ use crate::recipes::common::{Spread, plane_cut, ratio_text, timed_spread};
 use crate::recipes::paper::n_directions;
 use crate::report::{Section, Table};
 use crate::scenes::{hemisphere_directions, plane_directions, seed_three_layers};
+use km_plot::chart::{LineChart, Mark, PolarChart, PolarCurve, Series, format_number, plane_angle};
 
 /// Samples per incident direction in the seed's Monte Carlo (§4.2).
 pub const PAPER_SAMPLES: u64 = 100_000;

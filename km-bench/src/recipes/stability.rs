@@ -5,12 +5,12 @@
 
 use km_core::{Solution, Substrate};
 
-use crate::chart::{HeatMap, format_number};
 use crate::context::{Ctx, Size};
 use crate::data::{Csv, num};
 use crate::methods::{self, Method};
 use crate::report::{Section, Table};
 use crate::scenes::slab;
+use km_plot::chart::{HeatMap, format_number};
 
 /// Bottom of the colour scale of the error maps: the rounding level of
 /// `R + T + A - 1` in f64. One ulp of 1 is 2.2e-16 (machine epsilon); the

@@ -2,36 +2,14 @@
 //! eq. S4 (vector solves for the probes, the beam and the internal field),
 //! and `X = B C^-1` for the node operators.
 //!
-//! Hand-written up to 47 nodes, faer's LU from 48 on. Measured by the
-//! criterion bench `km-bench/benches/lu.rs` on the slab's own `Cp`, `Cm`
-//! (factor both, `X = C_out C^-1` for both, one `C x = b` and five
-//! `C^T x = b` each), medians on 2 shared cores (2026-11), hand-written /
-//! faer's / this file's switch:
-//!
-//! | N | hand | faer | switch | faer / hand |
-//! |---|---|---|---|---|
-//! | 4 | 1.63 us | 5.72 us | 1.60 us | 3.5 (hand faster) |
-//! | 8 | 3.90 us | 10.7 us | 4.22 us | 2.7 |
-//! | 16 | 13.2 us | 18.7 us | 11.6 us | 1.4 |
-//! | 32 | 47.2 us | 40.8 us | 44.4 us | 0.86 (faer faster) |
-//! | 64 | 276 us | 117 us | 139 us | 0.42 |
-//!
-//! (the `switch` column with the switch at 32). At N = 32 faer wins only
-//! through `X = C_out C^-1`: the slab's common path (factors, the beam and
-//! the probes, no node operators) was 3–4 % slower with faer's factors at
-//! N = 32 in the `multiflux` bench (totals 79.8 -> 81.8 us, full BRDF
-//! 1.70 -> 1.76 ms) and 3–4 % faster at N = 64 (totals 328 -> 317 us, full
-//! BRDF 6.95 -> 6.72 ms). So from 48 nodes on the factors and every solve
-//! are faer's (the factors are also copied into this file's layout, the
-//! permutation as exchanges, for [`Lu::right_solve`] and the slab's
-//! regularity check: the 20 us between `switch` and `faer` at N = 64); up
-//! to 32 nodes (the default stream counts) everything is the code of this
-//! file, from 33 to 47 the node operators use faer's LU as before. With
-//! this switch the `multiflux` bench (medians of three alternated runs,
-//! before / after the restructuring that brought it) gave: one layer,
-//! totals 79.0 / 78.7 us at N = 32, 327.7 / 314.8 us at N = 64; full BRDF
-//! 1.69 / 1.70 ms at N = 32, 6.99 / 6.64 ms at N = 64; the 3-layer stack
-//! (N = 16 in up to 48 nodes) 918.8 / 856.1 us.
+//! Hand-written up to 47 nodes, faer's LU from 48 on: up to 32 nodes (the
+//! default stream counts) everything is the code of this file; from 33 to
+//! 47 the node operators `X = C_out C^-1` use faer's LU; from 48 on the
+//! factors and every solve are faer's (the factors are also copied into
+//! this file's layout, the permutation as exchanges, for [`Lu::right_solve`]
+//! and the slab's regularity check). The criterion measurements behind the
+//! switch (`km-bench/benches/lu.rs` and the `multiflux` bench) are in
+//! docs/benchmarks.md, "LU factors of the slab".
 
 use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};

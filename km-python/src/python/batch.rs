@@ -1,7 +1,7 @@
 //! `km.solve`, batch solves (`km.solve_many`) and Monte Carlo shards
 //! (`km.run_shard`, `km.merge`, `km.Partial`).
 
-use km_core::{Scene, Solution};
+use km::{Scene, Solution};
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -39,7 +39,7 @@ use km::Method;
 /// ((0, 2), True)
 #[pyclass(frozen, name = "Partial", module = "km")]
 pub struct PyPartial {
-    part: km_montecarlo::Partial,
+    part: km::Partial,
 }
 
 #[pymethods]
@@ -314,7 +314,7 @@ pub(crate) fn run_shard(
     };
     let scene = &scene.get().scene;
     let part = interruptible(py, |c| {
-        Ok(km_montecarlo::run_shard(scene, &opts.with_cancel(c).mc()?, index, count)?)
+        Ok(km::mc_shard(scene, &opts.with_cancel(c).library()?, index, count)?)
     })?;
     Ok(PyPartial { part })
 }
@@ -322,7 +322,7 @@ pub(crate) fn run_shard(
 /// Merge Monte Carlo shards into the result of one run (see `km.merge`).
 #[pyfunction]
 pub(crate) fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyPartial>>) -> PyResult<PySolution> {
-    let parts: Vec<km_montecarlo::Partial> = parts.iter().map(|p| p.get().part.clone()).collect();
-    let sol = guarded(py, || Ok(km_montecarlo::merge(&parts)?))?;
+    let parts: Vec<km::Partial> = parts.iter().map(|p| p.get().part.clone()).collect();
+    let sol = guarded(py, || Ok(km::mc_merge(&parts)?))?;
     Ok(PySolution { sol })
 }

@@ -8,8 +8,8 @@
 //! values are those of `km bsdf` at the same angles, not an interpolation.
 
 use km::MultifluxOptions;
+use km::Scene;
 use km::bsdf::{Bsdf, BsdfOptions, Side, gauss_angles};
-use km_core::Scene;
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -22,11 +22,7 @@ use crate::error::Error;
 /// channels, so that every evaluation of one object uses the same streams.
 fn default_streams(scene: &Scene) -> usize {
     let (grid, _) = gauss_angles(32);
-    scene
-        .channels()
-        .iter()
-        .map(|ch| km_multiflux::default_bsdf_streams(ch, &grid))
-        .fold(1, usize::max)
+    scene.channels().iter().map(|ch| km::default_bsdf_streams(ch, &grid)).fold(1, usize::max)
 }
 
 fn side_of(name: &str) -> Result<Side, Error> {

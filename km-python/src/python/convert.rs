@@ -13,7 +13,7 @@ pub(crate) fn to_toml(py: Python<'_>, key: &str, obj: &Bound<'_, PyAny>) -> PyRe
     let refuse = |what: String| {
         py_err_as(
             py,
-            Error::Scene(km_core::CoreError::scene(
+            Error::Scene(km::CoreError::scene(
                 key,
                 None,
                 format!("{what} cannot be a value of the scene file"),
@@ -32,7 +32,7 @@ pub(crate) fn to_toml(py: Python<'_>, key: &str, obj: &Bound<'_, PyAny>) -> PyRe
             Err(_) => obj.extract::<f64>().map(toml::Value::Float).map_err(|_| {
                 py_err(
                     py,
-                    Error::Scene(km_core::CoreError::scene(
+                    Error::Scene(km::CoreError::scene(
                         key,
                         None,
                         "an integer beyond the largest float (1.8e308)",
@@ -82,7 +82,7 @@ pub(crate) fn section(py: Python<'_>, key: &str, obj: &Bound<'_, PyAny>) -> PyRe
         toml::Value::Table(t) => Ok(t),
         _ => Err(py_err(
             py,
-            Error::Scene(km_core::CoreError::scene(
+            Error::Scene(km::CoreError::scene(
                 key,
                 None,
                 "expected a kind (a string) or a mapping of the section's keys",

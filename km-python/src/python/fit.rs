@@ -401,7 +401,7 @@ pub(crate) fn fit_file<'py>(
         let name = path.display().to_string();
         let cannot = |e: String| Error::option("path", format!("{name}: {e}"));
         // The checked reader: a FIFO or /dev/zero is refused before opening.
-        let text = km_core::read_checked_text(&path, MAX_FILE_BYTES, "a measurement file", "")
+        let text = km::read_checked_text(&path, MAX_FILE_BYTES, "a measurement file", "")
             .map_err(|e| cannot(e.to_string()))?;
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
         let rows = match ext.as_str() {

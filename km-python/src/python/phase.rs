@@ -2,8 +2,8 @@
 //! efficiencies (`km::phase_report`, docs/phase.md §6), and one sphere by
 //! Mie theory, as numpy arrays (channels first).
 
+use km::mie::{Complex, SizeDistribution};
 use km::phase_report::{ChannelPhase, PhaseOptions, PopulationPhase, mie_sphere, phase_report};
-use km_core::mie::{Complex, SizeDistribution};
 use numpy::{Complex64, IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};

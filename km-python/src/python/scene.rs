@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use km_core::{Light, Scene, Substrate};
+use km::{Light, Scene, Substrate};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -129,7 +129,7 @@ impl PyScene {
                 _ => {
                     return Err(py_err(
                         py,
-                        Error::Scene(km_core::CoreError::scene(
+                        Error::Scene(km::CoreError::scene(
                             key,
                             None,
                             "a layer is a mapping of its keys (sigma_a, sigma_s, thickness, \
@@ -207,8 +207,8 @@ impl PyScene {
     fn from_file(py: Python<'_>, path: PathBuf) -> PyResult<PyScene> {
         // The checked reader of `km`: a FIFO or /dev/zero is refused before
         // opening, and the size limit holds (KM_MAX_SCENE_BYTES).
-        let limits = km_core::SceneLimits::from_env();
-        let text = km_core::read_scene_text(&path, limits.max_bytes)
+        let limits = km::SceneLimits::from_env();
+        let text = km::read_scene_text(&path, limits.max_bytes)
             .map_err(|e| super::file_err(py, &path, Error::Scene(e)))?;
         PyScene::parse(py, text)
     }

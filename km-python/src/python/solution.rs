@@ -1,7 +1,7 @@
 //! `km.Solution`: totals, BRDF/BTDF samples, uncertainties, the plan.
 
-use km_core::solution::UncertaintyValue;
-use km_core::{Solution, Uncertainty};
+use km::UncertaintyValue;
+use km::{Solution, Uncertainty};
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -66,7 +66,7 @@ impl PySolution {
     fn per_channel<'py>(
         &self,
         py: Python<'py>,
-        get: impl Fn(&km_core::ChannelResult) -> f64,
+        get: impl Fn(&km::ChannelResult) -> f64,
     ) -> PyResult<Bound<'py, PyAny>> {
         let v: Vec<f64> = self.sol.channels.iter().map(get).collect();
         if v.len() == 1 {
@@ -79,7 +79,7 @@ impl PySolution {
     fn angular<'py>(
         &self,
         py: Python<'py>,
-        get: impl Fn(&km_core::ChannelResult) -> &Vec<f64>,
+        get: impl Fn(&km::ChannelResult) -> &Vec<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let ch = &self.sol.channels;
         let d = ch.first().map(|c| get(c).len()).unwrap_or(0);
@@ -103,7 +103,7 @@ impl PySolution {
     fn per_key<'py>(
         &self,
         py: Python<'py>,
-        get: impl Fn(&km_core::ChannelResult) -> Option<&Uncertainty>,
+        get: impl Fn(&km::ChannelResult) -> Option<&Uncertainty>,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
         if self.sol.channels.iter().all(|c| get(c).is_none()) {
             return Ok(None);
@@ -208,7 +208,7 @@ impl PySolution {
             return Ok(None);
         }
         let empty = Vec::new();
-        let get = |c: &km_core::ChannelResult| -> Vec<f64> {
+        let get = |c: &km::ChannelResult| -> Vec<f64> {
             c.absorptance_layers.as_ref().unwrap_or(&empty).clone()
         };
         let ch = &self.sol.channels;
@@ -234,12 +234,12 @@ impl PySolution {
         let d = PyDict::new(py);
         d.set_item("depths", f.depths.clone().into_pyarray(py))?;
         let values = [&f.fluence, &f.absorbed, &f.net_flux];
-        for (k, v) in km_core::solution::DEPTH_KEYS.iter().zip(values) {
+        for (k, v) in km::DEPTH_KEYS.iter().zip(values) {
             d.set_item(*k, rows(py, v.clone())?)?;
         }
         if let Some(se) = &f.stderr {
             let s = PyDict::new(py);
-            for (k, v) in km_core::solution::DEPTH_KEYS.iter().zip(se) {
+            for (k, v) in km::DEPTH_KEYS.iter().zip(se) {
                 s.set_item(*k, rows(py, v.clone())?)?;
             }
             d.set_item("stderr", s)?;

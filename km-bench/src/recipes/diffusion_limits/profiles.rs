@@ -6,11 +6,11 @@ use std::time::Instant;
 use km_core::Scene;
 use km_core::fresnel::reflectance;
 
-use crate::chart::{LineChart, Mark, Series};
 use crate::context::Ctx;
 use crate::data::Csv;
 use crate::methods;
 use crate::report::{Section, Table};
+use km_plot::chart::{LineChart, Mark, Series};
 
 /// Part 2: `Rd(r)` of measured materials, dipole against Monte Carlo.
 pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<String> {

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use km_multiflux::bsdf::Bsdf;
+use km::bsdf::Bsdf;
 
 use crate::chart::{HeatMap, PolarChart, PolarCurve, PolarSpike, plane_angle, write_chart};
 
