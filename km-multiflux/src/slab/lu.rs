@@ -282,6 +282,59 @@ impl Lu {
         }
     }
 
+    /// `Y <- C^-T Y` for `m` right-hand sides at once, `y` row-major `n x m`
+    /// (`y[i * m + r]`: component `i` of right-hand side `r`). The same steps
+    /// as [`Lu::solve_transpose`] with the right-hand sides innermost, so
+    /// each step is a contiguous `axpy` over them (a probe row per distinct
+    /// exit cosine, or a node row per column of `R` and `T`, in one call
+    /// instead of one solve each).
+    pub fn solve_transpose_rows(&self, y: &mut [f64], m: usize) {
+        let n = self.n;
+        debug_assert_eq!(y.len(), n * m);
+        if m == 0 {
+            return;
+        }
+        if let Some(f) = &self.faer {
+            f.solve_transpose_in_place(faer::MatMut::from_row_major_slice_mut(y, n, m));
+            return;
+        }
+        // U^T Z = B: row k of Z is (row k of B - sum_{j<k} U_jk Z_j) / U_kk.
+        for k in 0..n {
+            let (done, rest) = y.split_at_mut(k * m);
+            let yk = &mut rest[..m];
+            for (j, u) in self.lu[k * n..k * n + k].iter().enumerate() {
+                if *u != 0.0 {
+                    for (a, b) in yk.iter_mut().zip(&done[j * m..(j + 1) * m]) {
+                        *a -= u * b;
+                    }
+                }
+            }
+            let inv = 1.0 / self.lu[k * n + k];
+            yk.iter_mut().for_each(|a| *a *= inv);
+        }
+        // L^T W = Z (unit diagonal): row k -= sum_{j>k} L_jk W_j, from the last.
+        for k in (0..n).rev() {
+            let (head, tail) = y.split_at_mut((k + 1) * m);
+            let yk = &mut head[k * m..];
+            for (j, l) in self.lu[k * n + k + 1..(k + 1) * n].iter().enumerate() {
+                if *l != 0.0 {
+                    for (a, b) in yk.iter_mut().zip(&tail[j * m..(j + 1) * m]) {
+                        *a -= l * b;
+                    }
+                }
+            }
+        }
+        // Y = P^T W: undo the row exchanges in reverse order.
+        for k in (0..n).rev() {
+            let p = self.piv[k];
+            if p != k {
+                let (lo, hi) = (k.min(p), k.max(p));
+                let (a, b) = y.split_at_mut(hi * m);
+                a[lo * m..(lo + 1) * m].swap_with_slice(&mut b[..m]);
+            }
+        }
+    }
+
     /// `X <- X C^-1` for an `n x n` block `X`, column-major (`x[j * n + i]`),
     /// by whole columns (contiguous updates): with `C = P^T L U`, first
     /// `W U = X` (columns left to right), then `Y L = W` (right to left),
@@ -355,6 +408,35 @@ mod tests {
                 let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j]).sum();
                 assert!((cx - b[i]).abs() < 1e-11, "n = {n}, row {i}: C x");
                 assert!((cty - b[i]).abs() < 1e-11, "n = {n}, row {i}: C^T y");
+            }
+        }
+    }
+
+    /// `C^T Y = B` for many right-hand sides at once (row-major) gives back
+    /// `B` when multiplied out, and equals the one-at-a-time solve to
+    /// rounding, on both sides of the switch to faer's factors.
+    #[test]
+    fn transposed_solves_of_many_right_hand_sides_invert() {
+        for (n, m) in [(3usize, 1usize), (5, 7), (32, 40), (47, 3), (48, 9), (64, 33)] {
+            let mut s = 4242u64 + (n * 100 + m) as u64;
+            let mut rnd = move || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+            };
+            let c = Mat::from_fn(n, n, |i, j| if i == j { 1e-3 * rnd() } else { rnd() });
+            let b: Vec<f64> = (0..n * m).map(|_| rnd()).collect();
+            let lu = Lu::new(&c);
+            let mut y = b.clone();
+            lu.solve_transpose_rows(&mut y, m);
+            for r in 0..m {
+                let mut one: Vec<f64> = (0..n).map(|i| b[i * m + r]).collect();
+                lu.solve_transpose(&mut one);
+                for i in 0..n {
+                    let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j * m + r]).sum();
+                    assert!((cty - b[i * m + r]).abs() < 1e-11, "n = {n}, rhs {r}, row {i}");
+                    let scale = one.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+                    assert!((one[i] - y[i * m + r]).abs() <= 1e-13 * scale, "n = {n}, rhs {r}");
+                }
             }
         }
     }

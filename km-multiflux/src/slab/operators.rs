@@ -30,8 +30,7 @@ impl SlabSolution {
         let (mut rr, mut tt) = self.node_blocks(dim);
         // Probe rows first (needed by the beam columns), once per distinct cosine.
         let probes = self.probes(extras, ws);
-        let vectors: Vec<_> =
-            (0..probes.len()).map(|p| self.probe_row_vectors(&probes.row(p), ws)).collect();
+        let vectors = self.all_probe_row_vectors(&probes, ws);
         for (e, ex) in extras.iter().enumerate() {
             if let Some(mu_x) = ex.mu {
                 tt[(n + e, n + e)] = atten(self.tau, mu_x);
@@ -102,8 +101,7 @@ impl SlabSolution {
         let mut dt = vec![0.0; np];
         // Probe rows first (needed by the beam columns), once per distinct cosine.
         let probes = self.probes(extras, ws);
-        let vectors: Vec<_> =
-            (0..probes.len()).map(|p| self.probe_row_vectors(&probes.row(p), ws)).collect();
+        let vectors = self.all_probe_row_vectors(&probes, ws);
         for (e, ex) in extras.iter().enumerate() {
             let Some(mu_x) = ex.mu else { continue };
             if e < nbeam {
@@ -204,26 +202,35 @@ impl SlabSolution {
         let n = self.n;
         let mut r = Mat::<f64>::zeros(n, n);
         let mut tr = Mat::<f64>::zeros(n, n);
-        let (mut xp, mut xm) = (vec![0.0; n], vec![0.0; n]);
+        // Row j of X = C_out C^-1 is C^-T applied to row j of C_out: all n
+        // rows at once, right-hand side j in column j of a row-major block
+        // (component i at [i * n + j], i.e. C_out transposed).
+        let mut xp = vec![0.0; n * n];
         for j in 0..n {
-            // Row j of X = C_out C^-1 is C^-T applied to row j of C_out.
             for i in 0..n {
-                xp[i] = self.cp_out[(j, i)];
+                xp[i * n + j] = self.cp_out[(j, i)];
             }
-            self.lu_p.solve_transpose(&mut xp);
-            match &self.lu_m {
-                Some(lu) => {
+        }
+        self.lu_p.solve_transpose_rows(&mut xp, n);
+        let xm = match &self.lu_m {
+            Some(lu) => {
+                let mut xm = vec![0.0; n * n];
+                for j in 0..n {
                     for i in 0..n {
-                        xm[i] = self.cm_out[(j, i)];
+                        xm[i * n + j] = self.cm_out[(j, i)];
                     }
-                    lu.solve_transpose(&mut xm);
                 }
-                None => xm.copy_from_slice(&xp),
+                lu.solve_transpose_rows(&mut xm, n);
+                xm
             }
+            None => xp.clone(),
+        };
+        for j in 0..n {
             for i in 0..n {
                 let f = self.t[i] / self.t[j];
-                r[(j, i)] = 0.5 * (xp[i] + xm[i]) * f;
-                tr[(j, i)] = if self.lu_m.is_none() { 0.0 } else { 0.5 * (xp[i] - xm[i]) * f };
+                let (a, b) = (xp[i * n + j], xm[i * n + j]);
+                r[(j, i)] = 0.5 * (a + b) * f;
+                tr[(j, i)] = if self.lu_m.is_none() { 0.0 } else { 0.5 * (a - b) * f };
             }
         }
         (r, tr)

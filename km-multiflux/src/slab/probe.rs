@@ -216,6 +216,49 @@ impl SlabSolution {
         (rx, tx)
     }
 
+    /// [`SlabSolution::probe_row_vectors`] of every probe, their transposed
+    /// solves in one call per factor (`Cp^-T [us_1 .. us_P]`, `Cm^-T [uy_1 ..
+    /// uy_P]`).
+    pub(super) fn all_probe_row_vectors(
+        &self,
+        probes: &Probes,
+        ws: &mut Workspace,
+    ) -> Vec<(Vec<f64>, Vec<f64>)> {
+        let (n, np) = (self.n, probes.len());
+        if np < 2 {
+            return (0..np).map(|p| self.probe_row_vectors(&probes.row(p), ws)).collect();
+        }
+        // Row-major n x np: component i of probe p at [i * np + p].
+        let (mut p_all, mut q_all) = (ws.take_for_overwrite(n * np), ws.take_for_overwrite(n * np));
+        for p in 0..np {
+            let row = probes.row(p);
+            for i in 0..n {
+                p_all[i * np + p] = row.us[i];
+                q_all[i * np + p] = row.uy[i];
+            }
+        }
+        self.lu_p.solve_transpose_rows(&mut p_all, np);
+        match &self.lu_m {
+            Some(lu) => lu.solve_transpose_rows(&mut q_all, np),
+            None => q_all.iter_mut().for_each(|x| *x = 0.0),
+        }
+        let out = (0..np)
+            .map(|p| {
+                let mut rx = vec![0.0; n];
+                let mut tx = vec![0.0; n];
+                for i in 0..n {
+                    let (a, b) = (p_all[i * np + p], q_all[i * np + p]);
+                    rx[i] = (a + b) * self.t[i];
+                    tx[i] = if self.tau.is_infinite() { 0.0 } else { (a - b) * self.t[i] };
+                }
+                (rx, tx)
+            })
+            .collect();
+        ws.give(p_all);
+        ws.give(q_all);
+        out
+    }
+
     /// The probes of `extras`, one [`Probe`] per distinct cosine (the beam
     /// and directions absent from this medium have none).
     pub(super) fn probes(&self, extras: &[Extra], ws: &mut Workspace) -> Probes {
