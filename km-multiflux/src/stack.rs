@@ -189,10 +189,8 @@ pub(crate) fn stack_cuts(
         // The empty stack's error.
         return close_stack(scene, None, &close, pieces).map(|_| Vec::new());
     }
-    if !half_space {
-        if let Some(floor) = closing_piece(scene, &close, pieces)? {
-            seq.push((None, floor));
-        }
+    if !half_space && let Some(floor) = closing_piece(scene, &close, pieces)? {
+        seq.push((None, floor));
     }
     let mut cuts: Vec<LayerCuts> = (0..layers.len())
         .map(|_| LayerCuts {

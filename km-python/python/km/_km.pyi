@@ -11,8 +11,8 @@ import numpy.typing as npt
 __version__: str
 __all__ = ["KmError", "Scene", "Solution", "Partial", "_BsdfCore", "FitResult", "_fit",
            "_fit_many", "fit_file", "fit_km", "colour", "delta_e2000", "srgb", "_solve",
-           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "_phase", "_mie",
-           "_settings", "__version__"]
+           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "profile",
+           "_phase", "_mie", "_settings", "__version__"]
 
 _Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
 _FloatOrArray = float | npt.NDArray[np.float64]
