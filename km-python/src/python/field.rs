@@ -78,6 +78,7 @@ pub(crate) fn field<'py>(
 #[pyfunction]
 #[pyo3(signature = (scene, method="dipole", *, r_max=None, points=20, samples=1_000_000,
                     seed=1, depths=None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn profile<'py>(
     py: Python<'py>,
     scene: &Bound<'py, PyScene>,
