@@ -362,7 +362,8 @@ pub struct DipoleDepthField {
 ///
 /// ```
 /// let scene = km_core::Scene::from_toml_str("[[layer]]\npreset = \"skin1\"\n").unwrap();
-/// let f = km_dipole::depth_field(&scene, &[0.0, 1.0], &Default::default()).unwrap();
+/// let f = km_dipole::depth_field(&scene, &[1.0, 5.0], &Default::default()).unwrap();
+/// // Deep inside the fluence decays (as exp(-sigma_tr z), eq. D24).
 /// assert!(f.fluence[0][0] > f.fluence[0][1]);
 /// ```
 pub fn depth_field(
