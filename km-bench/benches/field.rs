@@ -1,10 +1,12 @@
 //! Criterion benchmark of the multi-flux depth field (`docs/field.md` §5):
-//! phi(z), A(z), F(z) at 1,000 depths from one solve at 16 streams (the
-//! stack cut at each layer boundary, each layer eigen-solved once, then O(N)
-//! per depth), on a one-layer tissue slab under a Fresnel interface at 30
-//! degrees and on a three-layer skin-like stack; and the evaluation alone.
+//! phi(z), A(z), F(z) at 1,000 depths from one solve at 16 streams (one
+//! top-down and one bottom-up pass of the adding give the streams at every
+//! layer face, each layer eigen-solved once, then O(N) per depth), on a
+//! one-layer tissue slab under a Fresnel interface at 30 degrees and on a
+//! three-layer skin-like stack; and the evaluation alone.
 //!
-//! Short run: `cargo bench -p km-bench --bench field -- --warm-up-time 1 --measurement-time 3`.
+//! Short run: `cargo bench --profile dev -p km-bench --bench field -- --noplot
+//! --warm-up-time 1 --measurement-time 3`.
 
 use std::hint::black_box;
 

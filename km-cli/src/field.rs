@@ -18,7 +18,7 @@ use crate::stdout;
 pub struct FieldArgs {
     #[command(flatten)]
     pub input: SceneArg,
-    /// Method: multiflux, km (two-flux) or mc (the others refuse with the reason).
+    /// Method: multiflux, km (two-flux), mc or dipole (direction-set refuses with the reason).
     #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
     pub method: Method,
     /// Depths instead of the scene's [output] depths (comma-separated, the layers' length unit).
@@ -36,6 +36,12 @@ pub struct FieldArgs {
     /// Monte Carlo depth-bin width [mc] (default: half the smallest gap between depths).
     #[arg(long)]
     pub dz: Option<f64>,
+    /// How F_dr is computed [dipole].
+    #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
+    pub fdr: km::FdrModel,
+    /// Which dipole [dipole].
+    #[arg(long, value_enum, default_value_t = km::DipoleModel::Jensen2001)]
+    pub dipole: km::DipoleModel,
     /// Print JSON (the same as `--format json`).
     #[arg(long, conflicts_with_all = ["format", "csv"])]
     pub json: bool,
@@ -62,6 +68,7 @@ pub fn run(args: &FieldArgs) -> Result<()> {
     opts.multiflux.streams = args.streams;
     opts.mc.samples = args.samples;
     opts.mc.seed = args.seed;
+    opts.dipole = km::DipoleOptions { fdr: args.fdr, model: args.dipole };
     let f = field(&scene, args.depths.as_deref(), &opts)?;
     if let Some((dir, stem)) = plot {
         write_plot(&f, &dir, &stem)?;

@@ -108,6 +108,10 @@ enum Command {
         /// Monte Carlo seed [mc].
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Depths at which to give the dipole's fluence phi(r, z) as well [dipole]
+        /// (comma-separated, the layer's length unit).
+        #[arg(long, value_delimiter = ',', num_args = 1..)]
+        depths: Option<Vec<f64>>,
         /// Print JSON instead of a table (the same as `--format json`).
         #[arg(long, conflicts_with = "format")]
         json: bool,
@@ -207,8 +211,9 @@ fn run(command: Command) -> anyhow::Result<()> {
             }
             solve::print(&sol, None, OutputFormat::of(json, format))
         }
-        Command::Profile { input, method, r_max, points, samples, seed, json, format } => {
-            let opts = km::ProfileOptions { method, r_max, points, samples, seed };
+        Command::Profile { input, method, r_max, points, samples, seed, depths, json, format } => {
+            let depths = depths.unwrap_or_default();
+            let opts = km::ProfileOptions { method, r_max, points, samples, seed, depths };
             solve::profile(&input.load()?, &opts, OutputFormat::of(json, format))
         }
         Command::Sweep(args) => sweep::run(&args),

@@ -41,7 +41,10 @@ fn field_json_csv_plot_and_refusals() {
     let (ok, _, err) = km(&["field", p, "--plot", other.to_str().unwrap()]);
     assert!(!ok && err.contains("not replaced"), "{err}");
     assert_eq!(std::fs::read_to_string(&other).unwrap(), "mine");
+    // The dipole treats half-spaces only, and says so.
     let (ok, _, err) = km(&["field", p, "--method", "dipole"]);
+    assert!(!ok && err.contains("semi-infinite"), "{err}");
+    let (ok, _, err) = km(&["field", p, "--method", "direction-set"]);
     assert!(!ok && err.contains("no depth-resolved field"), "{err}");
     let (ok, _, err) = km(&["field", p, "--depths", "1.5"]);
     assert!(!ok && err.contains("depths = 1.5"), "{err}");

@@ -11,6 +11,8 @@
 //! * [`dipole`]: fluence, `Rd(r)`, the closed-form total `Rd`, the BSSRDF
 //!   and its two normalisations.
 //! * [`better_dipole`]: the improved dipole of d'Eon (2012).
+//! * [`field`]: the diffusion field inside: `phi(r, z)` of a pencil beam,
+//!   `phi(z)`, `A(z)`, `F(z)` of a broad beam.
 //! * [`solve()`] / [`profile()`]: the scene entry points of `km solve --method
 //!   dipole` and `km profile` ([`DipoleOptions`]).
 //! * [`compare`]: the dipole as a function of (albedo, g, eta) and for the
@@ -25,10 +27,13 @@ pub mod better_dipole;
 pub mod compare;
 pub mod dipole;
 pub mod error;
+pub mod field;
 pub mod params;
 pub mod solve;
 
 pub use dipole::BssrdfNormalisation;
 pub use error::DipoleError;
 pub use params::{DiffusionParams, FdrModel};
-pub use solve::{DipoleModel, DipoleOptions, profile, solve};
+pub use solve::{
+    DipoleDepthField, DipoleModel, DipoleOptions, depth_field, fluence_profile, profile, solve,
+};

@@ -35,6 +35,7 @@ use km_core::{ChannelResult, Light, MonoScene, Scene, Solution};
 use crate::better_dipole::BetterDipole;
 use crate::dipole::{exit_constant_from_fdr, fresnel_transmittance, rd_radial, rd_total};
 use crate::error::DipoleError;
+use crate::field::DipoleField;
 use crate::params::{DiffusionParams, FdrModel, fresnel_moment};
 
 /// Which dipole.
@@ -183,6 +184,13 @@ impl Medium {
             Medium::Better(b, _) => b.alpha_prime,
         }
     }
+    /// The diffusion field inside (eq. D24–D27).
+    fn field(&self, sigma_a: f64) -> DipoleField {
+        match self {
+            Medium::Classic(p, _) => DipoleField::classic(p),
+            Medium::Better(b, _) => DipoleField::better(b, sigma_a),
+        }
+    }
 }
 
 /// The half-space of a channel, checked, and its diffusion quantities.
@@ -290,12 +298,7 @@ pub fn solve(scene: &Scene, opts: &DipoleOptions) -> Result<Solution, DipoleErro
 fn solve_channel(mono: &MonoScene, m: &Medium) -> ChannelResult {
     let n_layer = mono.layers()[0].n();
     // Specular (delta) part and the fraction that enters the medium.
-    let r_spec = match mono.light() {
-        Light::Collimated { .. } => {
-            reflectance(mono.light().mu0().unwrap_or(1.0), mono.ambient_n(), n_layer)
-        }
-        Light::Diffuse => diffuse_reflectance(mono.ambient_n(), n_layer),
-    };
+    let r_spec = specular(mono);
     // Multiple scattering that comes back out (normal-incidence dipole).
     let diffuse = (1.0 - r_spec) * m.rd_total();
     // Exit distribution F_t(cos theta_o) / (pi C), normalised to 1 over the hemisphere.
@@ -319,6 +322,115 @@ fn solve_channel(mono: &MonoScene, m: &Medium) -> ChannelResult {
         absorptance_layers: Some(vec![1.0 - reflectance]),
         ..Default::default()
     }
+}
+
+/// The specular (delta) reflection of the channel's light at the surface
+/// (eq. D18): `1 - r_spec` enters the medium.
+fn specular(mono: &MonoScene) -> f64 {
+    let n_layer = mono.layers()[0].n();
+    match mono.light() {
+        Light::Collimated { .. } => {
+            reflectance(mono.light().mu0().unwrap_or(1.0), mono.ambient_n(), n_layer)
+        }
+        Light::Diffuse => diffuse_reflectance(mono.ambient_n(), n_layer),
+    }
+}
+
+/// The diffusion field of a broad beam by the dipole ([`depth_field`]):
+/// per channel, a value per depth, per unit incident irradiance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DipoleDepthField {
+    /// Fluence rate `phi(z)`, diffuse and collimated (eq. D26).
+    pub fluence: Vec<Vec<f64>>,
+    /// Absorbed power density `A(z) = sigma_a phi(z)`, 1/length.
+    pub absorbed: Vec<Vec<f64>>,
+    /// Net downward flux `F(z)` (eq. D25–D26).
+    pub net_flux: Vec<Vec<f64>>,
+    /// Per channel, `integral_0^inf A dz` (eq. D27): the one layer's absorptance.
+    pub absorptance_layers: Vec<Vec<f64>>,
+}
+
+/// `phi(z)`, `A(z)`, `F(z)` of the scene's light as a broad beam on the
+/// half-space, by the dipole chosen in `opts` (eq. D24–D27 of
+/// `docs/diffusion.md`), at `depths` (finite, `>= 0`), per unit incident
+/// irradiance: the fraction `1 - r_spec` that enters (as [`solve`] counts
+/// it) times the field per unit power entering at normal incidence (the
+/// angle enters only through the Fresnel transmission, as in [`solve`]).
+///
+/// # Errors
+/// Those of [`solve`], and a negative or non-finite depth.
+///
+/// ```
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\npreset = \"skin1\"\n").unwrap();
+/// let f = km_dipole::depth_field(&scene, &[1.0, 5.0], &Default::default()).unwrap();
+/// // Deep inside the fluence decays (as exp(-sigma_tr z), eq. D24).
+/// assert!(f.fluence[0][0] > f.fluence[0][1]);
+/// ```
+pub fn depth_field(
+    scene: &Scene,
+    depths: &[f64],
+    opts: &DipoleOptions,
+) -> Result<DipoleDepthField, DipoleError> {
+    if let Some(&bad) = depths.iter().find(|x| !x.is_finite() || **x < 0.0) {
+        return Err(DipoleError::invalid("depths", bad, "depths must be finite and >= 0"));
+    }
+    let mut out = DipoleDepthField {
+        fluence: Vec::new(),
+        absorbed: Vec::new(),
+        net_flux: Vec::new(),
+        absorptance_layers: Vec::new(),
+    };
+    let mut cache = FresnelCache::default();
+    for (c, mono) in scene.channels().iter().enumerate() {
+        let m = Medium::new(mono, c, opts, &mut cache)?;
+        let f = m.field(mono.layers()[0].sigma_a());
+        let t_in = 1.0 - specular(mono);
+        let (mut phi, mut a, mut net) = (Vec::new(), Vec::new(), Vec::new());
+        for &z in depths {
+            let (p, ab, n) = f.broad(z);
+            phi.push(t_in * p);
+            a.push(t_in * ab);
+            net.push(t_in * n);
+        }
+        out.fluence.push(phi);
+        out.absorbed.push(a);
+        out.net_flux.push(net);
+        out.absorptance_layers.push(vec![t_in * f.absorbed_total()]);
+    }
+    Ok(out)
+}
+
+/// The dipole's fluence `phi(r, z)` of a pencil beam (eq. D14, with the
+/// chosen model's `D` and sources), 1/length^2, per unit power entering
+/// the medium, diffuse light only: `out[channel][k][i] = phi(r[i], z[k])`.
+///
+/// # Errors
+/// Those of [`solve`], and a negative or non-finite `r` or depth.
+///
+/// ```
+/// let scene = km_core::Scene::from_toml_str("[[layer]]\npreset = \"skin1\"\n").unwrap();
+/// let f = km_dipole::fluence_profile(&scene, &[0.5, 1.0], &[2.0], &Default::default()).unwrap();
+/// assert!(f[0][0][0] > f[0][0][1]);
+/// ```
+pub fn fluence_profile(
+    scene: &Scene,
+    r: &[f64],
+    depths: &[f64],
+    opts: &DipoleOptions,
+) -> Result<Vec<Vec<Vec<f64>>>, DipoleError> {
+    if let Some(&bad) = r.iter().find(|x| !x.is_finite() || **x < 0.0) {
+        return Err(DipoleError::invalid("r", bad, "distances must be finite and >= 0"));
+    }
+    if let Some(&bad) = depths.iter().find(|x| !x.is_finite() || **x < 0.0) {
+        return Err(DipoleError::invalid("depths", bad, "depths must be finite and >= 0"));
+    }
+    let mut out = Vec::with_capacity(scene.channels().len());
+    let mut cache = FresnelCache::default();
+    for (c, mono) in scene.channels().iter().enumerate() {
+        let f = Medium::new(mono, c, opts, &mut cache)?.field(mono.layers()[0].sigma_a());
+        out.push(depths.iter().map(|&z| r.iter().map(|&x| f.fluence_rz(x, z)).collect()).collect());
+    }
+    Ok(out)
 }
 
 /// The notes of the `extra` JSON: what the numbers are and are not.

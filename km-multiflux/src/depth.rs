@@ -3,8 +3,9 @@
 //! any depth, and the absorptance of every layer (`docs/field.md`, eq.
 //! D1–D6).
 //!
-//! The stack is solved once per layer boundary (the streams entering each
-//! layer, from [`crate::internal_field`]'s cut, eq. 13'); inside a layer
+//! The streams entering each layer come from one top-down and one
+//! bottom-up pass of the adding with the partial stacks kept at every layer
+//! face (the stack cut there, eq. 13' of `docs/multiflux.md`); inside a layer
 //! the field is the layer's own eigen-solution fixed by those streams (eq.
 //! 13 of `docs/multiflux.md`), so a depth costs `O(N)` once the layers are
 //! prepared. Delta-M: the scaled direct beam `F e^{-tau*/mu_b}` carries the
@@ -18,10 +19,10 @@ use km_core::MonoScene;
 
 use crate::MultifluxError;
 use crate::correction::phi;
-use crate::field::field_in_layer;
+use crate::field::{LayerFace, layer_faces};
 use crate::options::MultifluxOptions;
 use crate::quadrature::mu_of_invariant;
-use crate::slab::{FieldModes, FieldWeights, SlabOrder, SlabSolution};
+use crate::slab::{FieldModes, FieldWeights, SlabSolution};
 use crate::solver::{resolve_streams, scale_layers};
 
 /// `phi`, `A` and `F` at requested depths of one channel, per unit incident
@@ -84,29 +85,17 @@ impl DepthField {
     pub fn new(scene: &MonoScene, opts: &MultifluxOptions) -> Result<Self, MultifluxError> {
         let streams = resolve_streams(scene, opts)?;
         let scaled = scale_layers(scene, opts, 2 * streams);
+        let faces = layer_faces(scene, opts, streams, &scaled)?;
         let mut layers = Vec::with_capacity(scaled.len());
         let mut z_top = 0.0;
-        for (i, (l, sl)) in scene.layers().iter().zip(&scaled).enumerate() {
+        for ((l, sl), face) in scene.layers().iter().zip(&scaled).zip(faces) {
             let thickness = l.thickness();
-            if thickness <= 0.0 || thickness.is_nan() {
+            let Some(LayerFace { top, bottom, sol }) = face else {
                 layers.push(None);
                 z_top += thickness;
                 continue;
-            }
-            let top = field_in_layer(scene, opts, i, 0.0, 0)?;
+            };
             let half = thickness.is_infinite();
-            let bottom =
-                if half { None } else { Some(field_in_layer(scene, opts, i, thickness, 0)?) };
-            let sol = SlabSolution::new(
-                &top.mu,
-                &top.w,
-                &SlabOrder {
-                    tau: sl.tau,
-                    omega: if sl.omega.is_finite() { sl.omega } else { 0.0 },
-                    chi: &sl.chi,
-                    m: 0,
-                },
-            )?;
             let mu_b = scene.beam_invariant().and_then(|s| mu_of_invariant(s, l.n()));
             let beam = mu_b.map(|m| (m, top.beam_down));
             let zero = vec![0.0; top.mu.len()];
@@ -144,19 +133,19 @@ impl DepthField {
     fn at(&self, z: f64) -> Option<(f64, f64, f64)> {
         let l = self.layers.iter().flatten().find(|l| z <= l.z_top + l.thickness)?;
         let tau = ((z - l.z_top).max(0.0) * l.per_len).min(l.sol_tau());
-        let (mut sum, mut diff) = l.sol.field_moments(&l.modes, &l.fw, tau);
+        let (sum, diff) = match &l.up {
+            None => l.sol.field_moments(&l.modes, &l.fw, tau),
+            Some((um, uw, _)) => l.sol.field_moments_mirrored((&l.modes, &l.fw), (um, uw), tau),
+        };
         let (mut coll, mut net) = (0.0, 0.0);
         if let Some((mu_b, f)) = l.beam {
             let e = f * (-tau / mu_b).exp();
             coll += e / mu_b;
             net += e;
         }
-        if let Some((um, uw, fu)) = &l.up {
+        if let Some((_, _, fu)) = &l.up {
             let mu_b = l.beam.map_or(1.0, |b| b.0);
             let t = l.sol_tau() - tau;
-            let (s, d) = l.sol.field_moments(um, uw, t);
-            sum += s;
-            diff -= d;
             let e = fu * (-t / mu_b).exp();
             coll += e / mu_b;
             net -= e;

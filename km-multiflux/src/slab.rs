@@ -68,7 +68,7 @@ use crate::phase_matrix::fourier_blocks_in;
 use crate::workspace::{Workspace, with_workspace};
 pub use field::{FieldModes, FieldWeights};
 use lu::{Lu, solve_right};
-pub(crate) use operators::slab_augmented;
+pub(crate) use operators::slab_augmented_kept;
 pub use operators::{absorber_operators, slab_beam_reflection, slab_beam_response, slab_operators};
 
 /// An extra direction carried besides the quadrature nodes, in one medium.

@@ -101,7 +101,6 @@ pub(crate) fn close_stack(
     close: &Closing,
     pieces: &StackPieces<'_>,
 ) -> Result<Augmented, MultifluxError> {
-    let (interface, lambertian) = (pieces.interface, pieces.lambertian);
     let Some(mut acc) = acc else {
         return Err(MultifluxError::Scene(km_core::CoreError::scene(
             "layer",
@@ -112,25 +111,122 @@ pub(crate) fn close_stack(
     if close.half_space {
         return Ok(acc);
     }
-    let (n_above, neumann) = (close.n_above, close.neumann);
-    match scene.substrate() {
+    if let Some(floor) = closing_piece(scene, close, pieces)? {
+        acc = combine(Some(acc), floor, close.neumann)?;
+    }
+    Ok(acc)
+}
+
+/// The piece that closes a stack of layers that is not a half-space (seed
+/// §3.4): the Fresnel interface into a clear half-space of another index,
+/// or the Lambertian floor `lambertian(n, albedo)`, or the conductor floor;
+/// `None` for a black substrate or a clear one of the last layer's index.
+fn closing_piece(
+    scene: &MonoScene,
+    close: &Closing,
+    pieces: &StackPieces<'_>,
+) -> Result<Option<Augmented>, MultifluxError> {
+    let n_above = close.n_above;
+    Ok(match scene.substrate() {
         Substrate::Transparent { .. } => {
             let ns = close.n_sub.unwrap_or(n_above);
             if ns != n_above || close.all_effects {
                 let rough = scene.substrate_roughness().filter(|_| ns != n_above);
-                acc = combine(Some(acc), interface(n_above, ns, rough)?, neumann)?;
+                Some((pieces.interface)(n_above, ns, rough)?)
+            } else {
+                None
             }
         }
-        Substrate::Lambertian { albedo } => {
-            acc = combine(Some(acc), lambertian(n_above, albedo), neumann)?;
-        }
-        Substrate::Black => {}
+        Substrate::Lambertian { albedo } => Some((pieces.lambertian)(n_above, albedo)),
+        Substrate::Black => None,
         Substrate::Conductor { n, k } => {
-            let floor = (pieces.conductor)(n_above, n, k, scene.substrate_roughness())?;
-            acc = combine(Some(acc), floor, neumann)?;
+            Some((pieces.conductor)(n_above, n, k, scene.substrate_roughness())?)
+        }
+    })
+}
+
+/// The stack cut at both faces of one layer, inside the layer's medium:
+/// the operators of everything above each face (the interface on top of the
+/// layer included in `above_top`) and of everything below it (the substrate
+/// included), `None` where nothing lies on that side.
+pub(crate) struct LayerCuts {
+    pub(crate) above_top: Option<Augmented>,
+    pub(crate) below_top: Option<Augmented>,
+    pub(crate) above_bottom: Option<Augmented>,
+    pub(crate) below_bottom: Option<Augmented>,
+}
+
+/// [`LayerCuts`] of every layer from one top-down and one bottom-up pass of
+/// the adding over the pieces of [`add_stack`] (each piece built once), the
+/// partial sums kept at every face: `2 P` addings for `P` pieces, where
+/// cutting the stack at each face anew costs `O(P)` addings per face.
+///
+/// # Errors
+/// Those of the pieces and of the adding; an empty stack.
+pub(crate) fn stack_cuts(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+    neumann: Option<usize>,
+    all_effects: bool,
+    pieces: &StackPieces<'_>,
+) -> Result<Vec<LayerCuts>, MultifluxError> {
+    // The pieces top to bottom, each with the layer it is (`Some(i)`) or
+    // `None` for an interface or the closing floor.
+    let mut seq: Vec<(Option<usize>, Augmented)> = Vec::with_capacity(2 * layers.len() + 1);
+    let mut n_above = scene.ambient_n();
+    for (i, l) in layers.iter().enumerate() {
+        if l.n != n_above || all_effects {
+            let rough = l.rough.filter(|_| l.n != n_above);
+            seq.push((None, (pieces.interface)(n_above, l.n, rough)?));
+        }
+        seq.push((Some(i), (pieces.layer)(i, l)?));
+        n_above = l.n;
+    }
+    let half_space = layers.last().is_some_and(|l| l.tau.is_infinite());
+    let close = Closing { half_space, n_above, n_sub, all_effects, neumann };
+    if layers.is_empty() {
+        // The empty stack's error.
+        return close_stack(scene, None, &close, pieces).map(|_| Vec::new());
+    }
+    if !half_space && let Some(floor) = closing_piece(scene, &close, pieces)? {
+        seq.push((None, floor));
+    }
+    let mut cuts: Vec<LayerCuts> = (0..layers.len())
+        .map(|_| LayerCuts {
+            above_top: None,
+            below_top: None,
+            above_bottom: None,
+            below_bottom: None,
+        })
+        .collect();
+    let mut acc: Option<Augmented> = None;
+    for (tag, piece) in &seq {
+        if let Some(i) = *tag {
+            cuts[i].above_top.clone_from(&acc);
+        }
+        acc = Some(combine(acc, piece.clone(), neumann)?);
+        if let Some(i) = *tag {
+            cuts[i].above_bottom.clone_from(&acc);
         }
     }
-    Ok(acc)
+    let mut acc: Option<Augmented> = None;
+    for (tag, piece) in seq.into_iter().rev() {
+        if let Some(i) = tag {
+            cuts[i].below_bottom.clone_from(&acc);
+        }
+        acc = Some(match acc {
+            None => piece,
+            Some(below) => match neumann {
+                None => add(&piece, &below)?,
+                Some(k) => add_truncated(&piece, &below, k)?,
+            },
+        });
+        if let Some(i) = tag {
+            cuts[i].below_top.clone_from(&acc);
+        }
+    }
+    Ok(cuts)
 }
 
 /// Mirror reflectance and unscattered transmittance of a direction of Snell

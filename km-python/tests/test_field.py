@@ -40,9 +40,11 @@ def test_energy_balance_and_refusals():
     mc = km.field(s, "mc", samples=5000, depths=[0.1, 0.6])
     assert set(mc["stderr"]) == {"fluence", "absorbed", "net_flux"}
     assert mc["fluence"].shape == (1, 2)
-    for m in ("dipole", "direction-set"):
-        with pytest.raises(km.KmError, match="no depth-resolved field"):
-            km.field(s, m)
+    with pytest.raises(km.KmError, match="no depth-resolved field"):
+        km.field(s, "direction-set")
+    # The dipole treats one half-space, and says so.
+    with pytest.raises(km.KmError, match="half-space"):
+        km.field(s, "dipole")
     with pytest.raises(km.KmError, match="stack"):
         km.field(s, depths=[2.0])
 
@@ -70,3 +72,34 @@ def test_solve_carries_the_field_of_the_scene_depths(km_cli, tmp_path):
     assert mc is not None and set(mc["stderr"]) == {"fluence", "absorbed", "net_flux"}
     assert km.solve(s, "direction-set").field is None
     assert km.solve(km.Scene.from_toml(TEXT.split("[output]")[0])).field is None
+
+
+HALF = "[[layer]]\npreset = \"skin1\"\n[output]\ndepths = [0.0, 0.5, 2.0]\n"
+
+
+def test_dipole_field_and_profile_equal_the_cli(km_cli, tmp_path):
+    # The dipole's broad-beam field (`km field --method dipole`) and the
+    # pencil beam's phi(r, z) (`km profile --depths`): the same numbers as
+    # the commands' JSON, three channels of a preset.
+    path = tmp_path / "h.toml"
+    path.write_text(HALF)
+    s = km.Scene.from_toml(HALF)
+    f = km.field(s, "dipole")
+    out = json.loads(subprocess.run([km_cli, "field", path, "--method", "dipole", "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    assert f["fluence"].shape == (3, 3)
+    for k in ("fluence", "absorbed", "net_flux", "absorptance_layers"):
+        assert np.array_equal(f[k], np.array(out[k])), k
+    # Energy (docs/diffusion.md eq. D27): R + absorbed = 1 for Jensen et al.
+    sol = km.solve(s, "dipole")
+    assert np.allclose(sol.reflectance + f["absorptance_layers"][:, 0], 1.0, atol=1e-12)
+    p = km.profile(s, depths=[0.5, 2.0], points=5)
+    cli = json.loads(subprocess.run([km_cli, "profile", path, "--depths", "0.5,2", "--points",
+                                     "5", "--json"], check=True, capture_output=True,
+                                    text=True).stdout)
+    assert p["fluence"].shape == (3, 2, 5)
+    assert np.array_equal(p["fluence"], np.array(cli["fluence"]))
+    assert np.array_equal(p["rd"], np.array(cli["rd"]))
+    assert km.profile(s, points=5)["fluence"] is None
+    with pytest.raises(km.KmError, match="dipole only"):
+        km.profile(s, "mc", depths=[1.0], points=5, samples=100)

@@ -9,7 +9,10 @@
 //! * two-flux: closed form ([`km_core::two_flux::depth_profile`], eq. D7–D9);
 //! * Monte Carlo: MCML-style depth bins with standard errors, interpolated
 //!   at the depths ([`crate::mc_field::mc_depths`]);
-//! * the dipole and the direction set are refused with the reason.
+//! * the dipole: the diffusion field of its half-space, the pencil beam's
+//!   dipole integrated over the plane, with the collimated beam
+//!   ([`km_dipole::depth_field`], eq. D24–D27 of `docs/diffusion.md`);
+//! * the direction set is refused with the reason.
 
 use std::time::Instant;
 
@@ -39,6 +42,8 @@ pub struct FieldOptions {
     pub mc: McOptions,
     /// Monte Carlo depth-bin width (`None`: [`crate::mc_field::mc_depths`]'s default).
     pub dz: Option<f64>,
+    /// Dipole settings (the model and its `F_dr`).
+    pub dipole: km_dipole::DipoleOptions,
 }
 
 /// A method for [`FieldOptions`] (a [`Method`] with a default).
@@ -158,7 +163,13 @@ pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Resu
             });
             (f.fluence, f.absorbed, f.net_flux) = (v.fluence, v.absorbed, v.net_flux);
         }
-        Method::Dipole | Method::DirectionSet => {
+        Method::Dipole => {
+            crate::Solver::supports(&opts.dipole, scene)?;
+            let d = km_dipole::depth_field(scene, depths, &opts.dipole)?;
+            (f.fluence, f.absorbed, f.net_flux) = (d.fluence, d.absorbed, d.net_flux);
+            f.absorptance_layers = d.absorptance_layers;
+        }
+        Method::DirectionSet => {
             return Err(Unsupported { method, reason: Reason::NoDepthField }.into());
         }
     }
@@ -308,7 +319,22 @@ pub(crate) fn attach(
                 opts.mc.samples
             ));
         }
-        MethodOptions::Dipole(_) | MethodOptions::DirectionSet(_) => {
+        MethodOptions::Dipole(o) => {
+            opts.method = FieldMethod(Method::Dipole);
+            opts.dipole = *o;
+            sol.notes.push(
+                "the depth field is the dipole's diffusion solution of a broad beam with the \
+                 collimated beam (docs/diffusion.md eq. D24-D27): normal incidence's source \
+                 depth, the net flux jumps by the source's strength at its depth 1/sigma_t'"
+                    .into(),
+            );
+            // The half-space the solve treated (a top layer the planner's
+            // `transmission` rule made one), as the solve treated it.
+            if let Some((half, _)) = crate::as_half_space(scene, false) {
+                return attach_field(&half, &opts, sol);
+            }
+        }
+        MethodOptions::DirectionSet(_) => {
             sol.notes.push(format!(
                 "[output] depths ignored: the {} method gives no depth field (km field \
                  --method multiflux, km or mc)",
@@ -317,7 +343,12 @@ pub(crate) fn attach(
             return Ok(());
         }
     }
-    let f = field(scene, None, &opts)?;
+    attach_field(scene, &opts, sol)
+}
+
+/// [`attach`]'s last step: the field of `scene` by `opts` into `sol`.
+fn attach_field(scene: &Scene, opts: &FieldOptions, sol: &mut Solution) -> Result<(), KmError> {
+    let f = field(scene, None, opts)?;
     for (c, layers) in sol.channels.iter_mut().zip(&f.absorptance_layers) {
         if c.absorptance_layers.is_none() && !layers.is_empty() {
             c.absorptance_layers = Some(layers.clone());

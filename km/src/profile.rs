@@ -1,7 +1,8 @@
 //! `Rd(r)`: the radially resolved diffuse reflectance of a pencil beam, by
 //! the dipole (normal incidence only; closed form, docs/diffusion.md eq.
-//! D11) or by Monte Carlo (any incidence; annuli around the point of entry,
-//! docs/montecarlo.md eq. R1).
+//! D15) or by Monte Carlo (any incidence; annuli around the point of entry,
+//! docs/montecarlo.md eq. R1); with depths, the dipole's fluence `phi(r, z)`
+//! inside as well (eq. D14).
 
 use std::fmt::Write;
 
@@ -9,6 +10,10 @@ use km_core::Scene;
 use serde_json::{Value, json};
 
 use crate::{KmError, Method, Reason, Unsupported};
+
+/// The most values of `phi(r, z)` one profile gives per channel
+/// (depths x radii).
+pub const MAX_FLUENCE_VALUES: usize = 10_000_000;
 
 /// Settings of [`profile()`].
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +29,9 @@ pub struct ProfileOptions {
     pub samples: u64,
     /// Monte Carlo seed.
     pub seed: u64,
+    /// Depths at which the dipole also gives the fluence `phi(r, z)` at the
+    /// same radii (empty: none; the dipole only).
+    pub depths: Vec<f64>,
 }
 
 impl Default for ProfileOptions {
@@ -34,6 +42,7 @@ impl Default for ProfileOptions {
             points: 20,
             samples: 1_000_000,
             seed: 1,
+            depths: Vec::new(),
         }
     }
 }
@@ -51,6 +60,12 @@ pub struct Profile {
     pub stderr: Option<Vec<Vec<f64>>>,
     /// Channel labels.
     pub labels: Vec<String>,
+    /// The depths of [`Profile::fluence`] (empty: none asked for).
+    pub depths: Vec<f64>,
+    /// Per channel and depth, the dipole's fluence `phi(r_i, z)` of the
+    /// pencil beam (eq. D14), 1/length^2 per unit power entering, diffuse
+    /// light only; `None` without depths.
+    pub fluence: Option<Vec<Vec<Vec<f64>>>>,
 }
 
 impl Profile {
@@ -64,6 +79,8 @@ impl Profile {
             "rd": pick(&self.rd),
             "stderr": self.stderr.as_ref().map(pick),
             "channels": self.labels,
+            "depths": self.depths,
+            "fluence": self.fluence.as_ref().map(|f| if f.len() == 1 { json!(f[0]) } else { json!(f) }),
         })
     }
 
@@ -78,6 +95,11 @@ impl Profile {
             if self.stderr.is_some() {
                 cols.push(name("stderr_rd", l));
             }
+            if self.fluence.is_some() {
+                for z in &self.depths {
+                    cols.push(name(&format!("phi_z{z}"), l));
+                }
+            }
         }
         let mut t = cols.join(",") + "\n";
         for (i, ri) in self.r.iter().enumerate() {
@@ -86,6 +108,11 @@ impl Profile {
                 let _ = write!(t, ",{:e}", rd[i]);
                 if let Some(se) = &self.stderr {
                     let _ = write!(t, ",{:e}", se[c][i]);
+                }
+                if let Some(f) = &self.fluence {
+                    for row in &f[c] {
+                        let _ = write!(t, ",{:e}", row[i]);
+                    }
                 }
             }
             t.push('\n');
@@ -100,16 +127,32 @@ impl Profile {
         for l in &self.labels {
             let name = if self.labels.len() == 1 { "Rd".to_string() } else { format!("Rd {l}") };
             let _ = write!(t, "{:>16}", format!("{name} [1/L^2]"));
+            if self.fluence.is_some() {
+                for z in &self.depths {
+                    let _ = write!(t, "{:>16}", format!("phi z={z}"));
+                }
+            }
         }
         t.push('\n');
         for (i, ri) in self.r.iter().enumerate() {
             let _ = write!(t, "{ri:>12.5}");
-            for c in &self.rd {
+            for (k, c) in self.rd.iter().enumerate() {
                 let _ = write!(t, "{:>16.6e}", c[i]);
+                if let Some(f) = &self.fluence {
+                    for row in &f[k] {
+                        let _ = write!(t, "{:>16.6e}", row[i]);
+                    }
+                }
             }
             t.push('\n');
         }
         t.push_str("L: the scene's length unit (that of 1/sigma_t)\n");
+        if self.fluence.is_some() {
+            t.push_str(
+                "phi: the dipole's fluence of the pencil beam at depth z [1/L^2], diffuse light \
+                 only (eq. D14)\n",
+            );
+        }
         t
     }
 }
@@ -136,11 +179,13 @@ fn normal_incidence(scene: &Scene) -> Result<(), KmError> {
 /// (docs/montecarlo.md eq. R1) around the point of entry, at the scene's
 /// incidence. Domain: a single half-space layer at normal incidence for the
 /// dipole (other light is refused with the reason); any scene for Monte Carlo.
+/// With `depths` (dipole only), the fluence `phi(r_i, z)` of the pencil beam
+/// at each depth as well (docs/diffusion.md eq. D14).
 ///
 /// # Errors
 /// A method other than the two, `points = 0`, a non-positive `r_max`, a
-/// layer that neither scatters nor absorbs without `r_max`, and the
-/// solvers' errors.
+/// layer that neither scatters nor absorbs without `r_max`, depths with
+/// Monte Carlo, a negative or non-finite depth, and the solvers' errors.
 ///
 /// ```
 /// let s = km_core::Scene::from_toml_str("[[layer]]\npreset = \"marble\"\n").unwrap();
@@ -169,6 +214,16 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
         }
     };
     let points = opts.points;
+    if !opts.depths.is_empty() && opts.method != Method::Dipole {
+        let value = format!("{} depths with --method {}", opts.depths.len(), opts.method.name());
+        return bad("depths", value, "the fluence phi(r, z) comes from the dipole only");
+    }
+    // phi(r, z) holds points x depths values per channel: bounded.
+    if opts.depths.len().saturating_mul(points) > MAX_FLUENCE_VALUES {
+        let value = format!("{} depths x {points} radii", opts.depths.len());
+        return bad("depths", value, "at most 10^7 values of phi(r, z) (depths x points)");
+    }
+    let mut fluence = None;
     let (r, rd, stderr) = match opts.method {
         Method::Dipole => {
             let d = km_dipole::DipoleOptions::default();
@@ -178,6 +233,9 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
             let dr = r_max / points as f64;
             let r: Vec<f64> = (0..points).map(|i| dr * (i as f64 + 0.5)).collect();
             let rd = km_dipole::profile(scene, &r, &d)?;
+            if !opts.depths.is_empty() {
+                fluence = Some(km_dipole::fluence_profile(scene, &r, &opts.depths, &d)?);
+            }
             (r, rd, None)
         }
         Method::Mc => {
@@ -194,5 +252,6 @@ pub fn profile(scene: &Scene, opts: &ProfileOptions) -> Result<Profile, KmError>
             return Err(Unsupported { method: m, reason: Reason::NoProfile }.into());
         }
     };
-    Ok(Profile { method: opts.method, r, rd, stderr, labels: scene.labels().to_vec() })
+    let labels = scene.labels().to_vec();
+    Ok(Profile { method: opts.method, r, rd, stderr, labels, depths: opts.depths.clone(), fluence })
 }

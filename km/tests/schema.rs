@@ -218,6 +218,13 @@ fn depth_fields_validate_for_one_and_several_channels() {
             assert!(errors(&v).is_empty(), "{name}: {:?}", errors(&v));
         }
     }
+    // The dipole's field of a half-space (three channels of a preset).
+    let scene =
+        Scene::from_toml_str("[[layer]]\npreset = \"skin1\"\n[output]\ndepths = [0.0, 0.5]\n")
+            .unwrap();
+    let v = km::solve(&scene, &Options::new(Method::Dipole)).unwrap().to_json();
+    assert!(v["depths"].is_array() && v["fluence"].is_array(), "dipole: {v}");
+    assert!(errors(&v).is_empty(), "dipole: {:?}", errors(&v));
 }
 
 #[test]

@@ -20,8 +20,9 @@ use crate::adding::probed::{Augmented, ProbeRows};
 use crate::correction::{PeakCorrection, atten, e2, phi};
 use crate::interface::{fresnel_entries, fresnel_operators};
 use crate::quadrature::AngularGrid;
-use crate::slab::{SlabOrder, slab_augmented};
-use crate::stack::{Scaled, StackPieces, add_stack};
+use crate::slab::{SlabOrder, SlabSolution, slab_augmented_kept};
+use crate::stack::{LayerCuts, Scaled, StackPieces, add_stack, stack_cuts};
+use crate::workspace::with_workspace;
 use km_core::MonoScene;
 use km_core::microfacet::Microfacet;
 
@@ -51,12 +52,50 @@ impl OrderPieces<'_> {
         n_sub: Option<f64>,
         neumann: Option<usize>,
     ) -> Result<Augmented, MultifluxError> {
+        self.with_pieces(None, |p| add_stack(scene, layers, n_sub, neumann, self.all_effects, p))
+    }
+
+    /// The stack cut at both faces of every layer ([`stack_cuts`]: one
+    /// top-down and one bottom-up pass of the adding over the pieces of
+    /// [`OrderPieces::stack`]).
+    ///
+    /// # Errors
+    /// Those of the eigen-solves and of the adding.
+    /// `built[i]`, where given, is layer `i`'s operator (from
+    /// [`OrderPieces::layer_kept`]), taken instead of building it again.
+    ///
+    /// # Errors
+    /// Those of the eigen-solves and of the adding.
+    pub(crate) fn cuts(
+        &self,
+        scene: &MonoScene,
+        layers: &[Scaled],
+        n_sub: Option<f64>,
+        neumann: Option<usize>,
+        built: Vec<Option<Augmented>>,
+    ) -> Result<Vec<LayerCuts>, MultifluxError> {
+        let built = std::cell::RefCell::new(built);
+        self.with_pieces(Some(&built), |p| {
+            stack_cuts(scene, layers, n_sub, neumann, self.all_effects, p)
+        })
+    }
+
+    /// `f` on this order's [`StackPieces`] (layer `i` taken out of
+    /// `built[i]` where given there).
+    fn with_pieces<T>(
+        &self,
+        built: Option<&std::cell::RefCell<Vec<Option<Augmented>>>>,
+        f: impl FnOnce(&StackPieces<'_>) -> T,
+    ) -> T {
         let interface = |na: f64, nb: f64, rough: Option<Microfacet>| match rough {
             None => Ok(self.interface(na, nb)),
             Some(mf) => self.rough_interface(na, nb, mf),
         };
         let conductor = |na: f64, n: f64, k: f64, rough| self.conductor(na, n, k, rough);
-        let layer = |i: usize, l: &Scaled| self.layer(i, l);
+        let layer = |i: usize, l: &Scaled| {
+            let given = built.and_then(|b| b.borrow_mut().get_mut(i).and_then(Option::take));
+            given.map_or_else(|| self.layer(i, l), Ok)
+        };
         let floor = |n: f64, albedo: f64| self.lambertian(n, albedo);
         let pieces = StackPieces {
             interface: &interface,
@@ -64,7 +103,7 @@ impl OrderPieces<'_> {
             lambertian: &floor,
             conductor: &conductor,
         };
-        add_stack(scene, layers, n_sub, neumann, self.all_effects, &pieces)
+        f(&pieces)
     }
 
     fn probes(&self) -> usize {
@@ -94,13 +133,30 @@ impl OrderPieces<'_> {
     /// probes, then the markers of this layer (their path integrals from each
     /// beam) and the attenuation of every marker's direction.
     fn layer(&self, li: usize, l: &Scaled) -> Result<Augmented, MultifluxError> {
+        let (aug, sol) = self.layer_kept(li, l)?;
+        if let Some(s) = sol {
+            with_workspace(|ws| s.recycle(ws));
+        }
+        Ok(aug)
+    }
+
+    /// [`OrderPieces::layer`] with the eigen-solution it was computed from
+    /// (`None` for the Beer–Lambert shortcut), kept for the field inside.
+    ///
+    /// # Errors
+    /// Those of the eigen-solve.
+    pub(crate) fn layer_kept(
+        &self,
+        li: usize,
+        l: &Scaled,
+    ) -> Result<(Augmented, Option<SlabSolution>), MultifluxError> {
         let (ex, nodes) = (self.extras, self.grid.medium(l.n));
         let directions = ex.in_medium(l.n, self.count);
         let base = ex.base_len.min(self.count);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m: self.m };
         // With all effects every layer of finite positive thickness is
         // eigen-solved (the plan's `scattering` rule lives in `slab_augmented`).
-        let mut aug = slab_augmented(
+        let (mut aug, sol) = slab_augmented_kept(
             &nodes.mu,
             &nodes.w,
             &directions[..base],
@@ -111,7 +167,7 @@ impl OrderPieces<'_> {
         if self.count > base {
             self.add_markers(&mut aug, li, l, &directions, nodes.mu.len());
         }
-        Ok(aug)
+        Ok((aug, sol))
     }
 
     /// Append the marker rows to a layer's probe part: zero but for this

@@ -140,6 +140,45 @@ impl SlabSolution {
         (sum, diff)
     }
 
+    /// [`SlabSolution::field_moments`] of `modes` at `tau` plus those of the
+    /// mirrored field of `mirror` (lit from the bottom: its moments at
+    /// `tau0 - tau`, the net flux with the sign turned), in one pass over
+    /// the modes: the mirror's mode factors take the same two exponentials
+    /// with their roles swapped (`e1 <-> e2`, `D -> -D`).
+    pub fn field_moments_mirrored(
+        &self,
+        (modes, fw): (&FieldModes, &FieldWeights),
+        (mirror, mw): (&FieldModes, &FieldWeights),
+        tau: f64,
+    ) -> (f64, f64) {
+        if self.tau.is_infinite() {
+            // No bottom to light a half-space from.
+            return self.field_moments(modes, fw, tau);
+        }
+        let (mut sum, mut diff) = (0.0, 0.0);
+        for j in 0..self.n {
+            let k = self.k[j];
+            let e1 = (-k * tau).exp();
+            let e2 = (-k * (self.tau - tau)).exp();
+            let d = if k > 0.0 { (e1 - e2) / k } else { self.tau - 2.0 * tau };
+            let (ep, em) = (e1 + e2, e1 - e2);
+            let (s, y) = (modes.s[j], modes.y[j]);
+            let (sm, ym) = (mirror.s[j], mirror.y[j]);
+            // 2 cv = (s ep + y D)/2 and 2 cz = (s k em + y ep)/2 (eq. 13);
+            // the mirror's: D -> -D, em -> -em, its flux counted upwards.
+            sum += 0.5 * ((s * ep + y * d) * fw.v[j] + (sm * ep - ym * d) * mw.v[j]);
+            diff += 0.5 * ((s * k * em + y * ep) * fw.z[j] - (-sm * k * em + ym * ep) * mw.z[j]);
+        }
+        for (m, w, t, sign) in [(modes, fw, tau, 1.0), (mirror, mw, self.tau - tau, -1.0)] {
+            if let Some((mu_b, f, _, _)) = &m.beam {
+                let e = (-t / mu_b).exp() * f;
+                sum += e * w.beam_sum;
+                diff += sign * e * w.beam_diff;
+            }
+        }
+        (sum, diff)
+    }
+
     /// The weights of [`SlabSolution::field_moments`] for `modes`:
     /// `sum_i w_i v~_ij / t_i`, `sum_i w_i mu_i z~_ij / t_i` per mode and the
     /// moments of the beam's particular solution.

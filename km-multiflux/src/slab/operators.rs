@@ -312,18 +312,20 @@ pub fn slab_operators(
 /// [`slab_operators`] on the core `[nodes, beams]` and the probes apart
 /// ([`SlabSolution::augmented_in`]; `extras` holds `nbeam` beams first);
 /// with `eigen` the eigen-solve is taken even when nothing scatters
-/// (all effects), else the Beer–Lambert shortcut.
+/// (all effects), else the Beer–Lambert shortcut. The eigen-solution is
+/// returned with the operators (`None` for the shortcut), kept for the
+/// field inside the layer.
 ///
 /// # Errors
 /// Those of [`SlabSolution::new`].
-pub(crate) fn slab_augmented(
+pub(crate) fn slab_augmented_kept(
     mu: &[f64],
     w: &[f64],
     extras: &[Extra],
     nbeam: usize,
     p: &SlabOrder<'_>,
     eigen: bool,
-) -> Result<Augmented, MultifluxError> {
+) -> Result<(Augmented, Option<SlabSolution>), MultifluxError> {
     let scatters = scatters(mu, extras, p);
     if !(scatters || eigen && !vanishing(mu, extras, p.tau)) {
         let dense = absorber_operators(mu, &extras[..nbeam], p.tau);
@@ -335,14 +337,11 @@ pub(crate) fn slab_augmented(
         aug.probes = ProbeRows::zeros(np, core, core);
         aug.probes.diag[1] = d.clone();
         aug.probes.diag[3] = d;
-        return Ok(aug);
+        return Ok((aug, None));
     }
     let s = SlabSolution::build(mu, w, p, true)?;
-    Ok(with_workspace(|ws| {
-        let ops = s.augmented_in(extras, nbeam, ws);
-        s.recycle(ws);
-        ops
-    }))
+    let ops = with_workspace(|ws| s.augmented_in(extras, nbeam, ws));
+    Ok((ops, Some(s)))
 }
 
 /// The column of the beam `extras[eb]` in the `r_top` and `t_down` of

@@ -19,7 +19,7 @@ The user guide is docs/python.md; ``help(km.solve)`` and the other
 functions' docstrings give every parameter.
 """
 
-from ._km import FitResult, Partial, Scene, Solution, __version__
+from ._km import FitResult, Partial, Scene, Solution, __version__, profile
 from ._errors import KmError, KmFileNotFoundError, KmTypeError
 from ._solve import Batch, field, layer, merge, run_shard, solve, solve_many
 from ._bsdf import Bsdf, bsdf
@@ -49,6 +49,7 @@ __all__ = [
     "merge",
     "mie",
     "phase",
+    "profile",
     "run_shard",
     "solve",
     "solve_many",

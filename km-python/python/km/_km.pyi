@@ -11,8 +11,8 @@ import numpy.typing as npt
 __version__: str
 __all__ = ["KmError", "Scene", "Solution", "Partial", "_BsdfCore", "FitResult", "_fit",
            "_fit_many", "fit_file", "fit_km", "colour", "delta_e2000", "srgb", "_solve",
-           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "_phase", "_mie",
-           "_settings", "__version__"]
+           "_solve_scenes", "_solve_sweep", "run_shard", "merge", "field", "profile",
+           "_phase", "_mie", "_settings", "__version__"]
 
 _Method = Literal["km", "multiflux", "mc", "dipole", "direction-set"]
 _FloatOrArray = float | npt.NDArray[np.float64]
@@ -216,9 +216,29 @@ def field(
     per unit incident irradiance; ``absorbed`` per unit depth),
     ``absorptance_layers`` (C x L), ``stderr`` (Monte Carlo: the same three
     keys), ``method``, ``labels``, ``seconds``. ``method`` is
-    ``"multiflux"``, ``"km"`` or ``"mc"`` (the others raise
-    :class:`KmError` with the reason); ``streams`` [multiflux], ``samples``
-    (default 10^5), ``seed``, ``dz`` (bin width) [mc].
+    ``"multiflux"``, ``"km"``, ``"mc"`` or ``"dipole"`` (the diffusion
+    field of a half-space, docs/diffusion.md eq. D24-D27; the direction set
+    raises :class:`KmError` with the reason); ``streams`` [multiflux],
+    ``samples`` (default 10^5), ``seed``, ``dz`` (bin width) [mc].
+    """
+
+def profile(
+    scene: Scene,
+    method: Literal["dipole", "mc"] = "dipole",
+    *,
+    r_max: float | None = None,
+    points: int = 20,
+    samples: int = 1000000,
+    seed: int = 1,
+    depths: Sequence[float] | None = None,
+) -> dict[str, Any]:
+    """``Rd(r)`` of a pencil beam, as ``km profile SCENE --json`` (docs/diffusion.md).
+
+    A dict: ``r`` (N,), ``rd`` (C x N, 1/length^2 per unit power entering),
+    ``stderr`` (C x N, Monte Carlo; else None), ``depths`` (D,) and
+    ``fluence`` (C x D x N: the dipole's ``phi(r, z)`` of the pencil beam,
+    eq. D14, diffuse light only; None without ``depths``), ``method``,
+    ``labels``. ``depths`` are for the dipole only.
     """
 
 def _phase(

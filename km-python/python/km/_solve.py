@@ -487,7 +487,7 @@ def merge(parts: Sequence[Partial]) -> Solution:
 
 def field(
     scene: Scene,
-    method: Literal["multiflux", "km", "mc"] = "multiflux",
+    method: Literal["multiflux", "km", "mc", "dipole"] = "multiflux",
     *,
     depths: Sequence[float] | npt.ArrayLike | None = None,
     streams: int | None = None,
@@ -501,8 +501,9 @@ def field(
     ----------
     scene : Scene
         The scene.
-    method : {"multiflux", "km", "mc"}, default "multiflux"
-        The dipole and the direction set have no field (refused with the reason).
+    method : {"multiflux", "km", "mc", "dipole"}, default "multiflux"
+        The dipole gives the diffusion field of its half-space (docs/diffusion.md
+        eq. D24-D27); the direction set has no field (refused with the reason).
     depths : array_like, optional
         Depths (length unit of the scene, from the top) instead of the
         scene's ``[output] depths``.

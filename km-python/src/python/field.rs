@@ -73,3 +73,54 @@ pub(crate) fn field<'py>(
     d.set_item("seconds", f.seconds)?;
     Ok(d)
 }
+
+/// `Rd(r)` of a pencil beam, and with `depths` the dipole's `phi(r, z)` (see `km.profile`).
+#[pyfunction]
+#[pyo3(signature = (scene, method="dipole", *, r_max=None, points=20, samples=1_000_000,
+                    seed=1, depths=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn profile<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyScene>,
+    method: &str,
+    r_max: Option<f64>,
+    points: usize,
+    samples: u64,
+    seed: u64,
+    depths: Option<Vec<f64>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
+    if samples == 0 {
+        return Err(py_err(py, Error::option("samples", "0: need at least one photon")));
+    }
+    let opts = km::ProfileOptions {
+        method,
+        r_max,
+        points,
+        samples,
+        seed,
+        depths: depths.unwrap_or_default(),
+    };
+    let scene = &scene.get().scene;
+    let p = guarded(py, || Ok(km::profile(scene, &opts)?))?;
+    let d = PyDict::new(py);
+    d.set_item("method", p.method.name())?;
+    d.set_item("labels", p.labels)?;
+    d.set_item("r", p.r.into_pyarray(py))?;
+    d.set_item("rd", rows(py, p.rd)?)?;
+    match p.stderr {
+        Some(se) => d.set_item("stderr", rows(py, se)?)?,
+        None => d.set_item("stderr", py.None())?,
+    }
+    let nd = p.depths.len();
+    d.set_item("depths", p.depths.into_pyarray(py))?;
+    match p.fluence {
+        Some(f) => {
+            let (c, n) = (f.len(), opts.points);
+            let flat: Vec<f64> = f.into_iter().flatten().flatten().collect();
+            d.set_item("fluence", flat.into_pyarray(py).reshape([c, nd, n])?)?;
+        }
+        None => d.set_item("fluence", py.None())?,
+    }
+    Ok(d)
+}

@@ -137,6 +137,7 @@ fn _km(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::run_shard, m)?)?;
     m.add_function(wrap_pyfunction!(batch::merge, m)?)?;
     m.add_function(wrap_pyfunction!(field::field, m)?)?;
+    m.add_function(wrap_pyfunction!(field::profile, m)?)?;
     m.add_function(wrap_pyfunction!(phase::_phase, m)?)?;
     m.add_function(wrap_pyfunction!(phase::_mie, m)?)?;
     m.add_function(wrap_pyfunction!(settings::_settings, m)?)?;
