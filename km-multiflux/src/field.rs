@@ -97,7 +97,7 @@ pub(crate) fn field_in_layer(
     let streams = resolve_streams(scene, opts)?;
     let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
-    let layers = scale_layers(scene, opts, 2 * streams);
+    let layers = scale_layers(scene, opts, streams);
     // The beam alone as extra direction (no probe, so no marker).
     let beams: Vec<f64> = scene.beam_invariant().into_iter().collect();
     let setup =
