@@ -10,8 +10,9 @@
 //!   p = f p'' + (1 - f) p*                                                   (C1)
 //! ```
 //!
-//! with `f = chi_{2N}`, the truncated `p*` (moments `chi*_l = (chi_l - f)/(1 - f)`,
-//! `l < 2N`), and the peak `p''` (moments 1 for `l < 2N`, `chi_l / f` beyond),
+//! with `f = chi_L` (`L` the moments kept, `2N` or `3N/2`: eq. 4b), the truncated `p*`
+//! (moments `chi*_l = (chi_l - f)/(1 - f)`, `l < L`), and the peak `p''` (moments 1
+//! for `l < L`, `chi_l / f` beyond),
 //! which it replaces by a delta in the forward direction: the light scattered
 //! into the peak stays in the beam, the optical thickness becomes
 //! `tau* = (1 - omega f) tau`. The discrete-ordinate solution is then exact for
@@ -31,7 +32,7 @@
 //!
 //! ```text
 //!   dI_IMS = -1/(4 pi mu_b) (omega f)^2/(1 - omega f) P(cos Theta) xi(mu, mu_b/(1 - omega f), tau)   (C3)
-//!   P = 2 p'' - p'' * p'' = sum_l (2l+1) g_l (2 - g_l) P_l,   g_l = 1 (l < 2N), chi_l / f (l >= 2N)
+//!   P = 2 p'' - p'' * p'' = sum_l (2l+1) g_l (2 - g_l) P_l,   g_l = 1 (l < L), chi_l / f (l >= L)
 //!   xi(mu1, mu2, tau) = 1/(mu1 mu2) integral_0^tau t e^{-t/mu2} e^{-(tau - t)/mu1} dt              (C4)
 //! ```
 //!
@@ -39,8 +40,8 @@
 //! being `4 pi` ours.) It is applied to down-going exits within 10 degrees of
 //! the beam's polar angle, as DISORT does (the approximation holds near the
 //! forward peak only). Without dividing by `f`:
-//! `f^2 P = f^2 S + 2 f R1 - R2`, with `S = sum_{l<2N} (2l+1) P_l`,
-//! `R1 = 4 pi p - sum_{l<2N} (2l+1) chi_l P_l` and `R2` the same for the phase
+//! `f^2 P = f^2 S + 2 f R1 - R2`, with `S = sum_{l<L} (2l+1) P_l`,
+//! `R1 = 4 pi p - sum_{l<L} (2l+1) chi_l P_l` and `R2` the same for the phase
 //! function of moments `chi_l^2` (Henyey–Greenstein: HG of `g^2`), so the term
 //! vanishes smoothly as `f -> 0`.
 
@@ -65,9 +66,9 @@ pub struct PeakCorrection {
     phase: Phase,
     /// Unscaled single-scattering albedo, `[0, 1]`.
     omega: f64,
-    /// Delta-M truncation fraction `f = chi_{2N}`.
+    /// Delta-M truncation fraction `f = chi_L`.
     f: f64,
-    /// Unscaled Legendre moments `chi_l`, `l < 2N`.
+    /// Unscaled Legendre moments `chi_l`, `l < L`.
     chi: Vec<f64>,
     /// Apply the second-order (IMS) term.
     secondary: bool,
@@ -75,8 +76,8 @@ pub struct PeakCorrection {
 
 impl PeakCorrection {
     /// The correction for a layer of phase function `phase`, unscaled albedo
-    /// `omega` in `[0, 1]`, delta-M with `n_keep = 2N` moments kept
-    /// (`f = chi_{2N}`); `secondary` switches the IMS term on.
+    /// `omega` in `[0, 1]`, delta-M with `n_keep = L` moments kept
+    /// (`f = chi_L`, eq. 4b: the layer's scaling's own `L`); `secondary` switches the IMS term on.
     ///
     /// ```
     /// use km_core::phase::Phase;

@@ -84,7 +84,7 @@ impl DepthField {
     /// ```
     pub fn new(scene: &MonoScene, opts: &MultifluxOptions) -> Result<Self, MultifluxError> {
         let streams = resolve_streams(scene, opts)?;
-        let scaled = scale_layers(scene, opts, 2 * streams);
+        let scaled = scale_layers(scene, opts, streams);
         let faces = layer_faces(scene, opts, streams, &scaled)?;
         let mut layers = Vec::with_capacity(scaled.len());
         let mut z_top = 0.0;

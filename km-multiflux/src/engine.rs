@@ -65,11 +65,12 @@ impl<'s> Prepared<'s> {
         let (cut, cutoff) = planned_cutoff(scene, opts);
         let scene = cut.map_or(Cow::Borrowed(scene), Cow::Owned);
         let (n_sub, grid) = media_grid(&scene, streams);
-        // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977).
-        let layers = scale_layers(&scene, opts, 2 * streams);
+        // Legendre moments kept (delta-M truncation at chi_{2N}, Wiscombe 1977,
+        // or at chi_{3N/2} for an unresolved peak, eq. 4b).
+        let layers = scale_layers(&scene, opts, streams);
         let tms_layers = corrected_layers(&scene, &layers, opts.delta_m);
         let corr = (0..layers.len())
-            .map(|l| tms_layers.contains(&l).then(|| layers[l].correction(2 * streams)))
+            .map(|l| tms_layers.contains(&l).then(|| layers[l].correction()))
             .collect();
         let nodes0 = grid.medium(scene.ambient_n());
         let nodes_sub = n_sub.map(|n| grid.medium(n));

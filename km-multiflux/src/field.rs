@@ -100,7 +100,7 @@ pub(crate) fn field_in_layer(
     let streams = resolve_streams(scene, opts)?;
     let n0 = scene.ambient_n();
     let (n_sub, grid) = media_grid(scene, streams);
-    let layers = scale_layers(scene, opts, 2 * streams);
+    let layers = scale_layers(scene, opts, streams);
     // The beam alone as extra direction (no probe, so no marker).
     let beams: Vec<f64> = scene.beam_invariant().into_iter().collect();
     let setup =
@@ -359,7 +359,7 @@ mod tests {
             let mono = &scene.channels()[0];
             for all_effects in [false, true] {
                 let opts = MultifluxOptions { streams: Some(8), all_effects, ..Default::default() };
-                let layers = scale_layers(mono, &opts, 16);
+                let layers = scale_layers(mono, &opts, 8);
                 let faces = layer_faces(mono, &opts, 8, &layers).unwrap();
                 for (i, face) in faces.iter().enumerate() {
                     let th = mono.layers()[i].thickness();

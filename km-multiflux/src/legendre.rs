@@ -40,6 +40,52 @@ pub fn legendre_table(m: usize, mu: &[f64], nl: usize) -> Vec<f64> {
     out
 }
 
+/// The asymmetry of eq. 4b: a series that falls no faster between `l = N`
+/// and `2N` than a Henyey–Greenstein function of this `g` is taken for a
+/// peak the `2N` moments do not resolve. Above 0.95, so that every
+/// Henyey–Greenstein mixture with `|g| <= 0.95` stays on plain delta-M with
+/// a margin of `(0.96/0.95)^N` against rounding.
+pub const FLAT_SERIES_G: f64 = 0.96;
+
+/// The smallest `chi_{2N}` of eq. 4b: below it the kept lobe carries too
+/// little of the scattering to matter.
+pub const FLAT_SERIES_MIN: f64 = 0.02;
+
+/// The number of Legendre moments delta-M keeps for a phase function of
+/// moments `chi(l)` at `n` streams per hemisphere (eq. 4b of
+/// docs/multiflux.md): `2N` (Wiscombe 1977), or `floor(3N/2)` when the
+/// series is still flat at `l = 2N`,
+///
+/// ```text
+/// chi_{2N} >= 0.02  and  chi_{2N} > 0.96^{2(N-K)} chi_{2K},  K = ceil(N/2),
+/// ```
+///
+/// as for a diffraction peak (a cloud's droplets: `chi_64 / chi_32 = 0.78`
+/// at `N = 32`), whose kept lobe the Gauss nodes cannot integrate
+/// (docs/phase.md §4). Any mixture of Henyey–Greenstein terms of
+/// non-negative weights and `|g_i| <= 0.95` has
+/// `chi_{2N} = sum w_i g_i^{2N} <= 0.95^{2(N-K)} chi_{2K}` (even moments,
+/// every term non-negative), so it never qualifies. The solver asks it for
+/// phase functions given as data only (`legendre`, `table`, `particles`).
+///
+/// ```
+/// use km_multiflux::legendre::kept_moments;
+/// let hg = |l: usize| 0.95f64.powi(l as i32);
+/// assert_eq!(kept_moments(hg, 32), 64);
+/// let flat = |l: usize| if l == 0 { 1.0 } else { 0.5 + 0.5 * 0.7f64.powi(l as i32) };
+/// assert_eq!(kept_moments(flat, 32), 48);
+/// ```
+pub fn kept_moments(chi: impl Fn(usize) -> f64, n: usize) -> usize {
+    let k = n.div_ceil(2);
+    let (c2n, c2k) = (chi(2 * n), chi(2 * k));
+    let exponent = i32::try_from(2 * (n - k)).unwrap_or(i32::MAX);
+    if c2n >= FLAT_SERIES_MIN && c2n > FLAT_SERIES_G.powi(exponent) * c2k {
+        3 * n / 2
+    } else {
+        2 * n
+    }
+}
+
 /// Delta-M scaled `(chi*, omega*, tau_factor)` of eq. L3 with `f = chi[n_keep]`
 /// (`chi` holds at least `n_keep + 1` moments): returns the first `n_keep`
 /// scaled moments, the scaled albedo and `1 - omega f` (the factor on `tau`).

@@ -101,6 +101,12 @@ pub struct MultifluxOptions {
     pub max_fourier_order: Option<usize>,
     /// Delta-M scaling of the phase function (Wiscombe 1977); default true.
     pub delta_m: bool,
+    /// With `delta_m`, keep `3N/2` Legendre moments instead of `2N` for a
+    /// layer whose phase function is given as data (`legendre`, `table`,
+    /// `particles`) and whose moments are still flat at `l = 2N` (a diffraction peak;
+    /// eq. 4b of `docs/multiflux.md`, [`crate::legendre::kept_moments`]);
+    /// default true. False: `2N` for every layer, as DISORT.
+    pub peak_truncation: bool,
     /// Switch the planner ([`km_core::plan::Plan`]) off: build every interface
     /// (also between equal indices, where it is the identity), eigen-solve
     /// every layer (also those that only absorb), compute every Fourier order
@@ -124,6 +130,7 @@ impl Default for MultifluxOptions {
             neumann_order: None,
             max_fourier_order: None,
             delta_m: true,
+            peak_truncation: true,
             all_effects: false,
             secondary_correction: true,
             max_work: None,

@@ -3,7 +3,8 @@
 //!
 //! Per spectral channel:
 //! 1. one [`AngularGrid`] for all media (quadratures that map under Snell);
-//! 2. delta-M scaling of every layer (Wiscombe 1977) with `2N` moments kept,
+//! 2. delta-M scaling of every layer (Wiscombe 1977) with `2N` moments kept
+//!    (`3N/2` for a peak the `2N` do not resolve, eq. 4b),
 //!    and the plan's thick-layer cut ([`crate::engine::Prepared`]);
 //! 3. extra directions: the collimated beam, one probe per distinct exit
 //!    polar angle on each side, and the markers of the single-scattering
@@ -19,7 +20,7 @@
 
 use std::time::Instant;
 
-use km_core::phase::PhaseFunction;
+use km_core::phase::{Phase, PhaseFunction};
 use km_core::{ChannelResult, MonoScene, Scene, Solution, Substrate};
 
 use crate::MultifluxError;
@@ -292,16 +293,28 @@ fn conserve(r: f64, t: f64, lossless: bool) -> (f64, f64, f64, f64) {
     (rc, tc, 1.0 - rc - tc, residual)
 }
 
-/// Delta-M scaling (eq. 4) of every layer, keeping `n_keep` moments.
+/// Delta-M scaling (eq. 4) of every layer at `streams` nodes per hemisphere,
+/// keeping the moments of eq. 4b (`2N`, or `3N/2` for a phase function given
+/// as data whose peak the `2N` moments do not resolve; `2N` without delta-M
+/// or `peak_truncation`).
 pub(crate) fn scale_layers(
     scene: &MonoScene,
     opts: &MultifluxOptions,
-    n_keep: usize,
+    streams: usize,
 ) -> Vec<Scaled> {
     scene
         .layers()
         .iter()
         .map(|l| {
+            // Eq. 4b for phase functions given as data only: the analytic
+            // kinds (Henyey–Greenstein of any g included) keep `2N`.
+            let data =
+                matches!(l.phase(), Phase::Legendre(_) | Phase::Table(_) | Phase::Particles(_));
+            let n_keep = if opts.delta_m && opts.peak_truncation && data {
+                crate::legendre::kept_moments(|i| l.phase().legendre_moment(i), streams)
+            } else {
+                2 * streams
+            };
             let chi: Vec<f64> = (0..=n_keep).map(|i| l.phase().legendre_moment(i)).collect();
             let omega = l.albedo();
             let (chi_s, omega_s, factor) = if opts.delta_m {
@@ -321,6 +334,7 @@ pub(crate) fn scale_layers(
                 factor,
                 secondary: opts.secondary_correction,
                 rough: l.roughness(),
+                n_keep,
             }
         })
         .collect()

@@ -312,12 +312,14 @@ pub(crate) struct Scaled {
     pub(crate) secondary: bool,
     /// Roughness of the layer's top face (`None`: smooth).
     pub(crate) rough: Option<Microfacet>,
+    /// Legendre moments kept by delta-M (eq. 4b: `2N` or `3N/2`).
+    pub(crate) n_keep: usize,
 }
 
 impl Scaled {
     /// The intensity correction of this layer (TMS and IMS, eq. 5–5h) with
-    /// `n_keep` moments kept by delta-M.
-    pub(crate) fn correction(&self, n_keep: usize) -> Tms {
-        Tms::new(self.phase.clone(), self.omega_true, n_keep, self.secondary)
+    /// the moments its delta-M scaling kept (same `f`).
+    pub(crate) fn correction(&self) -> Tms {
+        Tms::new(self.phase.clone(), self.omega_true, self.n_keep, self.secondary)
     }
 }

@@ -107,16 +107,15 @@ fn errors_of(scene: &Scene, c: &Value, opts: &MultifluxOptions) -> (f64, f64, f6
 /// totals are within 1e-4 (the DISORT references' own agreement with the
 /// adding-doubling references of tests/data).
 ///
-/// The cloud's forward lobe (transmitted directions within 15 degrees of the
-/// beam, 2 of its 30) is bounded by 3 % instead: there the discrete
-/// ordinates' quadrature of the scattering through the lobe that delta-M
-/// keeps at `2N` moments swings by several percent from one `N` to the
-/// next, and the second-order (IMS) treatment of the truncated peak adds
-/// its own error (docs/phase.md §4, tables L1–L3); DISORT at the same
-/// streams gives the same values (`lobe_equals_disort_at_equal_streams`),
-/// and the 256-stream reference itself moves by 0.8 % there from 256 to
-/// 254 streams. Monte Carlo (km/tests/cloud_lobe.rs) sides with the
-/// reference there. Measured: printed by the test (docs/phase.md §5).
+/// The 1 % holds at all 30 directions of every case, the cloud's forward
+/// lobe (transmitted directions within 15 degrees of the beam, 2 of its 30)
+/// included: that is the target of the cloud's forward lobe (the solver's
+/// 1 % for every BRDF/BTDF value, there too). It needs the truncation of
+/// eq. 4b of docs/multiflux.md (the cloud keeps `3N/2` moments): with
+/// Wiscombe's `2N` the lobe is off by 1.8 % at the default 32 streams
+/// (docs/phase.md §4–§5), as DISORT's at the same streams
+/// (`lobe_equals_disort_at_equal_streams`). Measured: printed by the test
+/// (docs/phase.md §5).
 #[test]
 fn default_settings_meet_the_bounds() {
     let d = data();
@@ -126,8 +125,7 @@ fn default_settings_meet_the_bounds() {
         eprintln!("{name}: totals {total:.2e}, worst radiance {rad:.2e}, forward lobe {lobe:.2e}");
         assert!(total < 1e-4, "{name}: totals off by {total:.2e}");
         assert!(rad < 0.01, "{name}: a radiance off by {:.2} %", 100.0 * rad);
-        let lobe_bound = if name == "water-cloud" { 0.03 } else { 0.01 };
-        assert!(lobe < lobe_bound, "{name}: forward lobe off by {:.2} %", 100.0 * lobe);
+        assert!(lobe < 0.01, "{name}: forward lobe off by {:.2} %", 100.0 * lobe);
     }
 }
 
@@ -198,7 +196,9 @@ fn convergence_table() {
 /// the points 5 degrees from the beam where both move by up to 10 % between
 /// the stream counts of the data: the lobe error of docs/phase.md §4 is the method's
 /// (delta-M, the discrete ordinates and the TMS/IMS correction, the same in
-/// both), not km's implementation of it. 1e-4: the two solve the same
+/// both), not km's implementation of it. Both keep `2N` moments here
+/// (`peak_truncation: false`: Wiscombe's delta-M for every layer, DISORT's).
+/// 1e-4: the two solve the same
 /// discrete equations (eq. 5–5e of docs/multiflux.md, DISORT's
 /// `c_intensity_correction`); the bound leaves room for the rounding of the
 /// two eigen-solvers, ten orders of magnitude above double precision but far
@@ -231,7 +231,7 @@ fn lobe_equals_disort_at_equal_streams() {
     let mut worst = 0.0f64;
     for run in s["runs"].as_array().unwrap() {
         let n = run["streams"].as_u64().unwrap() as usize;
-        let o = MultifluxOptions { streams: Some(n), ..Default::default() };
+        let o = MultifluxOptions { streams: Some(n), peak_truncation: false, ..Default::default() };
         let got = solve(&scene, &o).unwrap().channels[0].btdf.clone();
         for (g, w) in got.iter().zip(run["nakajima_tanaka"].as_array().unwrap()) {
             let rel = (g / f(w) - 1.0).abs();
@@ -240,4 +240,47 @@ fn lobe_equals_disort_at_equal_streams() {
         }
     }
     eprintln!("forward lobe, km at N against DISORT at 2N streams: worst {worst:.1e}");
+}
+
+/// The truncation rule of eq. 4b (docs/multiflux.md) keeps the cloud's `3N/2`
+/// moments wherever its kept lobe matters (measured: the rule holds for the
+/// cloud from `N = 5` to 112, every default and table stream count of
+/// docs/phase.md) and leaves every Henyey–Greenstein layer on Wiscombe's
+/// `2N`: one term of `|g| <= 0.95` and two terms of `|g1|, |g2| <= 0.95`
+/// (steps of 0.05, weights 0.1..0.9) at every stream count 1..=64, by the
+/// moments `km_core` gives (as a `legendre` layer holding them would: the
+/// solver asks the rule for phase functions given as data only). The HG side
+/// is a proof in `kept_moments`'s documentation; this checks it on the
+/// moments themselves.
+#[test]
+fn truncation_rule_separates_the_cloud_from_henyey_greenstein() {
+    use km_core::phase::{Phase, PhaseFunction};
+    use km_multiflux::legendre::kept_moments;
+    let d = data();
+    let cloud: Vec<f64> =
+        d["cases"].as_array().unwrap()[2]["moments"].as_array().unwrap().iter().map(f).collect();
+    for n in 8..=96 {
+        assert_eq!(kept_moments(|l| cloud[l], n), 3 * n / 2, "cloud at N = {n}");
+    }
+    let gs: Vec<f64> = (-19..=19).map(|i| f64::from(i) * 0.05).collect();
+    let mut phases = Vec::new();
+    for &g in &gs {
+        phases.push(Phase::henyey_greenstein(g).unwrap());
+        for &g2 in &gs {
+            for w in 1..=9 {
+                let toml = format!(
+                    "[[layer]]\ntau = 1.0\nalbedo = 0.9\nphase = {{ kind = \"two-term-hg\", g1 = \
+                     {g}, g2 = {g2}, weight = {} }}\n",
+                    f64::from(w) * 0.1
+                );
+                let s = Scene::from_toml_str(&toml).unwrap();
+                phases.push(s.channels()[0].layers()[0].phase().clone());
+            }
+        }
+    }
+    for p in &phases {
+        for n in 1..=64 {
+            assert_eq!(kept_moments(|l| p.legendre_moment(l), n), 2 * n, "{p:?} at N = {n}");
+        }
+    }
 }

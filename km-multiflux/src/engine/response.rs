@@ -289,7 +289,7 @@ impl Readout<'_> {
             s.chi.iter().enumerate().map(|(k, c)| (2 * k + 1) as f64 * c).collect();
         let mu_in = |a: usize| mu_of_invariant(ex.ex[a].0, s.n);
         let rec = km_core::legendre::legendre_coefficients(chiw.len());
-        let corr = self.prep.corr[l].clone().unwrap_or_else(|| s.correction(2 * self.prep.streams));
+        let corr = self.prep.corr[l].clone().unwrap_or_else(|| s.correction());
         let mut tl = TmsLayer {
             omega_true: s.omega_true,
             f: corr.f(),
