@@ -19,9 +19,9 @@ The user guide is docs/python.md; ``help(km.solve)`` and the other
 functions' docstrings give every parameter.
 """
 
-from ._km import FitResult, Partial, Scene, Solution, __version__, profile
+from ._km import FitResult, Partial, Scene, Solution, __version__
 from ._errors import KmError, KmFileNotFoundError, KmTypeError
-from ._solve import Batch, field, layer, merge, run_shard, solve, solve_many
+from ._solve import Batch, field, layer, merge, profile, run_shard, solve, solve_many
 from ._bsdf import Bsdf, bsdf
 from ._fit import FitResults, fit, fit_file, fit_km
 from ._colour import colour, delta_e2000, srgb

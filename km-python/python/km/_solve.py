@@ -544,6 +544,71 @@ def field(
     return out
 
 
+def profile(
+    scene: Scene,
+    method: Literal["dipole", "mc"] = "dipole",
+    *,
+    r_max: float | None = None,
+    points: int = 20,
+    samples: int = 1000000,
+    seed: int = 1,
+    depths: Sequence[float] | npt.ArrayLike | None = None,
+) -> dict[str, Any]:
+    """The radial profile of a pencil beam, as ``km profile SCENE --json``.
+
+    The diffuse reflectance ``Rd(r)`` at distance ``r`` from a pencil beam
+    entering the top of the stack (docs/diffusion.md), by the diffusion
+    dipole or by Monte Carlo; with ``depths``, also the dipole's fluence
+    rate ``phi(r, z)`` inside its half-space (docs/diffusion.md eq. D24-D27,
+    docs/field.md).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (the dipole needs a half-space; Monte Carlo any stack).
+    method : {"dipole", "mc"}, default "dipole"
+        The dipole's closed form (normal incidence only) or Monte Carlo
+        (oblique incidence honoured).
+    r_max : float, optional
+        The largest radius (length unit of the scene); default: a radius
+        that holds nearly all of ``Rd``.
+    points : int, default 20
+        Radii (annuli for Monte Carlo) from 0 to ``r_max``.
+    samples : int, default 10**6
+        [mc] Photons.
+    seed : int, default 1
+        [mc] Seed.
+    depths : array_like, optional
+        [dipole] Depths (from the top) at which ``phi(r, z)`` is given.
+
+    Returns
+    -------
+    dict
+        ``r`` (N,), ``rd`` (C x N, 1/length^2 per unit power entering),
+        ``stderr`` (C x N for Monte Carlo, else None), ``depths`` (D,),
+        ``fluence`` (C x D x N: the dipole's ``phi(r, z)``, diffuse light
+        only; None without ``depths``), ``method``, ``labels``.
+
+    Raises
+    ------
+    KmError
+        A scene the method cannot treat (the dipole: a finite stack or
+        oblique light), ``depths`` with Monte Carlo, more than 10^7 values.
+
+    Examples
+    --------
+    >>> import km
+    >>> s = km.Scene(layers=[km.layer(sigma_a=0.01, sigma_s=1.0, thickness="inf")])
+    >>> p = km.profile(s, points=5, depths=[1.0, 2.0])
+    >>> p["rd"].shape, p["fluence"].shape
+    ((1, 5), (1, 2, 5))
+    """
+    d = None if depths is None else [float(x) for x in np.asarray(depths, dtype=float).ravel()]
+    out: dict[str, Any] = _km.profile(scene, method, r_max=r_max, points=points,
+                                      samples=samples, seed=seed, depths=d)
+    return out
+
+
 def layer(
     *,
     sigma_a: Any = None,
