@@ -107,46 +107,11 @@ pub fn parse_rxt_within(
     let (header, (legend_line, legend), rest) = read_header(&mut lines)?;
     let numeric = legend.len() == 1 && ('1'..='7').contains(&legend.chars().next().unwrap_or(' '));
     let labels: Vec<char> = if numeric { Vec::new() } else { legend.chars().collect() };
-    for c in &labels {
-        if !"LrtugdnNRTwWcCiSMBDeqa AbFEj".contains(*c) {
-            return Err(InverseError::parse(
-                Some(legend_line),
-                format!("unknown column letter '{c}'"),
-            ));
-        }
-        if "aAbFEj".contains(*c) {
-            return Err(InverseError::parse(
-                Some(legend_line),
-                format!("column '{c}' (a constraint on the answer) is not supported by km fit"),
-            ));
-        }
-    }
+    check_labels(&labels, legend_line)?;
     let k = if numeric { legend.parse::<usize>().unwrap_or(2) } else { labels.len() };
 
-    // The template set-up from the header.
     let h = &header;
-    let sphere = |o: usize| Sphere {
-        d_sphere: h[o],
-        d_sample: h[o + 1],
-        d_third: h[o + 2],
-        d_detector: h[o + 3],
-        r_wall: h[o + 4],
-        r_detector: 0.0,
-    };
-    let base = Base {
-        n_sample: h[0],
-        n_slide: h[1],
-        thickness: h[2],
-        slide_thickness: h[3],
-        r_std: h[5],
-        t_std: 1.0,
-        count: h[6],
-        r_sphere: sphere(7),
-        t_sphere: sphere(12),
-        c: 1.0,
-        c_t: 1.0,
-        theta: 0.0,
-    };
+    let base = header_base(h);
 
     // Data values, number by number, with their lines, read as needed.
     let data = lines.flat_map(|(no, l)| l.split_whitespace().map(move |t| (no, t)));
@@ -200,6 +165,52 @@ pub fn parse_rxt_within(
         return Err(InverseError::parse(None, "no measurement rows"));
     }
     Ok(rows)
+}
+
+/// Refuses a column letter of the legend (line `legend_line`) that is
+/// unknown or a constraint on the answer.
+fn check_labels(labels: &[char], legend_line: usize) -> Result<(), InverseError> {
+    for c in labels {
+        if !"LrtugdnNRTwWcCiSMBDeqa AbFEj".contains(*c) {
+            return Err(InverseError::parse(
+                Some(legend_line),
+                format!("unknown column letter '{c}'"),
+            ));
+        }
+        if "aAbFEj".contains(*c) {
+            return Err(InverseError::parse(
+                Some(legend_line),
+                format!("column '{c}' (a constraint on the answer) is not supported by km fit"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The template set-up from the header's numbers `h`.
+fn header_base(h: &[f64]) -> Base {
+    let sphere = |o: usize| Sphere {
+        d_sphere: h[o],
+        d_sample: h[o + 1],
+        d_third: h[o + 2],
+        d_detector: h[o + 3],
+        r_wall: h[o + 4],
+        r_detector: 0.0,
+    };
+    Base {
+        n_sample: h[0],
+        n_slide: h[1],
+        thickness: h[2],
+        slide_thickness: h[3],
+        r_std: h[5],
+        t_std: 1.0,
+        count: h[6],
+        r_sphere: sphere(7),
+        t_sphere: sphere(12),
+        c: 1.0,
+        c_t: 1.0,
+        theta: 0.0,
+    }
 }
 
 /// Notes for what an `.rxt` file gives and the fit does not model: the

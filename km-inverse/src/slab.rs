@@ -150,19 +150,7 @@ impl FitResult {
 /// assert!((r.albedo - 0.9).abs() < 1e-9 && (r.tau - 2.0).abs() < 1e-8);
 /// ```
 pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResult, InverseError> {
-    set.validate()?;
-    meas.validate()?;
-    consistent(set, meas)?;
-    if let Some(g) = opts.g
-        && !km_core::phase::Anisotropy::admits(g)
-    {
-        return Err(InverseError::invalid("g", g, "must lie in (-1, 1)"));
-    }
-    if let Some(n) = opts.streams
-        && !(2..=256).contains(&n)
-    {
-        return Err(InverseError::invalid("streams", n as f64, "must lie in [2, 256]"));
-    }
+    check_fit_inputs(set, meas, opts)?;
     let space =
         Space { fit_g: meas.m_u.is_some() && opts.g.is_none(), g_fixed: opts.g.unwrap_or(0.0) };
     let values = meas.values();
@@ -212,6 +200,63 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
     };
     let uncertainty = covariance(&jac, m, nd, &p, set.sample.thickness, space.fit_g, sigma_given);
 
+    let status = fit_status(set, singular, residual, square, &mut notes);
+    let d = set.sample.thickness;
+    let mut fitted = [fitted_m[0], fitted_m[1], f64::NAN];
+    if meas.m_u.is_some() {
+        fitted[2] = fitted_m[2];
+    }
+    Ok(FitResult {
+        albedo: p.albedo,
+        tau: p.tau,
+        g: p.g,
+        mu_a: (1.0 - p.albedo) * p.tau / d,
+        mu_s: p.albedo * p.tau / d,
+        mu_s_prime: p.albedo * p.tau * (1.0 - p.g) / d,
+        fitted,
+        residual,
+        status,
+        uncertainty,
+        streams: prob.stack.streams(),
+        evaluations: prob.evaluations,
+        notes,
+    })
+}
+
+/// Refuses a set-up, measurement or option [`fit`] cannot take (before any
+/// search): invalid values, an inconsistent pair, `g` outside (-1, 1),
+/// `streams` outside [2, 256].
+fn check_fit_inputs(
+    set: &Setup,
+    meas: &Measurement,
+    opts: &FitOptions,
+) -> Result<(), InverseError> {
+    set.validate()?;
+    meas.validate()?;
+    consistent(set, meas)?;
+    if let Some(g) = opts.g
+        && !km_core::phase::Anisotropy::admits(g)
+    {
+        return Err(InverseError::invalid("g", g, "must lie in (-1, 1)"));
+    }
+    if let Some(n) = opts.streams
+        && !(2..=256).contains(&n)
+    {
+        return Err(InverseError::invalid("streams", n as f64, "must lie in [2, 256]"));
+    }
+    Ok(())
+}
+
+/// The fit's status from a singular Jacobian and the largest weighted
+/// residual (a square system must match within 1 sigma, an over-determined
+/// one within 3), with its notes (and the spheres' lost-light note).
+fn fit_status(
+    set: &Setup,
+    singular: bool,
+    residual: f64,
+    square: bool,
+    notes: &mut Vec<String>,
+) -> Status {
     let tol_residual = if square { 1.0 } else { 3.0 };
     let status = if singular {
         Status::NotUnique
@@ -233,26 +278,7 @@ pub fn fit(set: &Setup, meas: &Measurement, opts: &FitOptions) -> Result<FitResu
             s.count
         ));
     }
-    let d = set.sample.thickness;
-    let mut fitted = [fitted_m[0], fitted_m[1], f64::NAN];
-    if meas.m_u.is_some() {
-        fitted[2] = fitted_m[2];
-    }
-    Ok(FitResult {
-        albedo: p.albedo,
-        tau: p.tau,
-        g: p.g,
-        mu_a: (1.0 - p.albedo) * p.tau / d,
-        mu_s: p.albedo * p.tau / d,
-        mu_s_prime: p.albedo * p.tau * (1.0 - p.g) / d,
-        fitted,
-        residual,
-        status,
-        uncertainty,
-        streams: prob.stack.streams(),
-        evaluations: prob.evaluations,
-        notes,
-    })
+    status
 }
 
 /// Refuse measurements no slab can give (before any search): an unscattered

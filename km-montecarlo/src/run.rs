@@ -357,29 +357,9 @@ fn trace_batches_on(
         let mut channels = Vec::with_capacity(tracers.len());
         let mut steps = 0;
         for (c, t) in tracers.iter().enumerate() {
-            let mut rng = batch_rng(opts.seed, c as u64, b);
-            let mut sums = vec![0.0; t.layout().len()];
-            // In pieces of CANCEL_CHECK_PHOTONS when a flag may stop the run:
-            // the same photons on the same stream into the same sums, so the
-            // same result bit for bit.
-            let piece = if opts.cancel.is_some() { CANCEL_CHECK_PHOTONS } else { photons };
-            let mut k = Counts::default();
-            let mut left = photons;
-            while left > 0 {
-                if cancelled() {
-                    return None;
-                }
-                let n = left.min(piece);
-                k += t.run_batch(&mut rng, n, &mut sums);
-                left -= n;
-            }
-            steps += k.steps;
-            channels.push(ChannelBatch {
-                sums,
-                interactions: k.interactions,
-                steps: k.steps,
-                capped: k.capped,
-            });
+            let batch = trace_channel(t, opts, c, b, photons, &cancelled)?;
+            steps += batch.steps;
+            channels.push(batch);
         }
         // Work budget: refuse as soon as the count or its projection exceeds it.
         let s = steps_done.fetch_add(steps, Ordering::Relaxed) + steps;
@@ -391,19 +371,8 @@ fn trace_batches_on(
                 let rate = s as f64 / secs.max(1e-9);
                 let mut r = refusal.lock().unwrap_or_else(|e| e.into_inner());
                 if r.is_none() {
-                    *r = Some(McError::TooExpensive {
-                        expected_events: projected,
-                        budget: budget as f64,
-                        expected_seconds: projected / rate,
-                        hint: format!(
-                            "measured {:.1} steps per photon over {d} batch(es); lower \
-                                 samples, split the run into shards, or raise the budget (km: \
-                                 --budget FACTOR; library: max_events) (a thick, nearly \
-                                 conservative layer costs about tau^2 steps per photon that \
-                                 crosses it)",
-                            s as f64 / (d * batch_size) as f64 / tracers.len() as f64,
-                        ),
-                    });
+                    let per_photon = s as f64 / (d * batch_size) as f64 / tracers.len() as f64;
+                    *r = Some(too_expensive(projected, budget, rate, per_photon, d));
                 }
                 abort.store(true, Ordering::Relaxed);
                 return None;
@@ -425,6 +394,52 @@ fn trace_batches_on(
         return Err(McError::Cancelled);
     }
     Ok(records.into_iter().flatten().collect())
+}
+
+/// Trace batch `b` (`photons` photons) of channel `c` with tracer `t` on
+/// its own random stream; `None` when `cancelled` stops it.
+fn trace_channel(
+    t: &Tracer,
+    opts: &McOptions,
+    c: usize,
+    b: u64,
+    photons: u64,
+    cancelled: &impl Fn() -> bool,
+) -> Option<ChannelBatch> {
+    let mut rng = batch_rng(opts.seed, c as u64, b);
+    let mut sums = vec![0.0; t.layout().len()];
+    // In pieces of CANCEL_CHECK_PHOTONS when a flag may stop the run:
+    // the same photons on the same stream into the same sums, so the
+    // same result bit for bit.
+    let piece = if opts.cancel.is_some() { CANCEL_CHECK_PHOTONS } else { photons };
+    let mut k = Counts::default();
+    let mut left = photons;
+    while left > 0 {
+        if cancelled() {
+            return None;
+        }
+        let n = left.min(piece);
+        k += t.run_batch(&mut rng, n, &mut sums);
+        left -= n;
+    }
+    Some(ChannelBatch { sums, interactions: k.interactions, steps: k.steps, capped: k.capped })
+}
+
+/// The work budget's refusal: `projected` steps against `budget` at `rate`
+/// steps per second, `per_photon` steps per photon measured over `d` batches.
+fn too_expensive(projected: f64, budget: u64, rate: f64, per_photon: f64, d: u64) -> McError {
+    McError::TooExpensive {
+        expected_events: projected,
+        budget: budget as f64,
+        expected_seconds: projected / rate,
+        hint: format!(
+            "measured {per_photon:.1} steps per photon over {d} batch(es); lower \
+                 samples, split the run into shards, or raise the budget (km: \
+                 --budget FACTOR; library: max_events) (a thick, nearly \
+                 conservative layer costs about tau^2 steps per photon that \
+                 crosses it)",
+        ),
+    }
 }
 
 /// The radially resolved diffuse reflectance of a pencil beam entering at the origin.

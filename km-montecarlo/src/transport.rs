@@ -580,21 +580,7 @@ impl Tracer {
             Other::Ambient => self.ambient_n,
             Other::Substrate => match self.below {
                 Below::Transparent(n) => n,
-                Below::Lambertian(a) => {
-                    // Opaque Lambertian reflector in optical contact.
-                    p.scattered = true;
-                    let mut booked = 0.0;
-                    let (w, slot) = (&mut p.w, Layout::A_SUB);
-                    if !self.absorb(survival, 1.0 - a, a, slot, w, sums, rng, &mut booked) {
-                        return false;
-                    }
-                    // Cosine-weighted re-emission upward.
-                    let mu = uniform(rng).sqrt();
-                    let (cos_p, sin_p) = azimuth(rng);
-                    let s = (1.0 - mu * mu).max(0.0).sqrt();
-                    (p.ux, p.uy, p.uz) = (s * cos_p, s * sin_p, -mu);
-                    return true;
-                }
+                Below::Lambertian(a) => return self.lambertian_floor(p, a, survival, rng, sums),
                 Below::Black => {
                     sums[Layout::A_SUB] += p.w;
                     sums[Layout::A] += p.w;
@@ -651,19 +637,59 @@ impl Tracer {
                 true
             }
             Other::Ambient => {
-                self.escape_top(sums, p.w, [p.ux, p.uy, p.uz], p.scattered, p.x, p.y);
-                if let Some(g) = &self.grid {
-                    g.escape(sums, p.w, p.x, p.y, -p.uz, true);
-                }
+                self.leave_top(p, sums);
                 false
             }
             Other::Substrate => {
-                self.escape_bottom(sums, p.w, [p.ux, p.uy, p.uz], p.scattered);
-                if let Some(g) = &self.grid {
-                    g.escape(sums, p.w, p.x, p.y, p.uz, false);
-                }
+                self.leave_bottom(p, sums);
                 false
             }
+        }
+    }
+
+    /// The photon meets an opaque Lambertian floor of albedo `a` in optical
+    /// contact: absorbed in part (or by roulette), else re-emitted upward
+    /// with a cosine-weighted direction. Returns `false` when it has ended.
+    #[inline]
+    fn lambertian_floor(
+        &self,
+        p: &mut Photon,
+        a: f64,
+        survival: bool,
+        rng: &mut Pcg64,
+        sums: &mut [f64],
+    ) -> bool {
+        p.scattered = true;
+        let mut booked = 0.0;
+        let (w, slot) = (&mut p.w, Layout::A_SUB);
+        if !self.absorb(survival, 1.0 - a, a, slot, w, sums, rng, &mut booked) {
+            return false;
+        }
+        // Cosine-weighted re-emission upward.
+        let mu = uniform(rng).sqrt();
+        let (cos_p, sin_p) = azimuth(rng);
+        let s = (1.0 - mu * mu).max(0.0).sqrt();
+        (p.ux, p.uy, p.uz) = (s * cos_p, s * sin_p, -mu);
+        true
+    }
+
+    /// The photon leaves through the top into the ambient medium: booked
+    /// in the escape tallies (and the depth grid's, if any).
+    #[inline]
+    fn leave_top(&self, p: &Photon, sums: &mut [f64]) {
+        self.escape_top(sums, p.w, [p.ux, p.uy, p.uz], p.scattered, p.x, p.y);
+        if let Some(g) = &self.grid {
+            g.escape(sums, p.w, p.x, p.y, -p.uz, true);
+        }
+    }
+
+    /// The photon leaves through the bottom into a clear substrate: booked
+    /// in the escape tallies (and the depth grid's, if any).
+    #[inline]
+    fn leave_bottom(&self, p: &Photon, sums: &mut [f64]) {
+        self.escape_bottom(sums, p.w, [p.ux, p.uy, p.uz], p.scattered);
+        if let Some(g) = &self.grid {
+            g.escape(sums, p.w, p.x, p.y, p.uz, false);
         }
     }
 }

@@ -37,6 +37,43 @@ fn clear_slab(tau: f64, n: f64, theta: f64) -> (f64, f64) {
     (r + (1.0 - r) * (1.0 - r) * r * e * e / d, (1.0 - r) * (1.0 - r) * e / d)
 }
 
+/// The checks across the sweep of `TAUS` at one (n, g, omega, theta): `r_at`
+/// and `t_at` hold R and T at each tau; every failure is pushed to `failures`.
+fn check_tau_sweep(
+    r_at: &[f64],
+    t_at: &[f64],
+    n: f64,
+    g: f64,
+    omega: f64,
+    theta: f64,
+    failures: &mut Vec<String>,
+) {
+    // tau = 1e6 and the half-space agree (1e-10) unless scattering
+    // is conservative: then T ~ 1/tau_tr leaks through. Diffusion
+    // theory: T = (z0 + z_b) / (tau_tr + 2 z_b), z0 = 1,
+    // z_b = 2A/3, A = (1 + F_dr)/(1 - F_dr) (internal reflection);
+    // bounded here by twice (1 + 2A/3) / tau_tr, and R = 1 - T.
+    let fdr = km_core::fresnel::diffuse_reflectance(n, 1.0);
+    let a_ref = (1.0 + fdr) / (1.0 - fdr);
+    let t_max = 2.0 * (1.0 + 2.0 * a_ref / 3.0) / (1e6 * (1.0 - g));
+    let (r6, rinf) = (r_at[4], r_at[5]);
+    if omega < 1.0 && (r6 - rinf).abs() > 1e-10 {
+        failures.push(format!("tau=1e6 vs inf: {r6} {rinf} (n {n} g {g} w {omega} th {theta})"));
+    }
+    if omega == 1.0 && !(t_at[4] > 0.0 && t_at[4] < t_max) {
+        failures.push(format!("conservative tau=1e6: T = {} (n {n} g {g} th {theta})", t_at[4]));
+    }
+    // A conservative half-space reflects everything, exactly.
+    if omega == 1.0 && rinf != 1.0 {
+        failures.push(format!("conservative half-space R = {rinf}"));
+    }
+    // tau = 1e-6 is the bare interface pair up to O(1e-6 / mu).
+    let (rc, _) = clear_slab(0.0, n, theta);
+    if (r_at[0] - rc).abs() > 2e-4 {
+        failures.push(format!("thin slab {} vs {rc} (n {n} g {g} w {omega} th {theta})", r_at[0]));
+    }
+}
+
 #[test]
 fn hard_case_grid_totals() {
     let o = MultifluxOptions::default();
@@ -91,38 +128,7 @@ fn hard_case_grid_totals() {
                         t_at.push(tr);
                     }
                     if r_at.len() == TAUS.len() {
-                        // tau = 1e6 and the half-space agree (1e-10) unless scattering
-                        // is conservative: then T ~ 1/tau_tr leaks through. Diffusion
-                        // theory: T = (z0 + z_b) / (tau_tr + 2 z_b), z0 = 1,
-                        // z_b = 2A/3, A = (1 + F_dr)/(1 - F_dr) (internal reflection);
-                        // bounded here by twice (1 + 2A/3) / tau_tr, and R = 1 - T.
-                        let fdr = km_core::fresnel::diffuse_reflectance(n, 1.0);
-                        let a_ref = (1.0 + fdr) / (1.0 - fdr);
-                        let t_max = 2.0 * (1.0 + 2.0 * a_ref / 3.0) / (1e6 * (1.0 - g));
-                        let (r6, rinf) = (r_at[4], r_at[5]);
-                        if omega < 1.0 && (r6 - rinf).abs() > 1e-10 {
-                            failures.push(format!(
-                                "tau=1e6 vs inf: {r6} {rinf} (n {n} g {g} w {omega} th {theta})"
-                            ));
-                        }
-                        if omega == 1.0 && !(t_at[4] > 0.0 && t_at[4] < t_max) {
-                            failures.push(format!(
-                                "conservative tau=1e6: T = {} (n {n} g {g} th {theta})",
-                                t_at[4]
-                            ));
-                        }
-                        // A conservative half-space reflects everything, exactly.
-                        if omega == 1.0 && rinf != 1.0 {
-                            failures.push(format!("conservative half-space R = {rinf}"));
-                        }
-                        // tau = 1e-6 is the bare interface pair up to O(1e-6 / mu).
-                        let (rc, _) = clear_slab(0.0, n, theta);
-                        if (r_at[0] - rc).abs() > 2e-4 {
-                            failures.push(format!(
-                                "thin slab {} vs {rc} (n {n} g {g} w {omega} th {theta})",
-                                r_at[0]
-                            ));
-                        }
+                        check_tau_sweep(&r_at, &t_at, n, g, omega, theta, &mut failures);
                     }
                 }
             }

@@ -254,18 +254,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
     loop {
         let fine = match (at(2 * n, base.neumann_order), last.take()) {
             (Err(km_multiflux::MultifluxError::TooExpensive { .. }), Some((worst, m))) => {
-                return Err(KmError::TargetUnreachable {
-                    target: tol,
-                    limited_by: worst.name,
-                    estimate: worst.estimate,
-                    allowed: worst.allowed,
-                    work: format!(
-                        "{m} streams (checked at {}; {} would exceed the work budget, \
-                         --budget or max_work)",
-                        2 * m,
-                        4 * m
-                    ),
-                });
+                return Err(budget_stopped(worst, m, tol));
             }
             (r, _) => r?,
         };
@@ -275,12 +264,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
         if base.neumann_order.is_some() {
             let exact = at(n, None)?;
             seconds += exact.seconds;
-            for (e, (c, x)) in estimates.iter_mut().zip(coarse.channels.iter().zip(&exact.channels))
-            {
-                for (ei, ((_, a), (_, b))) in e.iter_mut().zip(bounded(c).iter().zip(bounded(x))) {
-                    *ei += (a - b).abs();
-                }
-            }
+            add_truncation(&mut estimates, &coarse, &exact);
         }
         let (mut worst, now) = judge(&coarse, &estimates, tol);
         // Eq. E1a: a difference that grew from one doubling to the next is
@@ -291,21 +275,7 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
             worst = u;
         }
         if worst.ratio <= 1.0 {
-            for (c, e) in coarse.channels.iter_mut().zip(&estimates) {
-                c.error_estimate = Some(to_uncertainty(c, e));
-            }
-            coarse.seconds = seconds;
-            coarse.accuracy = Some(AccuracyReport {
-                target: tol,
-                reached: true,
-                limited_by: worst.name,
-                estimate: worst.estimate,
-                rule: "2 |X_N - X_2N| <= tol max(1, |X|), |X_N - X_2N| <= |X_N/2 - X_N| \
-                       (docs/planner.md, eq. E1, E1a, E3)"
-                    .into(),
-                work: vec![("streams".into(), n as u64), ("check_streams".into(), 2 * n as u64)],
-            });
-            return Ok(coarse);
+            return Ok(reached(coarse, &estimates, worst, tol, n, seconds));
         }
         if 2 * n >= MAX_STREAMS {
             return Err(KmError::TargetUnreachable {
@@ -326,6 +296,60 @@ pub fn multiflux(scene: &Scene, base: &MultifluxOptions, tol: f64) -> Result<Sol
         n *= 2;
         before = std::mem::replace(&mut coarse, fine);
     }
+}
+
+/// The refusal when the work budget stops the search after the comparison
+/// of `m` with `2 m` streams (`worst`: that comparison's worst number).
+fn budget_stopped(worst: Worst, m: usize, tol: f64) -> KmError {
+    KmError::TargetUnreachable {
+        target: tol,
+        limited_by: worst.name,
+        estimate: worst.estimate,
+        allowed: worst.allowed,
+        work: format!(
+            "{m} streams (checked at {}; {} would exceed the work budget, \
+             --budget or max_work)",
+            2 * m,
+            4 * m
+        ),
+    }
+}
+
+/// Truncated adding: adds to each estimate its own difference from the
+/// exact adding (`exact`, at the same streams as `coarse`).
+fn add_truncation(estimates: &mut [Vec<f64>], coarse: &Solution, exact: &Solution) {
+    for (e, (c, x)) in estimates.iter_mut().zip(coarse.channels.iter().zip(&exact.channels)) {
+        for (ei, ((_, a), (_, b))) in e.iter_mut().zip(bounded(c).iter().zip(bounded(x))) {
+            *ei += (a - b).abs();
+        }
+    }
+}
+
+/// The search's answer once the target is met at `n` streams: `coarse` with
+/// its error estimates, the total seconds and the accuracy report.
+fn reached(
+    mut coarse: Solution,
+    estimates: &[Vec<f64>],
+    worst: Worst,
+    tol: f64,
+    n: usize,
+    seconds: f64,
+) -> Solution {
+    for (c, e) in coarse.channels.iter_mut().zip(estimates) {
+        c.error_estimate = Some(to_uncertainty(c, e));
+    }
+    coarse.seconds = seconds;
+    coarse.accuracy = Some(AccuracyReport {
+        target: tol,
+        reached: true,
+        limited_by: worst.name,
+        estimate: worst.estimate,
+        rule: "2 |X_N - X_2N| <= tol max(1, |X|), |X_N - X_2N| <= |X_N/2 - X_N| \
+               (docs/planner.md, eq. E1, E1a, E3)"
+            .into(),
+        work: vec![("streams".into(), n as u64), ("check_streams".into(), 2 * n as u64)],
+    });
+    coarse
 }
 
 /// Per-photon weights `w_k` of the rule of three (eq. E2), in the order of [`bounded`].

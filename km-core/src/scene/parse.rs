@@ -182,27 +182,8 @@ impl Parser {
         }
         let n_layers = raw_layers.len();
         let scale = tissue::length_scale(self, raw.units.as_ref())?;
-        let mut layers = Vec::with_capacity(n_layers);
-        let mut faces = Vec::with_capacity(n_layers);
-        for (i, l) in raw_layers.iter().enumerate() {
-            if let (Some(u), Some(_)) = (&raw.units, &l.particles) {
-                return Err(CoreError::scene(
-                    format!("layer[{}].particles", i + 1),
-                    self.line(u.span()),
-                    "a layer with particles takes its lengths in micrometres: remove units",
-                ));
-            }
-            let lay = self.layer(i, n_layers, l, &ambient_n, scale)?;
-            for c in lay.coefs() {
-                note(c);
-            }
-            layers.push(lay);
-            let face = self.face(&format!("layer[{}]", i + 1), &l.roughness, &l.distribution)?;
-            if let Some(f) = &face {
-                note(&f.alpha);
-            }
-            faces.push(face);
-        }
+        let (layers, faces) =
+            self.layers(&raw_layers, raw.units.as_ref(), &ambient_n, scale, &mut note)?;
 
         // [substrate]
         let substrate = self.substrate(raw.substrate.as_ref(), &ambient_n)?;
@@ -265,6 +246,41 @@ impl Parser {
             None => (0..channels).map(|c| c.to_string()).collect(),
         };
         Ok(Scene::new(out, labels, wavelengths_nm)?.with_depths(depths))
+    }
+
+    /// `[[layer]]`: each layer's coefficients and top face, every coefficient
+    /// passed to `note` in order.
+    fn layers(
+        &self,
+        raw_layers: &[RawLayer],
+        units: Option<&Spanned<String>>,
+        ambient_n: &Coef,
+        scale: f64,
+        note: &mut impl FnMut(&Coef),
+    ) -> Result<(Vec<layer::LayerCoefs>, Vec<Option<rough::Face>>), CoreError> {
+        let n_layers = raw_layers.len();
+        let mut layers = Vec::with_capacity(n_layers);
+        let mut faces = Vec::with_capacity(n_layers);
+        for (i, l) in raw_layers.iter().enumerate() {
+            if let (Some(u), Some(_)) = (units, &l.particles) {
+                return Err(CoreError::scene(
+                    format!("layer[{}].particles", i + 1),
+                    self.line(u.span()),
+                    "a layer with particles takes its lengths in micrometres: remove units",
+                ));
+            }
+            let lay = self.layer(i, n_layers, l, ambient_n, scale)?;
+            for c in lay.coefs() {
+                note(c);
+            }
+            layers.push(lay);
+            let face = self.face(&format!("layer[{}]", i + 1), &l.roughness, &l.distribution)?;
+            if let Some(f) = &face {
+                note(&f.alpha);
+            }
+            faces.push(face);
+        }
+        Ok((layers, faces))
     }
 
     /// `[light]`: collimated (the default, at `theta_deg`, default 0) or diffuse.

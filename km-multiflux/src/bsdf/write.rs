@@ -350,41 +350,13 @@ pub fn fourier(
     below: Option<&Bsdf>,
     settings: &FourierSettings,
 ) -> Result<Vec<u8>, BsdfError> {
-    let bad = |reason: &str| BsdfError::Input { name: "fourier", reason: reason.into() };
-    if above.theta_i != above.theta_o || !above.theta_i.contains(&0.0) {
-        return Err(bad("needs theta_i == theta_o on a grid that contains 0 degrees"));
-    }
+    check_fourier(above, below, settings)?;
     let nc = above.channels.len();
     let mix = settings.channel_mix.as_deref();
-    match mix {
-        Some(w) if w.len() != nc => {
-            return Err(bad(&format!("{} channel weights for {nc} channels", w.len())));
-        }
-        None if nc != 1 && nc != 3 => {
-            return Err(bad(&format!(
-                "needs 1 or 3 channels (RGB), or the RGB weights of a spectrum's channels; the \
-                 scene has {nc}"
-            )));
-        }
-        _ => {}
-    }
     let n_out = if mix.is_some() { 3 } else { nc };
-    if above.transmits {
-        match below {
-            Some(b) if b.theta_i == above.theta_i && b.theta_o == above.theta_o => {}
-            _ => return Err(bad("a transmitting stack needs the table from below too")),
-        }
-    }
     let below = below.filter(|_| above.transmits);
-    // Nodes: -mu (lower medium), 0, 0, +mu (upper medium), ascending.
-    let mut idx: Vec<usize> = (0..above.theta_o.len()).collect();
-    idx.sort_by(|&a, &b| above.theta_o[a].total_cmp(&above.theta_o[b])); // mu descending
+    let (idx, nodes) = fourier_nodes(above);
     let h = idx.len();
-    let mu_of = |k: usize| above.theta_o[k].to_radians().cos();
-    let mut nodes: Vec<f64> = idx.iter().map(|&k| -mu_of(k)).collect(); // -1 first
-    nodes.push(0.0);
-    nodes.push(0.0);
-    nodes.extend(idx.iter().rev().map(|&k| mu_of(k)));
     let n_mu = nodes.len();
     // Grid index of node j (None for the two zeros) and its side.
     let grid = |j: usize| -> Option<(usize, bool)> {
@@ -440,29 +412,84 @@ pub fn fourier(
                 let a: Vec<f64> = cosine_coefficients(&buf, kmax, &cos_t);
                 chans.push(a.iter().map(|x| x * scale).collect::<Vec<f64>>());
             }
-            if let Some(w) = mix {
-                // Linear RGB of the channels (a spectrum's colour), then as three.
-                chans = (0..3)
-                    .map(|j| {
-                        (0..kmax).map(|k| (0..nc).map(|c| w[c][j] * chans[c][k]).sum()).collect()
-                    })
-                    .collect();
-            }
-            if n_out == 3 {
-                // Y, R, B as layerlab writes them (Rec. 709 luminance).
-                let y: Vec<f64> = (0..kmax)
-                    .map(|k| {
-                        0.212671 * chans[0][k] + 0.715160 * chans[1][k] + 0.072169 * chans[2][k]
-                    })
-                    .collect();
-                chans = vec![y, chans[0].clone(), chans[2].clone()];
-            }
-            pairs[jo * n_mu + ji] = chans;
+            pairs[jo * n_mu + ji] = written_channels(chans, mix, n_out, kmax);
         }
     }
     // Series length per pair: the tail rule on the largest channel.
     let lengths = series_lengths(&pairs, kmax, settings.tail);
     Ok(scatfun_bytes(&nodes, &pairs, &lengths, n_out, eta))
+}
+
+/// Refuses what [`fourier`] cannot write: grids that differ or miss 0
+/// degrees, a channel count other than 1 or 3 without a mix (or a mix of
+/// the wrong length), a transmitting stack without `below`.
+fn check_fourier(
+    above: &Bsdf,
+    below: Option<&Bsdf>,
+    settings: &FourierSettings,
+) -> Result<(), BsdfError> {
+    let bad = |reason: &str| BsdfError::Input { name: "fourier", reason: reason.into() };
+    if above.theta_i != above.theta_o || !above.theta_i.contains(&0.0) {
+        return Err(bad("needs theta_i == theta_o on a grid that contains 0 degrees"));
+    }
+    let nc = above.channels.len();
+    match settings.channel_mix.as_deref() {
+        Some(w) if w.len() != nc => {
+            return Err(bad(&format!("{} channel weights for {nc} channels", w.len())));
+        }
+        None if nc != 1 && nc != 3 => {
+            return Err(bad(&format!(
+                "needs 1 or 3 channels (RGB), or the RGB weights of a spectrum's channels; the \
+                 scene has {nc}"
+            )));
+        }
+        _ => {}
+    }
+    if above.transmits {
+        match below {
+            Some(b) if b.theta_i == above.theta_i && b.theta_o == above.theta_o => {}
+            _ => return Err(bad("a transmitting stack needs the table from below too")),
+        }
+    }
+    Ok(())
+}
+
+/// The grid's indices by angle ascending (mu descending), and the nodes:
+/// -mu (lower medium), 0, 0, +mu (upper medium), ascending.
+fn fourier_nodes(above: &Bsdf) -> (Vec<usize>, Vec<f64>) {
+    let mut idx: Vec<usize> = (0..above.theta_o.len()).collect();
+    idx.sort_by(|&a, &b| above.theta_o[a].total_cmp(&above.theta_o[b])); // mu descending
+    let mu_of = |k: usize| above.theta_o[k].to_radians().cos();
+    let mut nodes: Vec<f64> = idx.iter().map(|&k| -mu_of(k)).collect(); // -1 first
+    nodes.push(0.0);
+    nodes.push(0.0);
+    nodes.extend(idx.iter().rev().map(|&k| mu_of(k)));
+    (idx, nodes)
+}
+
+/// One pair's cosine series per channel as written: mixed to linear RGB by
+/// `mix` if given, then as Y, R, B when `n_out` is 3.
+fn written_channels(
+    mut chans: Vec<Vec<f64>>,
+    mix: Option<&[[f64; 3]]>,
+    n_out: usize,
+    kmax: usize,
+) -> Vec<Vec<f64>> {
+    let nc = chans.len();
+    if let Some(w) = mix {
+        // Linear RGB of the channels (a spectrum's colour), then as three.
+        chans = (0..3)
+            .map(|j| (0..kmax).map(|k| (0..nc).map(|c| w[c][j] * chans[c][k]).sum()).collect())
+            .collect();
+    }
+    if n_out == 3 {
+        // Y, R, B as layerlab writes them (Rec. 709 luminance).
+        let y: Vec<f64> = (0..kmax)
+            .map(|k| 0.212671 * chans[0][k] + 0.715160 * chans[1][k] + 0.072169 * chans[2][k])
+            .collect();
+        chans = vec![y, chans[0].clone(), chans[2].clone()];
+    }
+    chans
 }
 
 /// The series length of each pair of cosines: the shortest whose dropped

@@ -20,17 +20,7 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
     let base = ctx.size.pick(1_000u64, 20_000, 1_000_000);
     // Annuli: `count` of them over `r_max` mm (the preset's scale).
     let count = ctx.size.pick(20usize, 100, 200);
-    let mut table = Table::new(&[
-        "preset",
-        "channel",
-        "alpha'",
-        "1/sigma_t' (mm)",
-        "dipole/MC, first annulus",
-        "dipole/MC, power at r < 1/sigma_t'",
-        "dipole/MC, power at r >= 1/sigma_t' (to the grid's end)",
-        "median |dipole/MC - 1| per annulus, r >= 1/sigma_t' (MC s.e. < 10 %)",
-        "total diffuse R: dipole / MC",
-    ]);
+    let mut table = profiles_table();
     let mut worst = Vec::new();
     for (pi, &(name, r_max, factor)) in presets.iter().enumerate() {
         let samples = base * factor;
@@ -90,19 +80,7 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
             ),
         );
     }
-    sec.text(format!(
-        "`Rd(r)` of measured materials (Jensen et al. 2001 presets, lengths in mm, `g = 0` with \
-         `sigma_s = sigma_s'`, the preset's index) under a pencil beam at normal incidence: the \
-         dipole `(1 - F(1)) Rd(r)` (per unit incident power, multiple scattering only) against \
-         the Monte Carlo radial profile (all orders, {count} annuli over 10 mm, 20 mm for \
-         ketchup). The Monte Carlo profile has a single-scattering peak near `r = 0` that the \
-         dipole lacks (first-annulus column). The power columns compare `sum 2 pi r dr Rd(r)` \
-         inside and beyond one transport mean free path `1/sigma_t'` (Monte Carlo standard error \
-         propagated); the median is over the annuli beyond `1/sigma_t'` whose Monte Carlo \
-         standard error is below 10 %. `alpha'` is the reduced albedo of the channel: the \
-         lower it is, the worse diffusion."
-    ))
-    .table(table);
+    sec.text(profiles_text(count)).table(table);
     worst.sort_by(|a, b| b.0.total_cmp(&a.0));
     Ok(match worst.first() {
         Some((m, w)) if m.is_finite() => {
@@ -113,6 +91,37 @@ pub(super) fn profiles(ctx: &mut Ctx, sec: &mut Section) -> anyhow::Result<Strin
         }
         _ => format!("Rd(r) computed (no channel has {MIN_ANNULI} annuli with MC s.e. < 10 %)"),
     })
+}
+
+/// The `Rd(r)` table, its columns and no rows.
+fn profiles_table() -> Table {
+    Table::new(&[
+        "preset",
+        "channel",
+        "alpha'",
+        "1/sigma_t' (mm)",
+        "dipole/MC, first annulus",
+        "dipole/MC, power at r < 1/sigma_t'",
+        "dipole/MC, power at r >= 1/sigma_t' (to the grid's end)",
+        "median |dipole/MC - 1| per annulus, r >= 1/sigma_t' (MC s.e. < 10 %)",
+        "total diffuse R: dipole / MC",
+    ])
+}
+
+/// The text before the `Rd(r)` table (`count` annuli per profile).
+fn profiles_text(count: usize) -> String {
+    format!(
+        "`Rd(r)` of measured materials (Jensen et al. 2001 presets, lengths in mm, `g = 0` with \
+         `sigma_s = sigma_s'`, the preset's index) under a pencil beam at normal incidence: the \
+         dipole `(1 - F(1)) Rd(r)` (per unit incident power, multiple scattering only) against \
+         the Monte Carlo radial profile (all orders, {count} annuli over 10 mm, 20 mm for \
+         ketchup). The Monte Carlo profile has a single-scattering peak near `r = 0` that the \
+         dipole lacks (first-annulus column). The power columns compare `sum 2 pi r dr Rd(r)` \
+         inside and beyond one transport mean free path `1/sigma_t'` (Monte Carlo standard error \
+         propagated); the median is over the annuli beyond `1/sigma_t'` whose Monte Carlo \
+         standard error is below 10 %. `alpha'` is the reduced albedo of the channel: the \
+         lower it is, the worse diffusion."
+    )
 }
 
 /// Fewest annuli a median must rest on to reach the headline.

@@ -55,22 +55,7 @@ impl Parser {
             return Ok(t);
         }
         if let Some(p) = &l.preset {
-            let line = self.line(p.span());
-            if sigma_form || tau_form {
-                let key = if sigma_form { k("sigma_a") } else { k("tau") };
-                return Err(CoreError::scene(
-                    key,
-                    line,
-                    "a preset gives sigma_a and sigma_s: remove them or the preset",
-                ));
-            }
-            if let Some(ph) = &l.phase {
-                return Err(CoreError::scene(
-                    k("phase"),
-                    self.line(ph.span()),
-                    "a preset layer takes g only (its sigma_s is sigma_s' / (1 - g))",
-                ));
-            }
+            self.check_preset_alone(i, l, p, sigma_form, tau_form)?;
             return self.preset_layer(i, is_last, p, thickness, g, n, ambient_n);
         }
         if sigma_form && tau_form {
@@ -84,28 +69,7 @@ impl Parser {
         }
         let n = n.unwrap_or(Coef { key: k("n"), line: None, values: ambient_n.values.clone() });
         if tau_form {
-            if let Some(t) = &thickness {
-                return Err(CoreError::scene(
-                    t.key.clone(),
-                    t.line,
-                    "the tau form takes no thickness (tau = sigma_t * thickness)",
-                ));
-            }
-            let missing = |name: &str| {
-                CoreError::scene(k(name), None, "the tau form needs both tau and albedo")
-            };
-            let tau = tau.ok_or_else(|| missing("tau"))?;
-            let albedo = albedo.ok_or_else(|| missing("albedo"))?;
-            let mut lay = self.finish_layer(
-                i,
-                is_last,
-                Form::Tau,
-                tau,
-                albedo,
-                Coef::constant(&k("thickness"), 1.0),
-                g,
-                n,
-            )?;
+            let mut lay = self.tau_layer(i, is_last, tau, albedo, thickness.as_ref(), g, n)?;
             lay.phase = spec;
             return Ok(lay);
         }
@@ -123,6 +87,72 @@ impl Parser {
             self.finish_layer(i, is_last, Form::Sigma, sigma_a, sigma_s, thickness, g, n)?;
         lay.phase = spec;
         Ok(lay)
+    }
+
+    /// Refuses a preset beside the keys it gives (sigma_a, sigma_s or tau,
+    /// albedo) or beside a `phase` table.
+    fn check_preset_alone(
+        &self,
+        i: usize,
+        l: &RawLayer,
+        p: &Spanned<String>,
+        sigma_form: bool,
+        tau_form: bool,
+    ) -> Result<(), CoreError> {
+        let k = |name: &str| format!("layer[{}].{name}", i + 1);
+        let line = self.line(p.span());
+        if sigma_form || tau_form {
+            let key = if sigma_form { k("sigma_a") } else { k("tau") };
+            return Err(CoreError::scene(
+                key,
+                line,
+                "a preset gives sigma_a and sigma_s: remove them or the preset",
+            ));
+        }
+        if let Some(ph) = &l.phase {
+            return Err(CoreError::scene(
+                k("phase"),
+                self.line(ph.span()),
+                "a preset layer takes g only (its sigma_s is sigma_s' / (1 - g))",
+            ));
+        }
+        Ok(())
+    }
+
+    /// A layer of the tau form (tau, albedo; no thickness).
+    #[allow(clippy::too_many_arguments)]
+    fn tau_layer(
+        &self,
+        i: usize,
+        is_last: bool,
+        tau: Option<Coef>,
+        albedo: Option<Coef>,
+        thickness: Option<&Coef>,
+        g: Coef,
+        n: Coef,
+    ) -> Result<LayerCoefs, CoreError> {
+        let k = |name: &str| format!("layer[{}].{name}", i + 1);
+        if let Some(t) = thickness {
+            return Err(CoreError::scene(
+                t.key.clone(),
+                t.line,
+                "the tau form takes no thickness (tau = sigma_t * thickness)",
+            ));
+        }
+        let missing =
+            |name: &str| CoreError::scene(k(name), None, "the tau form needs both tau and albedo");
+        let tau = tau.ok_or_else(|| missing("tau"))?;
+        let albedo = albedo.ok_or_else(|| missing("albedo"))?;
+        self.finish_layer(
+            i,
+            is_last,
+            Form::Tau,
+            tau,
+            albedo,
+            Coef::constant(&k("thickness"), 1.0),
+            g,
+            n,
+        )
     }
 
     /// The layer's `phase` table, refused beside `g` (docs/scene-file.md).
