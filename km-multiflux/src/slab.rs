@@ -170,32 +170,7 @@ impl SlabSolution {
     ) -> Result<Self, MultifluxError> {
         let n = mu.len();
         let (tau, omega, m) = (p.tau, p.omega, p.m);
-        let nl = p.chi.len();
-        // t = sqrt(w mu), the weighted moments chi and the Legendre table in
-        // vectors of the workspace (handed back by `SlabSolution::recycle`);
-        // every element is written below (the recurrence's coefficient
-        // vectors by `new_in`).
-        let (mut t, mut chi, mut lam, ra, rb) = with_workspace(|ws| {
-            (
-                ws.take_for_overwrite(n),
-                ws.take_for_overwrite(nl),
-                ws.take_for_overwrite(n * nl),
-                ws.take_for_overwrite(nl),
-                ws.take_for_overwrite(nl),
-            )
-        });
-        for ((t, u), w) in t.iter_mut().zip(mu).zip(w) {
-            *t = (u * w).sqrt();
-        }
-        for (l, c) in chi.iter_mut().enumerate() {
-            *c = if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] };
-        }
-
-        // Legendre table Lambda_l^m(mu_i), node-major.
-        let rec = LegendreRecurrence::new_in(m, nl, ra, rb);
-        for (i, &x) in mu.iter().enumerate() {
-            rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
-        }
+        let (t, chi, lam, rec) = Self::node_tables(mu, w, p);
         let renorm_m0 = m == 0;
 
         let fail = |what: &'static str| MultifluxError::Numerical {
@@ -272,6 +247,38 @@ impl SlabSolution {
                 renorm_m0,
             })
         })
+    }
+
+    /// `t = sqrt(w mu)`, the weighted moments `chi` and the Legendre table
+    /// `Lambda_l^m(mu_i)` (node-major) of order `p.m`, in vectors of the
+    /// workspace (handed back by `SlabSolution::recycle`); every element is
+    /// written here (the recurrence's coefficient vectors by `new_in`).
+    fn node_tables(
+        mu: &[f64],
+        w: &[f64],
+        p: &SlabOrder<'_>,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>, LegendreRecurrence) {
+        let (n, m, nl) = (mu.len(), p.m, p.chi.len());
+        let (mut t, mut chi, mut lam, ra, rb) = with_workspace(|ws| {
+            (
+                ws.take_for_overwrite(n),
+                ws.take_for_overwrite(nl),
+                ws.take_for_overwrite(n * nl),
+                ws.take_for_overwrite(nl),
+                ws.take_for_overwrite(nl),
+            )
+        });
+        for ((t, u), w) in t.iter_mut().zip(mu).zip(w) {
+            *t = (u * w).sqrt();
+        }
+        for (l, c) in chi.iter_mut().enumerate() {
+            *c = if l < m { 0.0 } else { (2 * l + 1) as f64 * p.chi[l] };
+        }
+        let rec = LegendreRecurrence::new_in(m, nl, ra, rb);
+        for (i, &x) in mu.iter().enumerate() {
+            rec.eval(x, &mut lam[i * nl..(i + 1) * nl]);
+        }
+        (t, chi, lam, rec)
     }
 
     /// The node-to-node `R` and `T` when `full` (eq. S5), else empty after
