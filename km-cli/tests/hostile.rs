@@ -142,41 +142,41 @@ fn parallel_plots_into_one_directory_all_succeed_and_leave_no_temporary_file() {
     let d = dir("plots");
     let scene = write(&d, "s.toml", LOWER_ONLY);
     let plot = d.join("same");
+    let args = [
+        "bsdf",
+        s(&scene),
+        "--plot",
+        s(&plot),
+        "--theta-i",
+        "0",
+        "--theta-o",
+        "0:90:30",
+        "--phi",
+        "0",
+        "--streams",
+        "4",
+    ];
+    let names = six_at_once(&args, &plot);
+    let left: Vec<&String> = names.iter().filter(|n| n.contains(".tmp")).collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
+/// Six runs of `km ARGS` started at once, each to succeed within the
+/// per-case limit of the whole group (counted from the first start, six
+/// processes on a shared machine); the names of the files in `dir` after.
+fn six_at_once(args: &[&str], dir: &Path) -> Vec<String> {
     let t0 = Instant::now();
     let children: Vec<Child> = (0..6)
-        .map(|_| {
-            command(&[
-                "bsdf",
-                s(&scene),
-                "--plot",
-                s(&plot),
-                "--theta-i",
-                "0",
-                "--theta-o",
-                "0:90:30",
-                "--phi",
-                "0",
-                "--streams",
-                "4",
-            ])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap()
-        })
+        .map(|_| command(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap())
         .collect();
     for c in children {
-        // Six processes on a shared machine: each within the per-case limit
-        // of the whole group, counted from the first start.
         let r = finish_within(c, 6.0 * SECONDS, t0);
         assert!(r.status.success(), "{}", r.stderr);
     }
-    let left: Vec<String> = std::fs::read_dir(&plot)
+    std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains(".tmp"))
-        .collect();
-    assert!(left.is_empty(), "temporary files left: {left:?}");
+        .collect()
 }
 
 /// [`finish`] with its own time limit.
@@ -477,37 +477,21 @@ fn parallel_hiding_charts_into_one_directory_all_succeed() {
     // Case 15: six `km fit --km ... --plot same/` at once.
     let d = dir("fit-plots");
     let plot = d.join("same");
-    let t0 = Instant::now();
-    let children: Vec<Child> = (0..6)
-        .map(|_| {
-            command(&[
-                "fit",
-                "--km",
-                "--r-black",
-                "0.3",
-                "--r-white",
-                "0.5",
-                "--r-white-ground",
-                "0.8",
-                "--thickness",
-                "0.05",
-                "--plot",
-                s(&plot),
-            ])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap()
-        })
-        .collect();
-    for c in children {
-        let r = finish_within(c, 6.0 * SECONDS, t0);
-        assert!(r.status.success(), "{}", r.stderr);
-    }
-    let names: Vec<String> = std::fs::read_dir(&plot)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
+    let args = [
+        "fit",
+        "--km",
+        "--r-black",
+        "0.3",
+        "--r-white",
+        "0.5",
+        "--r-white-ground",
+        "0.8",
+        "--thickness",
+        "0.05",
+        "--plot",
+        s(&plot),
+    ];
+    let names = six_at_once(&args, &plot);
     assert!(names.iter().all(|n| !n.contains(".tmp")), "temporary files left: {names:?}");
     assert!(names.iter().any(|n| n.ends_with(".svg")), "no chart: {names:?}");
 }
