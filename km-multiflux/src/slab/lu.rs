@@ -11,11 +11,9 @@
 //! switch (`km-bench/benches/lu.rs` and the `multiflux` bench) are in
 //! docs/benchmarks.md, "LU factors of the slab".
 
+use crate::workspace::Workspace;
 use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};
-
-use super::dot;
-use crate::workspace::Workspace;
 
 /// Size from which [`Lu::new`] factors with faer (see the module header).
 const FAER_FROM: usize = 48;
@@ -260,34 +258,12 @@ impl Lu {
         }
     }
 
-    /// `x <- C^-T x` (faer's in-place solve from `FAER_FROM` (48) nodes on).
-    pub fn solve_transpose(&self, x: &mut [f64]) {
-        let n = self.n;
-        if let Some(f) = &self.faer {
-            f.solve_transpose_in_place(faer::MatMut::from_column_major_slice_mut(x, n, 1));
-            return;
-        }
-        // U^T y = b: row k of U^T is column k of U (contiguous).
-        for k in 0..n {
-            let d = dot(&self.lu[k * n..k * n + k], &x[..k]);
-            x[k] = (x[k] - d) / self.lu[k * n + k];
-        }
-        // L^T w = y: column k of L below the diagonal.
-        for k in (0..n).rev() {
-            x[k] -= dot(&self.lu[k * n + k + 1..(k + 1) * n], &x[k + 1..]);
-        }
-        // x = P^T w: undo the exchanges in reverse order.
-        for k in (0..n).rev() {
-            x.swap(k, self.piv[k]);
-        }
-    }
-
     /// `Y <- C^-T Y` for `m` right-hand sides at once, `y` row-major `n x m`
-    /// (`y[i * m + r]`: component `i` of right-hand side `r`). The same steps
-    /// as [`Lu::solve_transpose`] with the right-hand sides innermost, so
-    /// each step is a contiguous `axpy` over them (a probe row per distinct
-    /// exit cosine, or a node row per column of `R` and `T`, in one call
-    /// instead of one solve each).
+    /// (`y[i * m + r]`: component `i` of right-hand side `r`): `U^T Z = B`,
+    /// then `L^T W = Z`, then `Y = P^T W`, with the right-hand sides
+    /// innermost, so each step is a contiguous `axpy` over them (a probe row
+    /// per distinct exit cosine, or a node row per column of `R` and `T`, in
+    /// one call instead of one solve each; `m = 1` is the single solve).
     pub fn solve_transpose_rows(&self, y: &mut [f64], m: usize) {
         let n = self.n;
         debug_assert_eq!(y.len(), n * m);
@@ -402,7 +378,7 @@ mod tests {
             let lu = Lu::new(&c);
             let (mut x, mut y) = (b.clone(), b.clone());
             lu.solve(&mut x);
-            lu.solve_transpose(&mut y);
+            lu.solve_transpose_rows(&mut y, 1);
             for i in 0..n {
                 let cx: f64 = (0..n).map(|j| c[(i, j)] * x[j]).sum();
                 let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j]).sum();
@@ -429,8 +405,9 @@ mod tests {
             let mut y = b.clone();
             lu.solve_transpose_rows(&mut y, m);
             for r in 0..m {
+                // Each right-hand side alone gives the same column.
                 let mut one: Vec<f64> = (0..n).map(|i| b[i * m + r]).collect();
-                lu.solve_transpose(&mut one);
+                lu.solve_transpose_rows(&mut one, 1);
                 for i in 0..n {
                     let cty: f64 = (0..n).map(|j| c[(j, i)] * y[j * m + r]).sum();
                     assert!((cty - b[i * m + r]).abs() < 1e-11, "n = {n}, rhs {r}, row {i}");

@@ -184,50 +184,17 @@ impl SlabSolution {
         }
     }
 
-    /// `(R_xq, T_xq)` of a probe: `R_xq = (us Cp^-1 + uy Cm^-1) T`,
+    /// `(R_xq, T_xq)` of every probe: `R_xq = (us Cp^-1 + uy Cm^-1) T`,
     /// `T_xq = (us Cp^-1 - uy Cm^-1) T`, the row vectors by transposed solves
-    /// `Cp^-T us`, `Cm^-T uy`.
-    pub(super) fn probe_row_vectors(
-        &self,
-        pr: &Probe<'_>,
-        ws: &mut Workspace,
-    ) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
-        // Every element of the four is written before it is read.
-        let (mut p, mut q) = (ws.take_for_overwrite(n), ws.take_for_overwrite(n));
-        p.copy_from_slice(pr.us);
-        q.copy_from_slice(pr.uy);
-        self.lu_p.solve_transpose(&mut p);
-        match &self.lu_m {
-            Some(lu) => lu.solve_transpose(&mut q),
-            None => q.iter_mut().for_each(|x| *x = 0.0),
-        }
-        let mut rx = ws.take_for_overwrite(n);
-        let mut tx = ws.take_for_overwrite(n);
-        for i in 0..n {
-            rx[i] = (p[i] + q[i]) * self.t[i];
-            tx[i] = (p[i] - q[i]) * self.t[i];
-        }
-        if self.tau.is_infinite() {
-            tx.iter_mut().for_each(|x| *x = 0.0);
-        }
-        ws.give(p);
-        ws.give(q);
-        (rx, tx)
-    }
-
-    /// [`SlabSolution::probe_row_vectors`] of every probe, their transposed
-    /// solves in one call per factor (`Cp^-T [us_1 .. us_P]`, `Cm^-T [uy_1 ..
-    /// uy_P]`).
+    /// of all probes at once, one call per factor (`Cp^-T [us_1 .. us_P]`,
+    /// `Cm^-T [uy_1 .. uy_P]`); the vectors come from `ws` (the caller gives
+    /// them back).
     pub(super) fn all_probe_row_vectors(
         &self,
         probes: &Probes,
         ws: &mut Workspace,
     ) -> Vec<(Vec<f64>, Vec<f64>)> {
         let (n, np) = (self.n, probes.len());
-        if np < 2 {
-            return (0..np).map(|p| self.probe_row_vectors(&probes.row(p), ws)).collect();
-        }
         // Row-major n x np: component i of probe p at [i * np + p].
         let (mut p_all, mut q_all) = (ws.take_for_overwrite(n * np), ws.take_for_overwrite(n * np));
         for p in 0..np {
@@ -244,8 +211,9 @@ impl SlabSolution {
         }
         let out = (0..np)
             .map(|p| {
-                let mut rx = vec![0.0; n];
-                let mut tx = vec![0.0; n];
+                // Every element is written below.
+                let mut rx = ws.take_for_overwrite(n);
+                let mut tx = ws.take_for_overwrite(n);
                 for i in 0..n {
                     let (a, b) = (p_all[i * np + p], q_all[i * np + p]);
                     rx[i] = (a + b) * self.t[i];
