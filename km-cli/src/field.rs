@@ -37,10 +37,10 @@ pub struct FieldArgs {
     #[arg(long)]
     pub dz: Option<f64>,
     /// How F_dr is computed [dipole].
-    #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
+    #[arg(long, value_enum, default_value_t = km::DipoleOptions::default().fdr)]
     pub fdr: km::FdrModel,
     /// Which dipole [dipole].
-    #[arg(long, value_enum, default_value_t = km::DipoleModel::Jensen2001)]
+    #[arg(long, value_enum, default_value_t = km::DipoleOptions::default().model)]
     pub dipole: km::DipoleModel,
     /// Print JSON (the same as `--format json`).
     #[arg(long, conflicts_with_all = ["format", "csv"])]

@@ -90,6 +90,16 @@ def test_dipole_field_and_profile_equal_the_cli(km_cli, tmp_path):
     assert f["fluence"].shape == (3, 3)
     for k in ("fluence", "absorbed", "net_flux", "absorptance_layers"):
         assert np.array_equal(f[k], np.array(out[k])), k
+    # The better dipole with Egan-Hilgeman's F_dr: the same keywords as the
+    # command's flags, the same numbers, and different from the defaults.
+    fb = km.field(s, "dipole", dipole="better", fdr="egan-hilgeman")
+    out = json.loads(subprocess.run([km_cli, "field", path, "--method", "dipole", "--dipole",
+                                     "better", "--fdr", "egan-hilgeman", "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    assert np.array_equal(fb["fluence"], np.array(out["fluence"]))
+    assert not np.array_equal(fb["fluence"], f["fluence"])
+    with pytest.raises(km.KmError, match="fdr"):
+        km.field(s, "multiflux", fdr="exact")
     # Energy (docs/diffusion.md eq. D27): R + absorbed = 1 for Jensen et al.
     sol = km.solve(s, "dipole")
     assert np.allclose(sol.reflectance + f["absorptance_layers"][:, 0], 1.0, atol=1e-12)

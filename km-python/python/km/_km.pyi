@@ -208,6 +208,8 @@ def field(
     samples: int | None = None,
     seed: int | None = None,
     dz: float | None = None,
+    fdr: str | None = None,
+    dipole: str | None = None,
 ) -> dict[str, Any]:
     """The light field inside the stack, as ``km field SCENE --json`` (docs/field.md).
 

@@ -494,6 +494,8 @@ def field(
     samples: int | None = None,
     seed: int | None = None,
     dz: float | None = None,
+    fdr: Literal["exact", "egan-hilgeman"] | None = None,
+    dipole: Literal["jensen2001", "better"] | None = None,
 ) -> dict[str, Any]:
     """The light field inside the stack, as ``km field SCENE --json`` (docs/field.md).
 
@@ -515,6 +517,10 @@ def field(
         [mc] Seed (default 1).
     dz : float, optional
         [mc] Width of the depth bins.
+    fdr : {"exact", "egan-hilgeman"}, optional
+        [dipole] How ``F_dr`` is computed (default "exact"), as ``km.solve``.
+    dipole : {"jensen2001", "better"}, optional
+        [dipole] Which dipole (default "jensen2001"), as ``km.solve``.
 
     Returns
     -------
@@ -540,7 +546,7 @@ def field(
     """
     d = None if depths is None else [float(x) for x in np.asarray(depths, dtype=float).ravel()]
     out: dict[str, Any] = _km.field(scene, method, depths=d, streams=streams, samples=samples,
-                                    seed=seed, dz=dz)
+                                    seed=seed, dz=dz, fdr=fdr, dipole=dipole)
     return out
 
 

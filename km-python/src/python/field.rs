@@ -21,7 +21,7 @@ pub(crate) fn rows(py: Python<'_>, v: Vec<Vec<f64>>) -> PyResult<Bound<'_, PyAny
 /// The fluence rate, absorbed power density and net flux at depths (see `km.field`).
 #[pyfunction]
 #[pyo3(signature = (scene, method="multiflux", *, depths=None, streams=None, samples=None,
-                    seed=None, dz=None))]
+                    seed=None, dz=None, fdr=None, dipole=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn field<'py>(
     py: Python<'py>,
@@ -32,9 +32,25 @@ pub(crate) fn field<'py>(
     samples: Option<u64>,
     seed: Option<u64>,
     dz: Option<f64>,
+    fdr: Option<&str>,
+    dipole: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
     let mut opts = FieldOptions { method: FieldMethod(method), dz, ..Default::default() };
+    // The dipole's model and F_dr through the one table of settings (its
+    // choices, defaults and the refusal of either for another method), as
+    // `km solve` and `km.solve` read them.
+    if fdr.is_some() || dipole.is_some() {
+        let text: Vec<(String, String)> = [("fdr", fdr), ("dipole", dipole)]
+            .into_iter()
+            .filter_map(|(k, v)| v.map(|v| (k.to_string(), v.to_string())))
+            .collect();
+        let o = crate::engine::Options { method, settings: text, ..Default::default() };
+        let lib = o.library().map_err(|e| py_err(py, e))?;
+        if let km::MethodOptions::Dipole(d) = lib.method {
+            opts.dipole = d;
+        }
+    }
     opts.multiflux.streams = streams;
     opts.mc.samples = samples.unwrap_or(100_000);
     if opts.mc.samples == 0 {
