@@ -78,7 +78,7 @@ fn hand(c: &[Mat<f64>; 4], rhs: &[f64]) -> f64 {
         sum += x[0] + b[0];
         for _ in 0..PROBES {
             let mut p = rhs.to_vec();
-            lu.solve_transpose(&mut p);
+            lu.solve_transpose_rows(&mut p, 1);
             sum += p[0];
         }
     }
@@ -115,7 +115,7 @@ fn slab(c: &[Mat<f64>; 4], rhs: &[f64]) -> f64 {
         sum += x[0] + b[0];
         for _ in 0..PROBES {
             let mut p = rhs.to_vec();
-            lu.solve_transpose(&mut p);
+            lu.solve_transpose_rows(&mut p, 1);
             sum += p[0];
         }
     }
