@@ -1,7 +1,7 @@
 """A Mitsuba 3 BSDF plugin for km stacks (``km.mitsuba``).
 
     import mitsuba as mi
-    mi.set_variant("scalar_rgb")
+    mi.set_variant("llvm_ad_rgb")         # or scalar_rgb, scalar_spectral, llvm_ad_spectral, ...
     import km.mitsuba
     km.mitsuba.register()                 # the plugin "km"
     bsdf = mi.load_dict({"type": "km", "scene": open("paint.toml").read()})
@@ -18,6 +18,14 @@ over an opaque substrate is one-sided (black from below, as Mitsuba's own
 one-sided BSDFs); a transmitting stack is two-sided, its lower face lit
 through the substrate (``side="below"`` of :meth:`km.Bsdf.eval`).
 
+One code path serves every CPU variant: the table is flattened into arrays
+of the variant (Dr.Jit arrays in the ``llvm_*`` and ``cuda_*`` variants,
+Python lists in the scalar ones) and eval, pdf and sample are written as
+array operations over them (gathers of the table's corners, interpolation
+weights as arrays, a binary search in the cumulative cell distribution of
+the chosen row), so a vectorised variant traces them once for a whole
+wavefront of rays.
+
 Properties of the plugin: ``scene`` (the scene file's TOML text, or a path
 to it), ``streams`` (int, optional), ``n_theta`` (46), ``n_phi`` (37).
 Channels: a one-channel scene is grey in every variant; an RGB variant
@@ -29,17 +37,20 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 import km
-from ._table import DIRECT, REFL, SPEC, TRANS, BsdfTable
+from ._table import DIRECT, REFL, SIDES, SPEC, TRANS, BsdfTable
 
 __all__ = ["register", "table_for", "PLUGIN"]
 
 PLUGIN = "km"
 _CACHE: dict[tuple[Any, ...], BsdfTable] = {}
+# Guards denominators that a select discards (scalar variants evaluate both
+# branches of a select eagerly, in Python).
+_TINY = 1e-30
 
 
 def table_for(scene_text: str, streams: int | None = None, n_theta: int = 46,
@@ -52,16 +63,113 @@ def table_for(scene_text: str, streams: int | None = None, n_theta: int = 46,
     return _CACHE[key]
 
 
+class _Flat:
+    """A :class:`BsdfTable` as flat arrays, channel innermost (numpy, float64).
+
+    ``f``: ``[block, j, k, l, c]`` with ``block = 2 side + transmitted``
+    (zeros where the stack has no such side or lobe); ``delta``:
+    ``[side, lobe (SPEC, DIRECT), j, c]``; ``totals``: ``[side, key, j, c]``;
+    ``wn``: the cell weights of eq. M1 divided by ``2 A dmu dphi``,
+    ``[block, j, k, l]``; ``cdf``: each row's cumulative cell weights
+    normalised to 1, ``[block, j, k * (n_phi - 1) + l]``."""
+
+    TOTALS = ("reflectance", "transmittance", "reflectance_specular", "transmittance_direct")
+
+    def __init__(self, tab: BsdfTable) -> None:
+        n, m, c = len(tab.theta), len(tab.phi), tab.channels
+        self.n, self.m, self.c = n, m, c
+        self.ncell = n * (m - 1)
+        f = np.zeros((4, n, n, m, c))
+        wn = np.zeros((4, n, n, m - 1))
+        cdf = np.zeros((4, n, self.ncell))
+        delta = np.zeros((2, 2, n, c))
+        totals = np.zeros((2, 4, n, c))
+        for si, side in enumerate(SIDES):
+            if side not in tab.lobes:
+                continue
+            for di, lobe in enumerate((SPEC, DIRECT)):
+                delta[si, di] = tab.delta[(side, lobe)].T
+            for ki, key in enumerate(self.TOTALS):
+                totals[si, ki] = tab.totals[side][key].T
+            for tr in (False, True):
+                b = 2 * si + int(tr)
+                f[b] = np.moveaxis(tab.f[(side, tr)], 0, -1)
+                w = tab.weights[(side, tr)]
+                a = w.reshape(n, -1).sum(axis=1)  # A_j,s
+                ok = a > 0
+                den = 2.0 * np.where(ok, a, 1.0)[:, None, None] * tab.d_mu[None, :, None] \
+                    * tab.d_phi
+                wn[b] = np.where(ok[:, None, None], w / den, 0.0)
+                c_ = tab.cdf[(side, tr)]
+                cdf[b] = np.where(ok[:, None], c_ / np.where(ok, c_[:, -1], 1.0)[:, None], 0.0)
+        self.f, self.wn, self.cdf, self.delta, self.totals = f, wn, cdf, delta, totals
+        self.tab = tab
+
+    def lobe_tables(self, enabled: tuple[bool, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Lobe probabilities ``P[side, j, lobe]`` renormalised over the enabled
+        lobes, and the thresholds ``[side, j, 0..2]`` that pick a lobe from
+        one uniform number (the lobe is the count of thresholds at or below
+        it; the thresholds at and after the last lobe of nonzero probability
+        are 2, above any number drawn), with ``[side, j, 3]`` = 1 where some
+        enabled lobe has a nonzero probability, else 0."""
+        n = self.n
+        p = np.zeros((2, n, 4))
+        thr = np.zeros((2, n, 4))
+        mask = np.asarray(enabled, dtype=float)
+        for si, side in enumerate(SIDES):
+            if side not in self.tab.lobes:
+                thr[si, :, :3] = 2.0
+                continue
+            q = self.tab.lobes[side] * mask[None, :]
+            s = q.sum(axis=1)
+            q = np.where(s[:, None] > 0, q / np.where(s > 0, s, 1.0)[:, None], 0.0)
+            p[si] = q
+            cum = np.cumsum(q, axis=1)
+            for j in range(n):
+                nz = np.nonzero(q[j] > 0)[0]
+                if nz.size == 0:
+                    thr[si, j, :3] = 2.0
+                    continue
+                last = int(nz[-1])
+                thr[si, j, :3] = [cum[j, k] if k < last else 2.0 for k in range(3)]
+                thr[si, j, 3] = 1.0
+        return p, thr
+
+
 def register(name: str = PLUGIN) -> type:
     """Register the plugin with Mitsuba (a variant must be set) and return its class."""
+    import drjit as dr
     import mitsuba as mi
 
     variant = mi.variant()
-    if variant is None or not variant.startswith("scalar"):
-        raise km.KmError(f"km.mitsuba needs a scalar variant (scalar_rgb, scalar_spectral), "
-                         f"not {variant}")
+    if variant is None:
+        raise km.KmError("km.mitsuba needs a Mitsuba variant (mi.set_variant(...)) first")
+    if "polarized" in variant:
+        raise km.KmError(f"km.mitsuba has no polarised BSDF, so not {variant}")
     spectral = "spectral" in variant
+    jit = not variant.startswith("scalar")
     F = mi.BSDFFlags
+    Float, UInt = mi.Float, mi.UInt32
+
+    gather: Callable[..., Any]
+    if jit:
+        def to_array(x: np.ndarray) -> Any:
+            return Float(np.ascontiguousarray(x, dtype=np.float32).ravel())
+
+        def gather(buf: Any, idx: Any, active: Any = True) -> Any:
+            return dr.gather(Float, buf, idx, active)
+    else:
+        def to_array(x: np.ndarray) -> Any:
+            return np.asarray(x, dtype=float).ravel().tolist()
+
+        def gather(buf: Any, idx: Any, active: Any = True) -> Any:
+            return buf[idx] if active else 0.0
+
+    def as_uint(b: Any) -> Any:
+        return dr.select(b, UInt(1), UInt(0))
+
+    def neg(b: Any) -> Any:  # `~` of a mask; `not` of a scalar variant's bool
+        return ~b if jit else not b
 
     # Without mitsuba's stubs mi.BSDF is Any (misc); with them the ignore is unused.
     class KmBSDF(mi.BSDF):  # type: ignore[misc, unused-ignore]
@@ -96,140 +204,288 @@ def register(name: str = PLUGIN) -> type:
             for c in comps:
                 flags = flags | c
             self.m_flags = flags
+            self._build(tab)
+
+        def _build(self, tab: BsdfTable) -> None:
+            flat = _Flat(tab)
+            self._flat = flat
+            self._n, self._m, self._c, self._ncell = flat.n, flat.m, flat.c, flat.ncell
+            self._dt = math.radians(tab.d_theta)
+            self._theta_max = math.radians(float(tab.theta[-1]))
+            self._dp = tab.d_phi
+            # n_in / n_out of the unscattered beam from above, from below (an
+            # opaque substrate has no index below: no beam, the ratio unused).
+            n_a, n_b = tab.n_above, tab.n_below if tab.transmits else tab.n_above
+            self._n_in_out = (n_a / n_b, n_b / n_a)
+            self._f = to_array(flat.f)
+            self._wn = to_array(flat.wn)
+            self._cdf = to_array(flat.cdf)
+            self._delta = to_array(flat.delta)
+            self._totals = to_array(flat.totals)
+            self._mu_top = to_array(tab.mu_edges[:-1])
+            self._d_mu = to_array(tab.d_mu)
+            wl = np.asarray(tab.wavelengths_nm or [0.0], dtype=float)
+            self._wl = to_array(wl)
+            self._wl_list = [float(x) for x in wl]
+            self._lobe_cache: dict[tuple[bool, ...], tuple[Any, Any]] = {}
 
         # -- helpers --------------------------------------------------------
 
-        def _spectrum(self, si: Any, values: np.ndarray) -> Any:
-            tab = self.table
-            if tab.channels == 1:
-                return mi.Spectrum(float(values[0]))
-            if spectral:
-                wl = np.array([si.wavelengths[i] for i in range(len(si.wavelengths))])
-                v = np.interp(wl, tab.wavelengths_nm, values)
-                return mi.Spectrum(*[float(x) for x in v])
-            return mi.Spectrum(float(values[0]), float(values[1]), float(values[2]))
+        def _lobe_arrays(self, enabled: tuple[bool, ...]) -> tuple[Any, Any]:
+            if enabled not in self._lobe_cache:
+                p, thr = self._flat.lobe_tables(enabled)
+                self._lobe_cache[enabled] = (to_array(p), to_array(thr))
+            return self._lobe_cache[enabled]
+
+        def _channel_map(self, si: Any) -> list[tuple[Any, Any]]:
+            """Per output channel: the table channel below it and the weight of the next.
+
+            Grey and RGB: the channels themselves (weight 0); spectral: the
+            path's wavelengths between the scene's (linear, clamped)."""
+            c = self._c
+            if c == 1:
+                return [(UInt(0), Float(0.0))]
+            if not spectral:
+                return [(UInt(i), Float(0.0)) for i in range(c)]
+            out = []
+            wl = self._wl_list
+            for i in range(len(si.wavelengths)):
+                lam = si.wavelengths[i]
+                c0 = UInt(0)
+                for node in wl[1:-1]:
+                    c0 = c0 + as_uint(lam >= node)
+                w0 = gather(self._wl, c0)
+                w1 = gather(self._wl, c0 + 1)
+                out.append((c0, dr.clip((lam - w0) / (w1 - w0), 0.0, 1.0)))
+            return out
+
+        def _fetch(self, buf: Any, bases: list[Any], weights: list[Any],
+                   cmap: list[tuple[Any, Any]], active: Any) -> Any:
+            """sum_corners weight * buf[base, channel] as a Spectrum (bases index
+            ``[..., c]`` rows of ``self._c`` channels)."""
+            c = self._c
+            vals = []
+            for c0, tw in cmap:
+                acc: Any = Float(0.0)
+                for b, w in zip(bases, weights):
+                    v = gather(buf, b * c + c0, active)
+                    if c > 1 and spectral:
+                        v = v + tw * (gather(buf, b * c + c0 + 1, active) - v)
+                    acc = dr.fma(w, v, acc)
+                vals.append(acc)
+            return vals
+
+        def _spectrum(self, vals: list[Any]) -> Any:
+            if len(vals) == 1:
+                return mi.Spectrum(vals[0])
+            return mi.Spectrum(*vals)
 
         def _enabled(self, ctx: Any) -> tuple[bool, ...]:
+            """Enabled lobes in the table's order: SPEC, DIRECT, REFL, TRANS."""
             tr = self.table.transmits
-            return (ctx.is_enabled(F.DeltaReflection, 0), ctx.is_enabled(F.GlossyReflection, 1),
-                    tr and ctx.is_enabled(F.DeltaTransmission, 2),
-                    tr and ctx.is_enabled(F.GlossyTransmission, 3))
+            return (bool(ctx.is_enabled(F.DeltaReflection, 0)),
+                    bool(tr and ctx.is_enabled(F.DeltaTransmission, 2)),
+                    bool(ctx.is_enabled(F.GlossyReflection, 1)),
+                    bool(tr and ctx.is_enabled(F.GlossyTransmission, 3)))
 
-        def _lobes(self, ctx: Any) -> tuple[bool, ...]:
-            e = self._enabled(ctx)  # in the table's order: SPEC, DIRECT, REFL, TRANS
-            return (e[0], e[2], e[1], e[3])
+        def _incidence(self, si: Any, active: Any) -> tuple[Any, Any, Any, Any, Any]:
+            """(valid, side index, lower node j, weight t, phi_i) of ``si.wi``."""
+            cos_i = si.wi.z
+            valid = active & (cos_i != 0.0)
+            if not self.table.transmits:
+                valid = valid & (cos_i > 0.0)
+            side = as_uint(cos_i < 0.0)
+            theta_i = dr.acos(dr.minimum(dr.abs(cos_i), 1.0))
+            j, t = self._node(theta_i)
+            return valid, side, j, t, dr.atan2(si.wi.y, si.wi.x)
 
-        def _incidence(self, si: Any) -> tuple[str, float, float] | None:
-            wi = si.wi
-            cos_i = float(wi.z)
-            if cos_i == 0.0 or (cos_i < 0.0 and not self.table.transmits):
-                return None
-            side = "above" if cos_i > 0 else "below"
-            theta_i = math.degrees(math.acos(min(abs(cos_i), 1.0)))
-            return side, theta_i, math.atan2(float(wi.y), float(wi.x))
+        def _node(self, theta: Any) -> tuple[Any, Any]:
+            """Lower node and interpolation weight of a polar angle (radians)."""
+            x = dr.clip(theta, 0.0, self._theta_max) / self._dt
+            jf = dr.minimum(dr.floor(x), self._n - 2)
+            return UInt(jf), x - jf
 
-        def _geometry(self, si: Any, wo: Any) -> tuple[str, float, bool, float, float] | None:
-            inc = self._incidence(si)
-            if inc is None or float(wo.z) == 0.0:
-                return None
-            side, theta_i, phi_i = inc
-            transmitted = (float(wo.z) > 0) != (side == "above")
-            mu_o = min(abs(float(wo.z)), 1.0)
-            phi = math.degrees(math.atan2(float(wo.y), float(wo.x)) - phi_i)
-            return side, theta_i, transmitted, mu_o, phi
+        def _relative_phi(self, wo: Any, phi_i: Any) -> Any:
+            """Azimuth of ``wo`` relative to the incidence, folded into [0, pi]."""
+            d = dr.atan2(wo.y, wo.x) - phi_i
+            d = d - 2.0 * math.pi * dr.floor((d + math.pi) / (2.0 * math.pi))
+            return dr.minimum(dr.abs(d), math.pi)
+
+        def _eval_f(self, block: Any, j: Any, t: Any, theta_o: Any, phi: Any, cmap: Any,
+                    active: Any) -> list[Any]:
+            """Trilinear interpolation of the smooth BSDF (per channel, >= 0)."""
+            n, m = self._n, self._m
+            k, u = self._node(theta_o)
+            xp = dr.clip(phi, 0.0, math.pi) / self._dp
+            lf = dr.minimum(dr.floor(xp), m - 2)
+            v = xp - lf
+            l_ = UInt(lf)
+            base = ((block * n + j) * n + k) * m + l_
+            bases, weights = [], []
+            for dj, wj in ((0, 1.0 - t), (1, t)):
+                for dk, wk in ((0, 1.0 - u), (1, u)):
+                    wjk = wj * wk
+                    for dl, wl in ((0, 1.0 - v), (1, v)):
+                        bases.append(base + (dj * n + dk) * m + dl)
+                        weights.append(wjk * wl)
+            vals = self._fetch(self._f, bases, weights, cmap, active)
+            return [dr.maximum(x, 0.0) for x in vals]
+
+        def _pdf_cell(self, side: Any, transmitted: Any, j: Any, t: Any, k: Any, l_: Any,
+                      p: Any, active: Any) -> Any:
+            """Eq. M1 for an exit in cell (k, l) of the smooth lobe ``transmitted``."""
+            n, m = self._n, self._m
+            block = 2 * side + as_uint(transmitted)
+            lobe = REFL + as_uint(transmitted)
+            total: Any = Float(0.0)
+            for dj, wj in ((0, 1.0 - t), (1, t)):
+                jj = j + dj
+                pj = gather(p, (side * n + jj) * 4 + lobe, active)
+                w = gather(self._wn, ((block * n + jj) * n + k) * (m - 1) + l_, active)
+                total = dr.fma(wj * pj, w, total)
+            return total
+
+        def _exit(self, si: Any, wo: Any, active: Any, smooth_on: tuple[bool, bool]
+                  ) -> tuple[Any, ...]:
+            """Geometry of a smooth exit: (valid, side, transmitted, j, t, mu_o,
+            theta_o, phi) with the lobe enabled and the stack's sides respected."""
+            valid, side, j, t, phi_i = self._incidence(si, active)
+            valid = valid & (wo.z != 0.0)
+            transmitted = (wo.z > 0.0) != (si.wi.z > 0.0)
+            if not smooth_on[1]:
+                valid = valid & neg(transmitted)
+            if not smooth_on[0]:
+                valid = valid & transmitted
+            mu_o = dr.minimum(dr.abs(wo.z), 1.0)
+            theta_o = dr.acos(mu_o)
+            phi = self._relative_phi(wo, phi_i)
+            return valid, side, transmitted, j, t, mu_o, theta_o, phi
 
         # -- the BSDF interface ---------------------------------------------
 
         def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
-            g = self._geometry(si, wo)
-            lobes = self._lobes(ctx)
-            if g is None:
-                return mi.Spectrum(0.0)
-            side, theta_i, transmitted, mu_o, phi = g
-            if not lobes[TRANS if transmitted else REFL]:
-                return mi.Spectrum(0.0)
-            f = self.table.eval(side, transmitted, theta_i, math.degrees(math.acos(mu_o)), phi)
-            return self._spectrum(si, f * mu_o)
+            e = self._enabled(ctx)
+            valid, side, tr, j, t, mu_o, theta_o, phi = self._exit(si, wo, active, (e[2], e[3]))
+            block = 2 * side + as_uint(tr)
+            vals = self._eval_f(block, j, t, theta_o, phi, self._channel_map(si), valid)
+            return self._spectrum([dr.select(valid, x * mu_o, 0.0) for x in vals])
 
         def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
-            g = self._geometry(si, wo)
-            if g is None:
-                return 0.0
-            side, theta_i, transmitted, mu_o, phi = g
-            return self.table.pdf(side, transmitted, theta_i, mu_o, phi, self._lobes(ctx))
+            e = self._enabled(ctx)
+            valid, side, tr, j, t, mu_o, theta_o, phi = self._exit(si, wo, active, (e[2], e[3]))
+            p, _ = self._lobe_arrays(e)
+            k = UInt(dr.minimum(dr.floor(theta_o / self._dt), self._n - 1))
+            l_ = UInt(dr.minimum(dr.floor(phi / self._dp), self._m - 2))
+            return dr.select(valid, self._pdf_cell(side, tr, j, t, k, l_, p, valid), 0.0)
 
         def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> tuple[Any, Any]:
             return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
         def sample(self, ctx: Any, si: Any, sample1: Any, sample2: Any,
                    active: Any = True) -> tuple[Any, Any]:
-            bs: Any = mi.BSDFSample3f()
-            inc = self._incidence(si)
-            lobes = self._lobes(ctx)
-            if inc is None:
-                return bs, mi.Spectrum(0.0)
-            side, theta_i, phi_i = inc
-            tab = self.table
-            s = tab.sample(side, theta_i, float(sample1), float(sample2[0]), float(sample2[1]),
-                           lobes)
-            if s is None:
-                return bs, mi.Spectrum(0.0)
-            lobe, mu_o, phi = s
-            up = 1.0 if side == "above" else -1.0
-            n_in, n_out = ((tab.n_above, tab.n_below) if side == "above"
-                           else (tab.n_below, tab.n_above))
+            n, m = self._n, self._m
+            e = self._enabled(ctx)
+            p, thr = self._lobe_arrays(e)
+            valid, side, j0, t, phi_i = self._incidence(si, active)
+            # The node (j0 or j0 + 1, probabilities 1 - t and t), then the
+            # lobe from the same number rescaled.
+            up_node = sample1 < t
+            j = j0 + as_uint(up_node)
+            u1 = dr.select(up_node, sample1 / dr.maximum(t, _TINY),
+                           (sample1 - t) / dr.maximum(1.0 - t, _TINY))
+            row = (side * n + j) * 4
+            lobe = UInt(0)
+            for i in range(3):
+                lobe = lobe + as_uint(u1 >= gather(thr, row + i, valid))
+            valid = valid & (gather(thr, row + 3, valid) > 0.0)
+            is_spec = lobe == SPEC
+            is_direct = lobe == DIRECT
+            smooth = valid & (lobe >= REFL)
+            transmitted = lobe == TRANS
+            # Smooth lobes: the cell from the row's cumulative distribution.
+            block = 2 * side + as_uint(transmitted)
+            crow = (block * n + j) * self._ncell
+            x = sample2[0]
+            cdf = self._cdf
+            idx = dr.binary_search(0, self._ncell - 1,
+                                   lambda i: gather(cdf, crow + i, smooth) <= x)
+            idx = UInt(idx)
+            below = dr.select(idx > 0, gather(cdf, crow + idx - 1, smooth & (idx > 0)), 0.0)
+            width = gather(cdf, crow + idx, smooth) - below
+            frac = dr.select(width > 0.0, (x - below) / dr.maximum(width, _TINY), 0.5)
+            k = idx // (m - 1)
+            l_ = idx - k * (m - 1)
+            mu = gather(self._mu_top, k, smooth) \
+                - dr.clip(frac, 0.0, 1.0) * gather(self._d_mu, k, smooth)
+            mu = dr.clip(mu, 0.0, 1.0)
+            u3 = sample2[1]
+            left = u3 < 0.5
+            v = dr.select(left, 2.0 * u3, 2.0 * u3 - 1.0)
+            phi = (Float(l_) + v) * self._dp
+            a = phi_i + dr.select(left, phi, -phi)
+            up = dr.select(side == 0, 1.0, -1.0)
+            sin_o = dr.safe_sqrt(1.0 - mu * mu)
+            z_smooth = dr.select(transmitted, -up * mu, up * mu)
+            # The unscattered beam: Snell between the outer media.
             wi = si.wi
-            if lobe == SPEC:
-                bs.wo = mi.Vector3f(-float(wi.x), -float(wi.y), float(wi.z))
-                bs.pdf = tab.delta_probability(side, SPEC, theta_i, lobes)
-                bs.eta, bs.sampled_type, bs.sampled_component = 1.0, +F.DeltaReflection, 0
-                value = tab.delta_value(side, SPEC, theta_i)
-            elif lobe == DIRECT:
-                # Snell between the outer media (parallel interfaces): the
-                # transmitted direction depends on n_in / n_out only.
-                ratio = n_in / n_out
-                sin_t2 = ratio * ratio * (1.0 - float(wi.z) ** 2)
-                if sin_t2 >= 1.0:
-                    return bs, mi.Spectrum(0.0)
-                cos_t = math.sqrt(1.0 - sin_t2)
-                bs.wo = mi.Vector3f(-ratio * float(wi.x), -ratio * float(wi.y), -up * cos_t)
-                bs.pdf = tab.delta_probability(side, DIRECT, theta_i, lobes)
-                bs.eta, bs.sampled_type, bs.sampled_component = (n_out / n_in,
-                                                                 +F.DeltaTransmission, 2)
-                value = tab.delta_value(side, DIRECT, theta_i)
-            else:
-                transmitted = lobe == TRANS
-                sin_o = math.sqrt(max(0.0, 1.0 - mu_o * mu_o))
-                a = phi_i + math.radians(phi)
-                z = up * mu_o * (-1.0 if transmitted else 1.0)
-                bs.wo = mi.Vector3f(sin_o * math.cos(a), sin_o * math.sin(a), z)
-                bs.pdf = tab.pdf(side, transmitted, theta_i, mu_o, phi, lobes)
-                if transmitted:
-                    bs.eta, bs.sampled_type, bs.sampled_component = (n_out / n_in,
-                                                                     +F.GlossyTransmission, 3)
-                else:
-                    bs.eta, bs.sampled_type, bs.sampled_component = 1.0, +F.GlossyReflection, 1
-                if bs.pdf <= 0.0:
-                    return bs, mi.Spectrum(0.0)
-                f = tab.eval(side, transmitted, theta_i, math.degrees(math.acos(mu_o)), phi)
-                value = f * mu_o
-            if bs.pdf <= 0.0:
-                return bs, mi.Spectrum(0.0)
-            return bs, self._spectrum(si, np.asarray(value) / bs.pdf)
+            ratio = dr.select(side == 0, self._n_in_out[0], self._n_in_out[1])
+            sin_t2 = ratio * ratio * (1.0 - wi.z * wi.z)
+            cos_t = dr.safe_sqrt(1.0 - sin_t2)
+            valid = valid & neg(is_direct & (sin_t2 >= 1.0))
+            wx = dr.select(is_spec, -wi.x, dr.select(is_direct, -ratio * wi.x, sin_o * dr.cos(a)))
+            wy = dr.select(is_spec, -wi.y, dr.select(is_direct, -ratio * wi.y, sin_o * dr.sin(a)))
+            wz = dr.select(is_spec, wi.z, dr.select(is_direct, -up * cos_t, z_smooth))
+            # Densities: the delta lobes' discrete probabilities, eq. M1 for smooth ones.
+            prow0, prow1 = (side * n + j0) * 4, (side * n + j0 + 1) * 4
+            p_delta = (1.0 - t) * gather(p, prow0 + lobe, valid) \
+                + t * gather(p, prow1 + lobe, valid)
+            p_smooth = self._pdf_cell(side, transmitted, j0, t, k, l_, p, smooth)
+            pdf = dr.select(smooth, p_smooth, p_delta)
+            valid = valid & (pdf > 0.0)
+            cmap = self._channel_map(si)
+            f = self._eval_f(block, j0, t, dr.acos(mu), phi, cmap, smooth)
+            dl = as_uint(is_direct)
+            dbase = (side * 2 + dl) * n + j0
+            d = self._fetch(self._delta, [dbase, dbase + 1], [1.0 - t, t], cmap,
+                            valid & neg(smooth))
+            inv = 1.0 / dr.maximum(pdf, _TINY)
+            vals = [dr.select(valid, dr.select(smooth, fs * mu, ds) * inv, 0.0)
+                    for fs, ds in zip(f, d)]
+            bs: Any = dr.zeros(mi.BSDFSample3f) if not jit else \
+                dr.zeros(mi.BSDFSample3f, dr.width(sample1))
+            bs.wo = mi.Vector3f(wx, wy, wz)
+            bs.pdf = dr.select(valid, pdf, 0.0)
+            eta_out = dr.select(side == 0, 1.0 / self._n_in_out[0], 1.0 / self._n_in_out[1])
+            bs.eta = dr.select(is_direct | transmitted, eta_out, 1.0)
+            bs.sampled_type = dr.select(
+                is_spec, UInt(+F.DeltaReflection),
+                dr.select(is_direct, UInt(+F.DeltaTransmission),
+                          dr.select(transmitted, UInt(+F.GlossyTransmission),
+                                    UInt(+F.GlossyReflection))))
+            bs.sampled_component = dr.select(
+                is_spec, UInt(0), dr.select(is_direct, UInt(2),
+                                            dr.select(transmitted, UInt(3), UInt(1))))
+            return bs, self._spectrum(vals)
+
+        def _total_values(self, si: Any, keys: tuple[int, ...], active: Any) -> list[Any]:
+            valid, side, j, t, _ = self._incidence(si, active)
+            cmap = self._channel_map(si)
+            out = []
+            for key in keys:
+                base = (side * 4 + key) * self._n + j
+                vals = self._fetch(self._totals, [base, base + 1], [1.0 - t, t], cmap, valid)
+                out.append(self._spectrum([dr.select(valid, x, 0.0) for x in vals]))
+            return out
 
         def eval_diffuse_reflectance(self, si: Any, active: Any = True) -> Any:
             """The stack's total reflectance at ``si.wi`` (the albedo Mitsuba's AOVs show)."""
-            inc = self._incidence(si)
-            if inc is None:
-                return mi.Spectrum(0.0)
-            return self._spectrum(si, self.table.albedo(inc[0], inc[1])["reflectance"])
+            return self._total_values(si, (0,), active)[0]
 
-        def albedo(self, si: Any) -> dict[str, Any]:
-            """Totals at ``si.wi``: reflectance, transmittance and their delta parts."""
-            inc = self._incidence(si)
-            if inc is None:
-                return {}
-            return {k: self._spectrum(si, v) for k, v in self.table.albedo(inc[0], inc[1]).items()}
+        def albedo(self, si: Any, active: Any = True) -> dict[str, Any]:
+            """Totals at ``si.wi``: reflectance, transmittance and their delta parts
+            (zero where ``si.wi`` does not reach the stack)."""
+            vals = self._total_values(si, (0, 1, 2, 3), active)
+            return dict(zip(_Flat.TOTALS, vals))
 
         def traverse(self, callback: Any) -> None:
             pass
