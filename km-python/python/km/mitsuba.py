@@ -150,6 +150,7 @@ def register(name: str = PLUGIN) -> type:
     jit = not variant.startswith("scalar")
     F = mi.BSDFFlags
     Float, UInt = mi.Float, mi.UInt32
+    binary_search: Any = dr.binary_search  # untyped in drjit's stubs
 
     gather: Callable[..., Any]
     if jit:
@@ -407,8 +408,8 @@ def register(name: str = PLUGIN) -> type:
             crow = (block * n + j) * self._ncell
             x = sample2[0]
             cdf = self._cdf
-            idx = dr.binary_search(0, self._ncell - 1,
-                                   lambda i: gather(cdf, crow + i, smooth) <= x)
+            idx = binary_search(0, self._ncell - 1,
+                                lambda i: gather(cdf, crow + i, smooth) <= x)
             idx = UInt(idx)
             below = dr.select(idx > 0, gather(cdf, crow + idx - 1, smooth & (idx > 0)), 0.0)
             width = gather(cdf, crow + idx, smooth) - below
