@@ -35,6 +35,7 @@ scene with wavelengths (linear, clamped at the ends).
 
 from __future__ import annotations
 
+import array
 import math
 import os
 from typing import Any, Callable
@@ -63,77 +64,80 @@ def table_for(scene_text: str, streams: int | None = None, n_theta: int = 46,
     return _CACHE[key]
 
 
-class _Flat:
-    """A :class:`BsdfTable` as flat arrays, channel innermost (numpy, float64).
+_TOTALS = ("reflectance", "transmittance", "reflectance_specular", "transmittance_direct")
+# The flattened arrays of a table per variant, built once (the tables live
+# in _CACHE for the process, so their ids are not reused).
+_ARRAYS: dict[tuple[int, str], tuple[BsdfTable, dict[str, Any]]] = {}
+
+
+def _flatten(tab: BsdfTable) -> dict[str, np.ndarray]:
+    """A :class:`BsdfTable` as flat arrays, channel innermost (float64).
 
     ``f``: ``[block, j, k, l, c]`` with ``block = 2 side + transmitted``
     (zeros where the stack has no such side or lobe); ``delta``:
     ``[side, lobe (SPEC, DIRECT), j, c]``; ``totals``: ``[side, key, j, c]``;
     ``wn``: the cell weights of eq. M1 divided by ``2 A dmu dphi``,
     ``[block, j, k, l]``; ``cdf``: each row's cumulative cell weights
-    normalised to 1, ``[block, j, k * (n_phi - 1) + l]``."""
+    normalised to 1, ``[block, j, k * (n_phi - 1) + l]``; ``mu_top``,
+    ``d_mu``: the sampling cells' upper edge and extent in ``cos theta_o``;
+    ``wl``: the scene's wavelengths (nm; ``[0]`` without)."""
+    n, m, c = len(tab.theta), len(tab.phi), tab.channels
+    f = np.zeros((4, n, n, m, c))
+    wn = np.zeros((4, n, n, m - 1))
+    cdf = np.zeros((4, n, n * (m - 1)))
+    delta = np.zeros((2, 2, n, c))
+    totals = np.zeros((2, 4, n, c))
+    for si, side in enumerate(SIDES):
+        if side not in tab.lobes:
+            continue
+        for di, lobe in enumerate((SPEC, DIRECT)):
+            delta[si, di] = tab.delta[(side, lobe)].T
+        for ki, key in enumerate(_TOTALS):
+            totals[si, ki] = tab.totals[side][key].T
+        for tr in (False, True):
+            b = 2 * si + int(tr)
+            f[b] = np.moveaxis(tab.f[(side, tr)], 0, -1)
+            w = tab.weights[(side, tr)]
+            a = w.reshape(n, -1).sum(axis=1)  # A_j,s
+            ok = a > 0
+            den = 2.0 * np.where(ok, a, 1.0)[:, None, None] * tab.d_mu[None, :, None] * tab.d_phi
+            wn[b] = np.where(ok[:, None, None], w / den, 0.0)
+            c_ = tab.cdf[(side, tr)]
+            cdf[b] = np.where(ok[:, None], c_ / np.where(ok, c_[:, -1], 1.0)[:, None], 0.0)
+    return {"f": f, "wn": wn, "cdf": cdf, "delta": delta, "totals": totals,
+            "mu_top": tab.mu_edges[:-1], "d_mu": tab.d_mu,
+            "wl": np.asarray(tab.wavelengths_nm or [0.0], dtype=float)}
 
-    TOTALS = ("reflectance", "transmittance", "reflectance_specular", "transmittance_direct")
 
-    def __init__(self, tab: BsdfTable) -> None:
-        n, m, c = len(tab.theta), len(tab.phi), tab.channels
-        self.n, self.m, self.c = n, m, c
-        self.ncell = n * (m - 1)
-        f = np.zeros((4, n, n, m, c))
-        wn = np.zeros((4, n, n, m - 1))
-        cdf = np.zeros((4, n, self.ncell))
-        delta = np.zeros((2, 2, n, c))
-        totals = np.zeros((2, 4, n, c))
-        for si, side in enumerate(SIDES):
-            if side not in tab.lobes:
+def _lobe_tables(tab: BsdfTable, enabled: tuple[bool, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Lobe probabilities ``P[side, j, lobe]`` renormalised over the enabled
+    lobes, and the thresholds ``[side, j, 0..2]`` that pick a lobe from one
+    uniform number (the lobe is the count of thresholds at or below it; the
+    thresholds at and after the last lobe of nonzero probability are 2,
+    above any number drawn), with ``[side, j, 3]`` = 1 where some enabled
+    lobe has a nonzero probability, else 0."""
+    n = len(tab.theta)
+    p = np.zeros((2, n, 4))
+    thr = np.zeros((2, n, 4))
+    mask = np.asarray(enabled, dtype=float)
+    for si, side in enumerate(SIDES):
+        if side not in tab.lobes:
+            thr[si, :, :3] = 2.0
+            continue
+        q = tab.lobes[side] * mask[None, :]
+        s = q.sum(axis=1)
+        q = np.where(s[:, None] > 0, q / np.where(s > 0, s, 1.0)[:, None], 0.0)
+        p[si] = q
+        cum = np.cumsum(q, axis=1)
+        for j in range(n):
+            nz = np.nonzero(q[j] > 0)[0]
+            if nz.size == 0:
+                thr[si, j, :3] = 2.0
                 continue
-            for di, lobe in enumerate((SPEC, DIRECT)):
-                delta[si, di] = tab.delta[(side, lobe)].T
-            for ki, key in enumerate(self.TOTALS):
-                totals[si, ki] = tab.totals[side][key].T
-            for tr in (False, True):
-                b = 2 * si + int(tr)
-                f[b] = np.moveaxis(tab.f[(side, tr)], 0, -1)
-                w = tab.weights[(side, tr)]
-                a = w.reshape(n, -1).sum(axis=1)  # A_j,s
-                ok = a > 0
-                den = 2.0 * np.where(ok, a, 1.0)[:, None, None] * tab.d_mu[None, :, None] \
-                    * tab.d_phi
-                wn[b] = np.where(ok[:, None, None], w / den, 0.0)
-                c_ = tab.cdf[(side, tr)]
-                cdf[b] = np.where(ok[:, None], c_ / np.where(ok, c_[:, -1], 1.0)[:, None], 0.0)
-        self.f, self.wn, self.cdf, self.delta, self.totals = f, wn, cdf, delta, totals
-        self.tab = tab
-
-    def lobe_tables(self, enabled: tuple[bool, ...]) -> tuple[np.ndarray, np.ndarray]:
-        """Lobe probabilities ``P[side, j, lobe]`` renormalised over the enabled
-        lobes, and the thresholds ``[side, j, 0..2]`` that pick a lobe from
-        one uniform number (the lobe is the count of thresholds at or below
-        it; the thresholds at and after the last lobe of nonzero probability
-        are 2, above any number drawn), with ``[side, j, 3]`` = 1 where some
-        enabled lobe has a nonzero probability, else 0."""
-        n = self.n
-        p = np.zeros((2, n, 4))
-        thr = np.zeros((2, n, 4))
-        mask = np.asarray(enabled, dtype=float)
-        for si, side in enumerate(SIDES):
-            if side not in self.tab.lobes:
-                thr[si, :, :3] = 2.0
-                continue
-            q = self.tab.lobes[side] * mask[None, :]
-            s = q.sum(axis=1)
-            q = np.where(s[:, None] > 0, q / np.where(s > 0, s, 1.0)[:, None], 0.0)
-            p[si] = q
-            cum = np.cumsum(q, axis=1)
-            for j in range(n):
-                nz = np.nonzero(q[j] > 0)[0]
-                if nz.size == 0:
-                    thr[si, j, :3] = 2.0
-                    continue
-                last = int(nz[-1])
-                thr[si, j, :3] = [cum[j, k] if k < last else 2.0 for k in range(3)]
-                thr[si, j, 3] = 1.0
-        return p, thr
+            last = int(nz[-1])
+            thr[si, j, :3] = [cum[j, k] if k < last else 2.0 for k in range(3)]
+            thr[si, j, 3] = 1.0
+    return p, thr
 
 
 def register(name: str = PLUGIN) -> type:
@@ -161,7 +165,8 @@ def register(name: str = PLUGIN) -> type:
             return dr.gather(Float, buf, idx, active)
     else:
         def to_array(x: np.ndarray) -> Any:
-            return np.asarray(x, dtype=float).ravel().tolist()
+            # Indexing an array.array gives a Python float (fast; 8 bytes an entry).
+            return array.array("d", np.asarray(x, dtype=float).ravel())
 
         def gather(buf: Any, idx: Any, active: Any = True) -> Any:
             return buf[idx] if active else 0.0
@@ -208,9 +213,8 @@ def register(name: str = PLUGIN) -> type:
             self._build(tab)
 
         def _build(self, tab: BsdfTable) -> None:
-            flat = _Flat(tab)
-            self._flat = flat
-            self._n, self._m, self._c, self._ncell = flat.n, flat.m, flat.c, flat.ncell
+            n, m = len(tab.theta), len(tab.phi)
+            self._n, self._m, self._c, self._ncell = n, m, tab.channels, n * (m - 1)
             self._dt = math.radians(tab.d_theta)
             self._theta_max = math.radians(float(tab.theta[-1]))
             self._dp = tab.d_phi
@@ -218,23 +222,21 @@ def register(name: str = PLUGIN) -> type:
             # opaque substrate has no index below: no beam, the ratio unused).
             n_a, n_b = tab.n_above, tab.n_below if tab.transmits else tab.n_above
             self._n_in_out = (n_a / n_b, n_b / n_a)
-            self._f = to_array(flat.f)
-            self._wn = to_array(flat.wn)
-            self._cdf = to_array(flat.cdf)
-            self._delta = to_array(flat.delta)
-            self._totals = to_array(flat.totals)
-            self._mu_top = to_array(tab.mu_edges[:-1])
-            self._d_mu = to_array(tab.d_mu)
-            wl = np.asarray(tab.wavelengths_nm or [0.0], dtype=float)
-            self._wl = to_array(wl)
-            self._wl_list = [float(x) for x in wl]
+            key = (id(tab), str(variant))
+            if key not in _ARRAYS:
+                _ARRAYS[key] = (tab, {k: to_array(v) for k, v in _flatten(tab).items()})
+            a = _ARRAYS[key][1]
+            self._f, self._wn, self._cdf = a["f"], a["wn"], a["cdf"]
+            self._delta, self._totals = a["delta"], a["totals"]
+            self._mu_top, self._d_mu, self._wl = a["mu_top"], a["d_mu"], a["wl"]
+            self._wl_list = [float(x) for x in tab.wavelengths_nm or [0.0]]
             self._lobe_cache: dict[tuple[bool, ...], tuple[Any, Any]] = {}
 
         # -- helpers --------------------------------------------------------
 
         def _lobe_arrays(self, enabled: tuple[bool, ...]) -> tuple[Any, Any]:
             if enabled not in self._lobe_cache:
-                p, thr = self._flat.lobe_tables(enabled)
+                p, thr = _lobe_tables(self.table, enabled)
                 self._lobe_cache[enabled] = (to_array(p), to_array(thr))
             return self._lobe_cache[enabled]
 
@@ -265,6 +267,8 @@ def register(name: str = PLUGIN) -> type:
             """sum_corners weight * buf[base, channel] as a Spectrum (bases index
             ``[..., c]`` rows of ``self._c`` channels)."""
             c = self._c
+            if not jit and not active:  # a scalar variant skips what it would discard
+                return [0.0] * len(cmap)
             vals = []
             for c0, tw in cmap:
                 acc: Any = Float(0.0)
@@ -315,6 +319,8 @@ def register(name: str = PLUGIN) -> type:
         def _eval_f(self, block: Any, j: Any, t: Any, theta_o: Any, phi: Any, cmap: Any,
                     active: Any) -> list[Any]:
             """Trilinear interpolation of the smooth BSDF (per channel, >= 0)."""
+            if not jit and not active:
+                return [0.0] * len(cmap)
             n, m = self._n, self._m
             k, u = self._node(theta_o)
             xp = dr.clip(phi, 0.0, math.pi) / self._dp
@@ -367,6 +373,8 @@ def register(name: str = PLUGIN) -> type:
         def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
             e = self._enabled(ctx)
             valid, side, tr, j, t, mu_o, theta_o, phi = self._exit(si, wo, active, (e[2], e[3]))
+            if not jit and not valid:
+                return mi.Spectrum(0.0)
             block = 2 * side + as_uint(tr)
             vals = self._eval_f(block, j, t, theta_o, phi, self._channel_map(si), valid)
             return self._spectrum([dr.select(valid, x * mu_o, 0.0) for x in vals])
@@ -374,6 +382,8 @@ def register(name: str = PLUGIN) -> type:
         def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
             e = self._enabled(ctx)
             valid, side, tr, j, t, mu_o, theta_o, phi = self._exit(si, wo, active, (e[2], e[3]))
+            if not jit and not valid:
+                return 0.0
             p, _ = self._lobe_arrays(e)
             k = UInt(dr.minimum(dr.floor(theta_o / self._dt), self._n - 1))
             l_ = UInt(dr.minimum(dr.floor(phi / self._dp), self._m - 2))
@@ -408,9 +418,11 @@ def register(name: str = PLUGIN) -> type:
             crow = (block * n + j) * self._ncell
             x = sample2[0]
             cdf = self._cdf
-            idx = binary_search(0, self._ncell - 1,
-                                lambda i: gather(cdf, crow + i, smooth) <= x)
-            idx = UInt(idx)
+            if jit or smooth:
+                idx = UInt(binary_search(0, self._ncell - 1,
+                                         lambda i: gather(cdf, crow + i, smooth) <= x))
+            else:
+                idx = UInt(0)
             below = dr.select(idx > 0, gather(cdf, crow + idx - 1, smooth & (idx > 0)), 0.0)
             width = gather(cdf, crow + idx, smooth) - below
             frac = dr.select(width > 0.0, (x - below) / dr.maximum(width, _TINY), 0.5)
@@ -486,7 +498,7 @@ def register(name: str = PLUGIN) -> type:
             """Totals at ``si.wi``: reflectance, transmittance and their delta parts
             (zero where ``si.wi`` does not reach the stack)."""
             vals = self._total_values(si, (0, 1, 2, 3), active)
-            return dict(zip(_Flat.TOTALS, vals))
+            return dict(zip(_TOTALS, vals))
 
         def traverse(self, callback: Any) -> None:
             pass
