@@ -18,13 +18,13 @@ over an opaque substrate is one-sided (black from below, as Mitsuba's own
 one-sided BSDFs); a transmitting stack is two-sided, its lower face lit
 through the substrate (``side="below"`` of :meth:`km.Bsdf.eval`).
 
-One code path serves every CPU variant: the table is flattened into arrays
-of the variant (Dr.Jit arrays in the ``llvm_*`` and ``cuda_*`` variants,
-Python lists in the scalar ones) and eval, pdf and sample are written as
-array operations over them (gathers of the table's corners, interpolation
-weights as arrays, a binary search in the cumulative cell distribution of
-the chosen row), so a vectorised variant traces them once for a whole
-wavefront of rays.
+One code path serves every variant but the polarised ones: the table is
+flattened into arrays of the variant (Dr.Jit arrays in the ``llvm_*`` and
+``cuda_*`` variants, float64 ``array.array`` in the scalar ones) and eval,
+pdf and sample are written as array operations over them (gathers of the
+table's corners, interpolation weights as arrays, a binary search in the
+cumulative cell distribution of the chosen row), so a vectorised variant
+traces them once for a whole wavefront of rays.
 
 Properties of the plugin: ``scene`` (the scene file's TOML text, or a path
 to it), ``streams`` (int, optional), ``n_theta`` (46), ``n_phi`` (37).
