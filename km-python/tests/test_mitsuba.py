@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 
@@ -289,6 +290,7 @@ print(sum(x))
 """
 
 
+@functools.lru_cache(maxsize=None)
 def _llvm_usable():
     import subprocess
     import sys
@@ -305,18 +307,19 @@ def _llvm_usable():
 
 @pytest.fixture(scope="module")
 def llvm():
-    """Switches this process to llvm_ad_rgb for a test, back to scalar_rgb after."""
+    """Registers the plugin in llvm_ad_rgb (once); the variant stays scalar_rgb."""
     ok, why = _llvm_usable()
     if not ok:
         pytest.skip(why)
     mi.set_variant("llvm_ad_rgb")
     km.mitsuba.register()
-    yield mi
     mi.set_variant("scalar_rgb")
+    return mi
 
 
 @pytest.fixture()
 def in_llvm(llvm):
+    """Switches this process to llvm_ad_rgb for a test, back to scalar_rgb after."""
     mi.set_variant("llvm_ad_rgb")
     yield llvm
     mi.set_variant("scalar_rgb")
