@@ -2,6 +2,7 @@
 Mitsuba's own `roughplastic` for scale (docs/python.md, "Mitsuba 3").
 
     python examples/python/mitsuba_spheres.py [OUT.png] [--spp N] [--width W]
+        [--variant scalar_rgb|llvm_ad_rgb|...]
 
 Left: a sphere of the km stack of examples/seed-three-layers.toml (a smooth
 interface of index 1.3 over an isotropic scattering layer over a Lambertian
@@ -18,11 +19,10 @@ import pathlib
 import time
 from typing import Any
 
+import drjit as dr
 import mitsuba as mi
 
-mi.set_variant("scalar_rgb")
-
-import km.mitsuba  # noqa: E402
+import km.mitsuba
 
 HERE = pathlib.Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -66,12 +66,16 @@ def main() -> None:
     ap.add_argument("out", nargs="?", default=str(REPO / "docs" / "python-mitsuba-spheres.png"))
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--width", type=int, default=480)
+    ap.add_argument("--variant", default="scalar_rgb")
     args = ap.parse_args()
+    mi.set_variant(args.variant)
     km.mitsuba.register()
     start = time.perf_counter()
     scene = mi.load_dict(scene_dict(args.width, args.width // 2, args.spp))
     loaded = time.perf_counter()
     img = mi.render(scene)
+    dr.eval(img)  # a vectorised variant renders lazily
+    dr.sync_thread()
     done = time.perf_counter()
     out = pathlib.Path(args.out)
     tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
