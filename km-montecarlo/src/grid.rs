@@ -399,33 +399,57 @@ pub(crate) struct GridTally {
     inv_dz: f64,
     inv_dr: f64,
     inv_da: f64,
+    /// The last depth and radial bins' indices as numbers (the overflow bins).
+    z_last: f64,
+    r_last: f64,
 }
 
 impl GridTally {
     pub fn new(o: GridOffsets, g: &McGrid) -> GridTally {
-        GridTally { o, inv_dz: 1.0 / g.dz, inv_dr: 1.0 / g.dr, inv_da: 1.0 / g.da() }
+        GridTally {
+            o,
+            inv_dz: 1.0 / g.dz,
+            inv_dr: 1.0 / g.dr,
+            inv_da: 1.0 / g.da(),
+            z_last: (o.dims.z - 1) as f64,
+            r_last: (o.dims.r - 1) as f64,
+        }
     }
 
     /// Depth bin of `z` (overflow: the last).
     #[inline]
     fn iz(&self, z: f64) -> usize {
-        ((z * self.inv_dz) as usize).min(self.o.dims.z - 1)
+        // Clamped as a number first: the conversion of a number in
+        // [0, z_last] (or NaN, to 0) to u32 is a single truncation.
+        (z * self.inv_dz).min(self.z_last) as u32 as usize
     }
 
     /// Radial bin of `(x, y)`, `floor(sqrt(x^2 + y^2) / dr)` (overflow: the last).
     #[inline]
     fn ir(&self, x: f64, y: f64) -> usize {
-        (((x * x + y * y).sqrt() * self.inv_dr) as usize).min(self.o.dims.r - 1)
+        ((x * x + y * y).sqrt() * self.inv_dr).min(self.r_last) as u32 as usize
     }
 
     /// An interaction at `(x, y, z)`: `phi` (`w / sigma_t`) and the booked
-    /// absorption `a` (eqs. G1, G3, G4).
+    /// absorption `a` (eqs. G1, G3, G4). `A(z)` is not booked here: it is
+    /// the sum of `A(r, z)` over the rings, formed once per batch by [`Self::fold`].
     #[inline]
     pub fn interaction(&self, sums: &mut [f64], x: f64, y: f64, z: f64, phi: f64, a: f64) {
         let (iz, ir) = (self.iz(z), self.ir(x, y));
         sums[self.o.phi_z + iz] += phi;
-        sums[self.o.a_z + iz] += a;
         sums[self.o.a_rz + ir * self.o.dims.z + iz] += a;
+    }
+
+    /// End of a batch: `A(z)`, bin by bin, as the sum over the rings of
+    /// `A(r, z)` (eq. G3 from G4), added to what `sums` holds there.
+    pub fn fold(&self, sums: &mut [f64]) {
+        let nz = self.o.dims.z;
+        for ir in 0..self.o.dims.r {
+            let row = self.o.a_rz + ir * nz;
+            for iz in 0..nz {
+                sums[self.o.a_z + iz] += sums[row + iz];
+            }
+        }
     }
 
     /// Weight `w` leaving at `(x, y)` with exit cosine `mu = |u_z|` in the

@@ -13,9 +13,9 @@
 //! model (eq. R3, R4). An exit direction on the wrong side of the face is
 //! the model's single-scattering loss: the photon ends there.
 
+use crate::rng::McRng;
 use km_core::fresnel;
 use km_core::microfacet::{Far, Microfacet, V3, conductor_reflectance};
-use rand_pcg::Pcg64;
 
 use crate::rng::uniform;
 
@@ -34,7 +34,7 @@ pub(crate) enum Outcome {
 /// a rough face from the medium of index `n_i`; `far` is what lies beyond.
 /// For a conductor the returned weight factor includes the facet's Fresnel
 /// reflectance (the rest is absorbed in the metal).
-pub(crate) fn meet(mf: &Microfacet, u: [f64; 3], n_i: f64, far: Far, rng: &mut Pcg64) -> Outcome {
+pub(crate) fn meet(mf: &Microfacet, u: [f64; 3], n_i: f64, far: Far, rng: &mut McRng) -> Outcome {
     // Local frame: z along the normal on the photon's side (z_local = sgn z_world).
     let sgn = if u[2] > 0.0 { -1.0 } else { 1.0 };
     let wi: V3 = [-u[0], -u[1], u[2].abs()];
@@ -81,13 +81,12 @@ pub(crate) fn meet(mf: &Microfacet, u: [f64; 3], n_i: f64, far: Far, rng: &mut P
 mod tests {
     use super::*;
     use km_core::microfacet::Distribution;
-    use rand::SeedableRng;
 
     /// The photon's mean weight per exit side is the model's directional
     /// albedo (km_core's quadrature, eq. R7), within 4 standard errors.
     #[test]
     fn mean_weights_are_the_model_albedos() {
-        let mut rng = Pcg64::seed_from_u64(7);
+        let mut rng = McRng::from_u64(7);
         for (dist, alpha, n_i, n_t, theta) in [
             (Distribution::Ggx, 0.3, 1.0, 1.5, 50f64),
             (Distribution::Beckmann, 0.4, 1.5, 1.0, 30.0),

@@ -422,6 +422,7 @@ fn trace_channel(
         k += t.run_batch(&mut rng, n, &mut sums);
         left -= n;
     }
+    t.finish_batch(&mut sums);
     Some(ChannelBatch { sums, interactions: k.interactions, steps: k.steps, capped: k.capped })
 }
 

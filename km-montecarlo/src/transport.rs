@@ -7,7 +7,8 @@
 //! whether it has ever scattered (or met the Lambertian substrate).
 //!
 //! One step (MCML §3):
-//! 1. If no optical path is left, draw one: `s = -ln(xi)`   (eq. M1, dimensionless).
+//! 1. If no optical path is left, draw one, exponential of mean 1 (eq. M1,
+//!    dimensionless; by the ziggurat, eq. M1').
 //! 2. Distance to the boundary along the direction: `d_b = (z_b - z) / uz`.
 //!    The free path in the layer is `d = s / sigma_t` (infinite in a clear layer).
 //! 3. If `d < d_b`: move by `d`, interact (absorb and scatter, §4 of the note).
@@ -29,14 +30,13 @@ use km_core::fresnel;
 use km_core::microfacet::{Far, Microfacet};
 use km_core::phase::{Phase, PhaseFunction};
 use km_core::{Light, MonoScene, Substrate};
-use rand_pcg::Pcg64;
 
 use crate::bins::{
     cone_half_angle_with_edge, cone_solid_angle, direction_vector, ring_projected_solid_angle,
 };
 use crate::grid::GridTally;
 use crate::options::{Estimator, McOptions, RadialBins};
-use crate::rng::uniform;
+use crate::rng::{McRng, uniform};
 use crate::sampling::{azimuth, azimuth_unscaled};
 use crate::tally::Layout;
 
@@ -253,12 +253,20 @@ impl Tracer {
 
     /// Trace `photons` photons and add their weights to `sums` (length
     /// `layout().len()`), in photon order.
-    pub fn run_batch(&self, rng: &mut Pcg64, photons: u64, sums: &mut [f64]) -> Counts {
+    pub fn run_batch(&self, rng: &mut McRng, photons: u64, sums: &mut [f64]) -> Counts {
         let mut counts = Counts::default();
         for _ in 0..photons {
             self.trace(rng, sums, &mut counts);
         }
         counts
+    }
+
+    /// End of a batch: the tallies formed from others once per batch
+    /// (the grid's `A(z)`). Called once, after the batch's last photon.
+    pub fn finish_batch(&self, sums: &mut [f64]) {
+        if let Some(g) = &self.grid {
+            g.fold(sums);
+        }
     }
 
     /// Book a photon leaving through the top (into the ambient medium) with
@@ -345,7 +353,7 @@ impl Tracer {
         slot: usize,
         w: &mut f64,
         sums: &mut [f64],
-        rng: &mut Pcg64,
+        rng: &mut McRng,
         booked: &mut f64,
     ) -> bool {
         if !survival {
@@ -386,7 +394,7 @@ impl Tracer {
     /// Trace one photon from the light source to its end (escape, absorption,
     /// roulette or the step cap): launch, then free paths, interactions and
     /// boundaries until it ends.
-    fn trace(&self, rng: &mut Pcg64, sums: &mut [f64], counts: &mut Counts) {
+    fn trace(&self, rng: &mut McRng, sums: &mut [f64], counts: &mut Counts) {
         let survival = self.estimator == Estimator::SurvivalBiasing;
         let Some(mut p) = self.launch(survival, rng, sums) else {
             return;
@@ -401,9 +409,11 @@ impl Tracer {
                 break;
             }
             let slab = &self.slabs[p.layer];
-            // Step 1: fresh optical path length (eq. M1); 1 - u lies in (0, 1].
+            // Step 1: fresh optical path length, exponential of mean 1 (eq.
+            // M1), drawn by the ziggurat (eq. M1'): no logarithm on the
+            // common path.
             if p.s_left <= 0.0 {
-                p.s_left = -(1.0 - uniform(rng)).ln();
+                p.s_left = rand::RngExt::sample(rng, rand_distr::Exp1);
             }
             // Step 2: distance to the boundary ahead and free path. The
             // boundary is chosen by a select (no jump on the sign of uz, which
@@ -487,7 +497,7 @@ impl Tracer {
     /// surface's Fresnel split (survival) or choice (analog) with refraction
     /// into the first layer (eq. M2). `None` when nothing enters.
     #[inline]
-    fn launch(&self, survival: bool, rng: &mut Pcg64, sums: &mut [f64]) -> Option<Photon> {
+    fn launch(&self, survival: bool, rng: &mut McRng, sums: &mut [f64]) -> Option<Photon> {
         let n0 = self.ambient_n;
         let (mut ux, mut uy, mut uz) = match self.light {
             Light::Collimated { theta_deg } => {
@@ -557,7 +567,7 @@ impl Tracer {
     /// layer, the ambient medium or a clear substrate. Returns `false` when
     /// the photon has left or ended.
     #[inline]
-    fn cross(&self, p: &mut Photon, survival: bool, rng: &mut Pcg64, sums: &mut [f64]) -> bool {
+    fn cross(&self, p: &mut Photon, survival: bool, rng: &mut McRng, sums: &mut [f64]) -> bool {
         enum Other {
             Layer(usize),
             Ambient,
@@ -656,7 +666,7 @@ impl Tracer {
         p: &mut Photon,
         a: f64,
         survival: bool,
-        rng: &mut Pcg64,
+        rng: &mut McRng,
         sums: &mut [f64],
     ) -> bool {
         p.scattered = true;
@@ -703,7 +713,7 @@ impl Tracer {
         p: &mut Photon,
         (n, k): (f64, f64),
         survival: bool,
-        rng: &mut Pcg64,
+        rng: &mut McRng,
         sums: &mut [f64],
     ) -> bool {
         let n_i = self.slabs[p.layer].n;

@@ -18,7 +18,11 @@
 //! default streams for peaked phase functions (`docs/multiflux.md` §8: 32
 //! streams for 0.8 < |g| <= 0.9, was 16); the five `*.mc` outputs when the
 //! Monte Carlo azimuth became a rejection sample in the unit disc
-//! (`docs/montecarlo.md` eq. M4: another random sequence for the same seed).
+//! (`docs/montecarlo.md` eq. M4: another random sequence for the same seed),
+//! and again when the generator became xoshiro256++ and the free path a
+//! ziggurat draw (`docs/montecarlo.md` §7: another sequence again; the 27
+//! totals with a standard error moved by at most 1.65 combined standard
+//! errors, so no change beyond the noise).
 //!
 //! The stored `*.km.json` are the seed paper's two-flux model with its
 //! identity mapping, which `--method km` no longer gives by default (the
