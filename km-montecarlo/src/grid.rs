@@ -291,7 +291,7 @@ pub fn ra_norm(ir: usize, ia: usize, dr: f64, da: f64) -> f64 {
 /// Build the grid result of one channel from its batch statistics;
 /// `r_index` is the index of the total reflected weight.
 pub(crate) fn grid_result(
-    s: &crate::tally::BatchStats,
+    s: &crate::stats::BatchStats,
     o: &GridOffsets,
     grid: McGrid,
     r_index: usize,

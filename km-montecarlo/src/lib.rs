@@ -47,6 +47,7 @@ mod rough;
 pub mod run;
 mod sampling;
 pub mod shard;
+mod stats;
 mod tally;
 mod transport;
 

@@ -36,7 +36,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::McError;
 use crate::options::McOptions;
-use crate::tally::{BatchStats, Layout};
+use crate::stats::BatchStats;
+use crate::tally::Layout;
 
 /// Format tag of [`Partial`] files.
 pub const PARTIAL_FORMAT: &str = "km-montecarlo-partial-2";

@@ -52,8 +52,9 @@ use km_core::{MonoScene, Scene, Substrate};
 
 use crate::MultifluxError;
 use crate::engine::last_moment;
+use crate::prepare::resolve_streams;
 use crate::quadrature::AngularGrid;
-use crate::solver::{MultifluxOptions, default_bsdf_streams, resolve_streams};
+use crate::solver::{MultifluxOptions, default_bsdf_streams};
 use build::channel;
 
 /// An error of the BSDF table or its files.

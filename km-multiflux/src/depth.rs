@@ -21,9 +21,9 @@ use crate::MultifluxError;
 use crate::correction::phi;
 use crate::field::{LayerFace, layer_faces};
 use crate::options::MultifluxOptions;
+use crate::prepare::{resolve_streams, scale_layers};
 use crate::quadrature::mu_of_invariant;
 use crate::slab::{FieldModes, FieldWeights, SlabSolution};
-use crate::solver::{resolve_streams, scale_layers};
 
 /// `phi`, `A` and `F` at requested depths of one channel, per unit incident
 /// irradiance on the surface (per unit incident power).

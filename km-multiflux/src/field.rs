@@ -8,9 +8,10 @@ use crate::MultifluxError;
 use crate::adding::probed::Augmented;
 use crate::engine::{ExtraSetup, Extras, OrderPieces};
 use crate::options::MultifluxOptions;
+use crate::prepare::{media_grid, resolve_streams, scale_layers};
 use crate::quadrature::AngularGrid;
 use crate::slab::{SlabOrder, SlabSolution};
-use crate::solver::{Scaled, media_grid, resolve_streams, scale_layers};
+use crate::stack::Scaled;
 
 /// The radiance field at one depth of a stack, for one Fourier order.
 #[derive(Debug, Clone, PartialEq)]

@@ -42,6 +42,7 @@ pub mod interface;
 pub mod legendre;
 pub mod options;
 mod phase_matrix;
+mod prepare;
 pub mod quadrature;
 pub mod rough;
 pub mod slab;

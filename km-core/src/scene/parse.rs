@@ -24,6 +24,16 @@ use layer::RawSub;
 // ---------------------------------------------------------------------------
 // Raw (file) form. Every value is kept with its span so errors can name lines.
 
+/// Multiply every value of `c` by `f` (a no-op for `f = 1`).
+fn scaled(mut c: Coef, f: f64) -> Coef {
+    if f != 1.0 {
+        for x in &mut c.values {
+            *x *= f;
+        }
+    }
+    c
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawScene {

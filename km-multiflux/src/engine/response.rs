@@ -9,8 +9,8 @@ use super::{DirectionValues, Extras, FourierStop, Incidence, Prepared, Request, 
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
 use crate::exits::Azimuths;
+use crate::prepare::flux;
 use crate::quadrature::mu_of_invariant;
-use crate::solver::flux;
 use crate::stack::Scaled;
 
 /// The correction data of one scattering layer (eq. B1, second line).

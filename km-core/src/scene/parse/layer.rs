@@ -3,8 +3,7 @@
 use toml::{Spanned, Value};
 
 use super::phase::{ParticleSpec, PhaseSpec, particle_layer};
-use super::tissue::scaled;
-use super::{Coef, Parser, RawLayer, RawSubstrate, check_theta};
+use super::{Coef, Parser, RawLayer, RawSubstrate, check_theta, scaled};
 use crate::error::CoreError;
 use crate::layer::{Layer, is_refractive_index};
 use crate::phase::Anisotropy;

@@ -12,7 +12,7 @@
 use toml::Spanned;
 
 use super::layer::{Form, LayerCoefs};
-use super::{Coef, Parser, RawLayer};
+use super::{Coef, Parser, RawLayer, scaled};
 use crate::error::CoreError;
 
 /// Millimetres per unit of `units` (eq. U1); `1` when absent.
@@ -29,16 +29,6 @@ pub(super) fn length_scale(p: &Parser, units: Option<&Spanned<String>>) -> Resul
             format!("unknown length unit \"{other}\" (known: \"mm\", \"cm\")"),
         )),
     }
-}
-
-/// Multiply every value of `c` by `f` (a no-op for `f = 1`).
-pub(super) fn scaled(mut c: Coef, f: f64) -> Coef {
-    if f != 1.0 {
-        for x in &mut c.values {
-            *x *= f;
-        }
-    }
-    c
 }
 
 impl Parser {
