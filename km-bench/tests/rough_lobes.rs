@@ -93,3 +93,19 @@ fn coat_at_small_roughness_meets_the_smooth_multiflux_body() {
     // Not vacuous: the body is far above the tolerance.
     assert!(3.0 * se + cone_err + disc < 0.1 * mf);
 }
+
+/// The recipe at the full size into `target/rough-lobes-full` (the numbers
+/// of docs/rough.md §9).
+#[test]
+#[ignore = "a few minutes of Monte Carlo: cargo test -p km-bench --test rough_lobes -- --ignored --nocapture"]
+fn full_size_figures() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/rough-lobes-full");
+    let opts = km_bench::ReproduceOptions {
+        only: Some("rough-lobes".into()),
+        quiet: true,
+        ..km_bench::ReproduceOptions::full(dir)
+    };
+    let summary = km_bench::reproduce(&opts).unwrap();
+    eprintln!("{summary}");
+    assert_eq!(summary.failures(), 0);
+}

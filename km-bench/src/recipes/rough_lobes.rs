@@ -302,8 +302,7 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
                 "BRDF lobes, {}; beam at {THETA_I:.0} deg. Monte Carlo {n} photons per alpha \
                  (seeds {}..{}), cones {} deg half-angle, bars 1 s.e.; s.e. at each curve's largest \
                  value at most {:.1} % of it; {:.1} s for the four runs. BRDF at the mirror \
-                 direction {} (1/sr). alpha = 0: multi-flux \
-                 {ns} streams, smooth part; its mirror delta (R = {}) is left out.",
+                 direction {} (1/sr). alpha = 0: {}",
                 stack.description(),
                 ctx.seed,
                 ctx.seed + ALPHAS.len() as u64 - 1,
@@ -311,7 +310,19 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
                 100.0 * worst,
                 secs,
                 peaks_se.join(", "),
-                format_number(spec),
+                if smooth.iter().any(|&v| v > 0.0) {
+                    format!(
+                        "multi-flux {ns} streams, the smooth part; its mirror delta (R = {}) is \
+                         left out.",
+                        format_number(spec)
+                    )
+                } else {
+                    format!(
+                        "the smooth stack reflects only a mirror delta (R = {}, multi-flux {ns} \
+                         streams): no curve.",
+                        format_number(spec)
+                    )
+                },
             ),
         );
         headline.push(format!(
