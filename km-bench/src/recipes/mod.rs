@@ -9,6 +9,7 @@ pub mod dipole;
 pub mod paint;
 pub mod paper;
 pub mod pareto;
+pub mod rough_lobes;
 pub mod savings;
 pub mod speed;
 pub mod stability;
@@ -32,5 +33,6 @@ pub fn all() -> Vec<Recipe> {
         ("stability", stability::recipe),
         ("savings", savings::recipe),
         ("paint", paint::recipe),
+        ("rough-lobes", rough_lobes::recipe),
     ]
 }
