@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
-use km::atomic_file::{WriteOptions, write_atomic_with};
 use km::bsdf::Bsdf;
 use km::bsdf_file::{AngleList, AngleListError, BsdfFile, BsdfFormat, BsdfRequest, RequestError};
 
@@ -74,20 +73,9 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
     request.channel_mix = spectrum_mix(&scene, format)?;
     let name = args.scene.display().to_string();
     let file = km::bsdf_file::bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
-    if let (Some(out), Some(bytes)) = (&args.out, &file.bytes) {
+    if let Some(out) = &args.out {
         // Never over an input: `--out` naming the scene file is refused.
-        let opts = WriteOptions { inputs: vec![args.scene.clone()], ..Default::default() };
-        let totals = km::bsdf_file::totals_path(out);
-        if let Some(t) = &file.totals {
-            if totals == *out {
-                bail!("--out {}: the totals file would be the table itself", out.display());
-            }
-            write_atomic_with(&totals, t, &opts)
-                .with_context(|| format!("cannot write {}", totals.display()))?;
-        }
-        write_atomic_with(out, bytes, &opts)
-            .with_context(|| format!("cannot write {}", out.display()))?;
-        if file.totals.is_some() {
+        if let Some(totals) = file.write(out, std::slice::from_ref(&args.scene))? {
             crate::stdout::eprint(&format!("wrote {} (totals, delta parts)\n", totals.display()))?;
         }
     }

@@ -380,67 +380,14 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
     })
 }
 
-/// Whether the user gave argument `id` on the command line (not a default).
-fn given(m: &clap::ArgMatches, id: &str) -> bool {
-    matches!(m.try_get_raw(id), Ok(Some(_)))
-        && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
-}
-
 /// Refuse a flag that does not apply to the chosen method or mode (clap cannot
-/// know the method: checked after parsing), saying why.
+/// know the method: checked after parsing; `km::settings::refuse_flags`).
 pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
-    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
-    let method = |m: &clap::ArgMatches| m.get_one::<Method>("method").copied();
-    match matches.subcommand() {
-        Some((command @ ("solve" | "sweep"), m)) => {
-            let method = method(m).unwrap_or(Method::Multiflux);
-            for s in km::settings::SETTINGS {
-                if given(m, s.name) && !s.applies_to(method) {
-                    let names: Vec<_> = s.methods.iter().map(|x| x.name()).collect();
-                    bail!(
-                        "{} does not apply to --method {}: it sets {} (--method {})",
-                        flag(s.name),
-                        method.name(),
-                        s.sets,
-                        names.join(" or ")
-                    );
-                }
-            }
-            // A sweep prints its rows: no shard, no timing of repeated solves.
-            let once = ["shard", "repeat"].into_iter().find(|id| given(m, id));
-            if let Some(id) = once.filter(|_| command == "sweep") {
-                bail!("{} applies to km solve, not to km sweep", flag(id));
-            }
-            if given(m, "shard") && (given(m, "json") || given(m, "format")) {
-                bail!(
-                    "--shard writes its partial tally to --out and prints no result: --json and \
-                     --format apply to `km merge` and to whole runs"
-                );
-            }
-            if given(m, "tolerance") && given(m, "samples") {
-                bail!("give either --samples or --tolerance: the target chooses the photon count");
-            }
-            if given(m, "tolerance") && given(m, "shard") {
-                bail!(
-                    "--tolerance does not combine with --shard (every shard would choose its own \
-                     photon count): run a pilot `km solve SCENE --method mc --tolerance T --json`, \
-                     read the sample count it chose (`tolerance.samples` of the JSON), then shard with \
-                     `--samples N --shard I/K --out FILE` and `km merge`"
-                );
-            }
-        }
-        Some(("profile", m)) => {
-            let method = method(m).unwrap_or(Method::Dipole);
-            let mc_only = ["samples", "seed"].into_iter().find(|id| given(m, id));
-            if let Some(id) = mc_only.filter(|_| method != Method::Mc) {
-                bail!(
-                    "{} does not apply to --method {}: it sets the Monte Carlo run (--method mc)",
-                    flag(id),
-                    method.name()
-                );
-            }
-        }
-        _ => {}
-    }
-    Ok(())
+    let Some((command, m)) = matches.subcommand() else { return Ok(()) };
+    let given = |id: &str| {
+        matches!(m.try_get_raw(id), Ok(Some(_)))
+            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+    };
+    let method = m.try_get_one::<Method>("method").ok().flatten().copied();
+    km::settings::refuse_flags(command, method, given).map_err(anyhow::Error::msg)
 }
