@@ -521,3 +521,66 @@ fn flagged(e: InputError) -> RequestError {
         _ => refuse(e.message(flag)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The request's slab fit is the fit of the set-up and measurement built
+    /// by hand (the same numbers bit for bit: one code path, so no tolerance).
+    #[test]
+    fn slab_request_is_the_direct_fit() {
+        let req = FitRequest {
+            m_r: Some(0.2726),
+            m_t: Some(0.2991),
+            thickness: Some(1.0),
+            n_sample: Some(1.4),
+            ..FitRequest::default()
+        };
+        let answer = req.run().unwrap();
+        let setup = Setup::new(Sample::new(1.0, 1.4, None).unwrap());
+        let meas = Measurement {
+            m_r: 0.2726,
+            m_t: 0.2991,
+            m_u: None,
+            sigma_r: None,
+            sigma_t: None,
+            sigma_u: None,
+        };
+        let direct = crate::fit(&setup, &meas, &FitOptions::default()).unwrap();
+        assert_eq!(answer.json, direct.to_json());
+        assert!(answer.failure.is_none() && answer.drawdown.is_none());
+        // The table's one row gives the fitted albedo (six decimals).
+        let albedo = format!("{:.6}", direct.to_json()["albedo"].as_f64().unwrap());
+        let row = answer.text.lines().nth(1).unwrap();
+        assert!(row.split_whitespace().nth(1) == Some(albedo.as_str()), "{}", answer.text);
+    }
+
+    /// Options outside their mode are refused with the modes they apply to;
+    /// those inside pass.
+    #[test]
+    fn options_outside_their_mode_are_refused() {
+        let rxt = Mode::of(false, Some(Path::new("a.RXT")));
+        assert_eq!(rxt, Mode::Rxt);
+        assert_eq!(Mode::of(false, Some(Path::new("a.txt"))), Mode::Csv);
+        assert_eq!(Mode::of(true, Some(Path::new("a.rxt"))), Mode::Km);
+        let e = check_options(rxt, |id| id == "m_r").unwrap_err().to_string();
+        assert!(e.starts_with("--m-r does not apply to an .rxt file"), "{e}");
+        assert!(e.ends_with("it applies to the slab inverse of --m-r/--m-t"), "{e}");
+        let e = check_options(Mode::Km, |id| id == "file").unwrap_err().to_string();
+        assert!(e.starts_with("a measurement file does not apply to --km"), "{e}");
+        assert!(check_options(Mode::Slab, |id| ["thickness", "m_r", "g"].contains(&id)).is_ok());
+    }
+
+    /// Readings of one inverse given to the other are refused, not ignored.
+    #[test]
+    fn readings_of_the_other_inverse_are_refused() {
+        let mut req = FitRequest { m_r: Some(0.3), m_t: Some(0.4), ..FitRequest::default() };
+        req.drawdown.r_inf = Some(0.5);
+        let e = req.run().unwrap_err().to_string();
+        assert!(e.ends_with("need --km"), "{e}");
+        let req = FitRequest { km: true, m_r: Some(0.3), ..FitRequest::default() };
+        let e = req.run().unwrap_err().to_string();
+        assert!(e.starts_with("--m-r applies to the slab inverse"), "{e}");
+    }
+}
