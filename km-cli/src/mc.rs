@@ -4,13 +4,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
-use km::McOptions;
-use km::mcml::{parse_mci, run_mci};
-use km::mcml_files::{npz_bytes, out_paths};
-
-/// Largest `.mci` file read, bytes.
-const MAX_MCI_BYTES: u64 = 16 << 20;
+use anyhow::Result;
+use km::mcml_files::{McFile, McFileOptions};
 
 /// The flags of `km mc`.
 #[derive(clap::Args)]
@@ -34,49 +29,18 @@ pub struct McArgs {
     pub no_npz: bool,
 }
 
-/// Run `km mc`.
+/// Run `km mc`: every run of the file (`km::mcml_files::McFile`), its summary on stderr.
 pub fn run(args: &McArgs) -> Result<()> {
-    let shown = args.input.display().to_string();
-    let text = km::read_scene_text(&args.input, MAX_MCI_BYTES).with_context(|| shown.clone())?;
-    let file = parse_mci(&text).with_context(|| shown.clone())?;
-    if args.samples == Some(0) {
-        bail!("--samples 0: need at least one photon");
-    }
-    // Every output path is checked before any run starts.
-    let outs: Vec<(PathBuf, PathBuf)> = file
-        .runs
-        .iter()
-        .map(|r| out_paths(&args.input, &args.out_dir, r))
-        .collect::<Result<_, _>>()?;
-    for (k, (run, (mco, npz))) in file.runs.iter().zip(&outs).enumerate() {
-        let opts = McOptions {
-            seed: args.seed.wrapping_add(k as u64),
-            threads: args.threads,
-            ..Default::default()
-        };
-        let (out, sol, g) = run_mci(run, args.samples, &opts)
-            .with_context(|| format!("{shown}: run {} (line {})", k + 1, run.line))?;
-        let photons = args.samples.unwrap_or(run.photons);
-        let body = out.text(run, photons, sol.seconds);
-        km::atomic_file::write_atomic(mco, body.as_bytes())
-            .with_context(|| format!("cannot write {}", mco.display()))?;
-        if !args.no_npz {
-            km::atomic_file::write_atomic(npz, &npz_bytes(run, &out, &g))
-                .with_context(|| format!("cannot write {}", npz.display()))?;
-        }
-        crate::stdout::eprint(&format!(
-            "run {}: {photons} photons in {:.1} s: Rsp {:.6} Rd {:.6} ± {:.1e} A {:.6} Tt {:.6} \
-             ± {:.1e} -> {}\n",
-            k + 1,
-            sol.seconds,
-            out.rsp,
-            out.rd[0],
-            out.rd[1],
-            out.a[0],
-            out.tt[0],
-            out.tt[1],
-            mco.display()
-        ))?;
+    let opts = McFileOptions {
+        samples: args.samples,
+        seed: args.seed,
+        threads: args.threads,
+        out_dir: args.out_dir.clone(),
+        npz: !args.no_npz,
+    };
+    let file = McFile::open(&args.input, &opts)?;
+    for k in 0..file.runs() {
+        crate::stdout::eprint(&file.run(k)?)?;
     }
     Ok(())
 }

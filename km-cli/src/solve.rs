@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use clap::builder::TypedValueParser;
+use km::settings::{FlagError, option_flag};
 use km::{KmError, Method, Scene, Solution};
 
 use crate::stdout;
@@ -263,23 +264,10 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     km::solve_repeated(scene, &opts, s.repeat).map_err(|e| flag_error(e, args.method, s.tolerance))
 }
 
-/// A library refusal in the words of the flags that caused it (`--tolerance`,
-/// `--directions`, `--cone`, `--method`).
+/// A library refusal in the words of the flags that caused it
+/// (`km::settings::solve_flag_error`).
 pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow::Error {
-    match (&e, tolerance) {
-        (
-            KmError::NoAccuracySetting { .. }
-            | KmError::TargetUnreachable { .. }
-            | KmError::TargetOverBudget { .. }
-            | KmError::Option { name: "accuracy target", .. },
-            Some(t),
-        ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
-        (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
-        (KmError::Unsupported(_), _) => {
-            anyhow::Error::new(e).context(format!("--method {}", method.name()))
-        }
-        _ => e.into(),
-    }
+    km::settings::solve_flag_error(e, method, tolerance).into()
 }
 
 impl SolveArgs {
@@ -342,17 +330,7 @@ fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Opti
         budget: 1.0,
         cancel: None,
     };
-    opts.with_budget(args.budget).map_err(option_flag)
-}
-
-/// A library option error in the words of its flag: `--NAME VALUE: REASON`.
-fn option_flag(e: KmError) -> anyhow::Error {
-    match e {
-        KmError::Option { name, value, reason } => {
-            anyhow::anyhow!("--{} {value}: {reason}", name.replace('_', "-"))
-        }
-        e => e.into(),
-    }
+    Ok(opts.with_budget(args.budget).map_err(option_flag)?)
 }
 
 /// `I/N` with `0 <= I < N`.
@@ -371,7 +349,7 @@ fn parse_shard(text: &str) -> Result<(u64, u64)> {
 pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -> Result<()> {
     let p = km::profile(scene, opts).map_err(|e| match e {
         e @ KmError::Option { .. } => option_flag(e),
-        e => anyhow::Error::new(e).context(format!("--method {}", opts.method.name())),
+        e => FlagError::after(format!("--method {}", opts.method.name()), e),
     })?;
     stdout::print(&match format {
         OutputFormat::Json => return stdout::print_json(&p.to_json()),

@@ -286,6 +286,26 @@ pub enum RequestError {
     FromBelowInFourier,
 }
 
+impl RequestError {
+    /// The refusal in the words of `km bsdf`'s flags (`--theta-i`,
+    /// `--theta-o`, `--phi`, `--from-below`).
+    pub fn flag_words(&self) -> String {
+        let RequestError::Angles { list, source } = self else {
+            return "--from-below does not apply to --format fourier (the file holds both sides)"
+                .into();
+        };
+        let flag = match list {
+            AngleList::ThetaI => "--theta-i",
+            AngleList::ThetaO => "--theta-o",
+            AngleList::Phi => "--phi",
+        };
+        match source {
+            e @ AngleListError::Grid { .. } => format!("{flag} {e}"),
+            e @ AngleListError::List { .. } => format!("{flag}: {e}"),
+        }
+    }
+}
+
 impl BsdfRequest {
     /// A request from angle lists as text ([`parse_angles`]); a list not
     /// given takes its default: `theta_i` the format's

@@ -22,7 +22,7 @@
 use crate::{DirectionSetOptions, KmError, Method, MethodOptions, Options};
 
 mod flags;
-pub use flags::refuse_flags;
+pub use flags::{FlagError, option_flag, refuse_flags, solve_flag_error};
 
 /// What values a setting takes.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,7 +1,8 @@
 //! The settings given on a command line, checked against the command and the
-//! method before anything runs (`km solve`, `km sweep`, `km profile`).
+//! method before anything runs (`km solve`, `km sweep`, `km profile`), and
+//! the library's refusals in the words of the flags that caused them.
 
-use crate::Method;
+use crate::{KmError, Method};
 
 use super::SETTINGS;
 
@@ -84,4 +85,60 @@ fn refuse_solve_flags(
             .into());
     }
     Ok(())
+}
+
+/// A library refusal in the words of the flags that caused it.
+#[derive(Debug, thiserror::Error)]
+pub enum FlagError {
+    /// `FLAG: REFUSAL`: the refusal after the flag it concerns.
+    #[error("{flag}")]
+    After {
+        /// The flag and its value (`--tolerance 0.001`, `--method mc`).
+        flag: String,
+        /// The refusal.
+        #[source]
+        source: KmError,
+    },
+    /// `--NAME VALUE: REASON`: an invalid option in the words of its flag.
+    #[error("{0}")]
+    Option(String),
+    /// A refusal no flag caused, unchanged.
+    #[error(transparent)]
+    Km(#[from] KmError),
+}
+
+impl FlagError {
+    /// `e` after the flag `flag`.
+    pub fn after(flag: String, e: KmError) -> FlagError {
+        FlagError::After { flag, source: e }
+    }
+}
+
+/// An invalid option ([`KmError::Option`]) in the words of its flag:
+/// `--NAME VALUE: REASON`; any other refusal unchanged.
+pub fn option_flag(e: KmError) -> FlagError {
+    match e {
+        KmError::Option { name, value, reason } => {
+            FlagError::Option(format!("--{} {value}: {reason}", name.replace('_', "-")))
+        }
+        e => FlagError::Km(e),
+    }
+}
+
+/// A refusal of a solve in the words of the flags that caused it
+/// (`--tolerance` when `tolerance` was given, `--directions`, `--cone`,
+/// `--method`).
+pub fn solve_flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> FlagError {
+    match (&e, tolerance) {
+        (
+            KmError::NoAccuracySetting { .. }
+            | KmError::TargetUnreachable { .. }
+            | KmError::TargetOverBudget { .. }
+            | KmError::Option { name: "accuracy target", .. },
+            Some(t),
+        ) => FlagError::after(format!("--tolerance {t}"), e),
+        (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
+        (KmError::Unsupported(_), _) => FlagError::after(format!("--method {}", method.name()), e),
+        _ => FlagError::Km(e),
+    }
 }
