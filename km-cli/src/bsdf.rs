@@ -6,9 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
-use km::atomic_file::{WriteOptions, write_atomic_with};
 use km::bsdf::Bsdf;
-use km::bsdf_file::{AngleList, AngleListError, BsdfFile, BsdfFormat, BsdfRequest, RequestError};
+use km::bsdf_file::{BsdfFile, BsdfFormat, BsdfRequest};
 
 // The flags of `km bsdf` (no doc comment: it would become the command's about).
 #[derive(Args, Debug)]
@@ -66,7 +65,7 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
         (args.theta_i.as_deref(), args.theta_o.as_deref(), args.phi.as_deref());
     let mut request =
         BsdfRequest::from_lists(theta_i, theta_o, phi, args.from_below, args.streams, format)
-            .map_err(flagged)?;
+            .map_err(|e| anyhow!(e.flag_words()))?;
     if !(args.budget.is_finite() && args.budget > 0.0) {
         bail!("--budget must be a finite number > 0, not {}", args.budget);
     }
@@ -74,20 +73,9 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
     request.channel_mix = spectrum_mix(&scene, format)?;
     let name = args.scene.display().to_string();
     let file = km::bsdf_file::bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
-    if let (Some(out), Some(bytes)) = (&args.out, &file.bytes) {
+    if let Some(out) = &args.out {
         // Never over an input: `--out` naming the scene file is refused.
-        let opts = WriteOptions { inputs: vec![args.scene.clone()], ..Default::default() };
-        let totals = km::bsdf_file::totals_path(out);
-        if let Some(t) = &file.totals {
-            if totals == *out {
-                bail!("--out {}: the totals file would be the table itself", out.display());
-            }
-            write_atomic_with(&totals, t, &opts)
-                .with_context(|| format!("cannot write {}", totals.display()))?;
-        }
-        write_atomic_with(out, bytes, &opts)
-            .with_context(|| format!("cannot write {}", out.display()))?;
-        if file.totals.is_some() {
+        if let Some(totals) = file.write(out, std::slice::from_ref(&args.scene))? {
             crate::stdout::eprint(&format!("wrote {} (totals, delta parts)\n", totals.display()))?;
         }
     }
@@ -117,24 +105,6 @@ fn spectrum_mix(scene: &km::Scene, format: BsdfFormat) -> anyhow::Result<Option<
             Ok(Some(weights))
         }
         _ => Ok(None),
-    }
-}
-
-/// A refused request in the words of the flags.
-fn flagged(e: RequestError) -> anyhow::Error {
-    let RequestError::Angles { list, source } = e else {
-        return anyhow!(
-            "--from-below does not apply to --format fourier (the file holds both sides)"
-        );
-    };
-    let flag = match list {
-        AngleList::ThetaI => "--theta-i",
-        AngleList::ThetaO => "--theta-o",
-        AngleList::Phi => "--phi",
-    };
-    match source {
-        e @ AngleListError::Grid { .. } => anyhow!("{flag} {e}"),
-        e @ AngleListError::List { .. } => anyhow!("{flag}: {e}"),
     }
 }
 

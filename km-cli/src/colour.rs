@@ -1,18 +1,17 @@
 //! `--colour` and `--swatch` of `km solve` and `km sweep`: the colour of a
 //! spectral scene's reflectance and transmittance spectra (CIE XYZ and
 //! CIELAB under D65 with the CIE 1931 2° observer, sRGB), computed by
-//! `km_inverse::colour` (docs/colour.md), and a swatch of them as SVG.
+//! `km_inverse::colour` (docs/colour.md; its `report` writes them), and a
+//! swatch of them as SVG.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 use km::Solution;
-use km_inverse::colour::{self, Illuminant, Observer, Patch, Spectrum, Xyz};
+use km_inverse::colour::report::{ColourStage, SpectrumColour, solution_colours};
+pub use km_inverse::colour::report::{colours_json as json, colours_text as table_lines};
+use km_inverse::colour::{self, Patch};
 use serde_json::{Value, json};
-
-/// The observer and illuminant of `--colour`.
-const OBSERVER: Observer = Observer::Cie1931TwoDegree;
-const ILLUMINANT: Illuminant = Illuminant::D65;
 
 /// The colour flags (shared by `km solve` and `km sweep`; no doc comment:
 /// it would become the command's about).
@@ -28,72 +27,7 @@ pub struct ColourArgs {
 }
 
 /// The colour of one spectrum.
-#[derive(Debug, Clone, Copy)]
-pub struct Colour {
-    /// Tristimulus values, `Y = 100` for the perfect reflecting diffuser.
-    pub xyz: Xyz,
-    /// CIELAB relative to that white.
-    pub lab: colour::Lab,
-    /// sRGB (encoded, unclipped).
-    pub srgb: [f64; 3],
-}
-
-impl Colour {
-    /// The colour of `values` at `wavelengths_nm`.
-    pub fn of(wavelengths_nm: &[f64], values: Vec<f64>) -> Result<Colour> {
-        let spectrum = Spectrum::new(wavelengths_nm.to_vec(), values)
-            .map_err(|e| anyhow!("--colour: the spectrum: {e}"))?;
-        let xyz = colour::xyz(&spectrum, OBSERVER, ILLUMINANT);
-        let lab = colour::lab(xyz, colour::white_point(OBSERVER, ILLUMINANT))
-            .map_err(|e| anyhow!("--colour: {e}"))?;
-        Ok(Colour { xyz, lab, srgb: colour::srgb(xyz) })
-    }
-
-    /// `#rrggbb`: 8-bit sRGB, clipped to the gamut.
-    pub fn hex(&self) -> String {
-        let [r, g, b] = colour::srgb_u8(self.srgb);
-        format!("#{r:02x}{g:02x}{b:02x}")
-    }
-
-    /// Whether the sRGB lies outside `[0, 1]` by more than half an 8-bit
-    /// step (clipping changes the hex; the D65 white, 1.00004 in red, is not).
-    pub fn clipped(&self) -> bool {
-        let half = 0.5 / 255.0;
-        self.srgb.iter().any(|c| !(-half..=1.0 + half).contains(c))
-    }
-
-    /// The JSON object: `xyz`, `lab`, `srgb` (the three values), `hex`, `clipped`.
-    pub fn to_json(self) -> Value {
-        let x = self.xyz;
-        let l = self.lab;
-        json!({
-            "xyz": [x.x, x.y, x.z],
-            "lab": [l.l, l.a, l.b],
-            "srgb": self.srgb,
-            "hex": self.hex(),
-            "clipped": self.clipped(),
-        })
-    }
-
-    /// One line for people.
-    pub fn words(&self) -> String {
-        let (x, l) = (self.xyz, self.lab);
-        // Rounded first, then `+ 0.0`: no `-0.00`.
-        let r2 = |v: f64| (v * 100.0).round() / 100.0 + 0.0;
-        let l = colour::Lab { l: r2(l.l), a: r2(l.a), b: r2(l.b) };
-        format!(
-            "XYZ ({:.3}, {:.3}, {:.3})  L*a*b* ({:.2}, {:.2}, {:.2})  sRGB {}{}",
-            x.x,
-            x.y,
-            x.z,
-            l.l,
-            l.a,
-            l.b,
-            self.hex(),
-            if self.clipped() { " (clipped)" } else { "" }
-        )
-    }
-}
+pub type Colour = SpectrumColour;
 
 /// The wavelengths of a spectral scene, or the refusal of `--colour`.
 pub fn wavelengths(scene: &km::Scene) -> Result<Vec<f64>> {
@@ -110,34 +44,10 @@ pub fn wavelengths(scene: &km::Scene) -> Result<Vec<f64>> {
 /// The colours of a solution's reflectance and (when anything is
 /// transmitted) transmittance spectra, named `reflectance`, `transmittance`.
 pub fn of_solution(wavelengths: &[f64], sol: &Solution) -> Result<Vec<(&'static str, Colour)>> {
-    let r = sol.channels.iter().map(|c| c.reflectance).collect();
-    let mut out = vec![("reflectance", Colour::of(wavelengths, r)?)];
-    if sol.channels.iter().any(|c| c.transmittance > 0.0) {
-        let t = sol.channels.iter().map(|c| c.transmittance).collect();
-        out.push(("transmittance", Colour::of(wavelengths, t)?));
-    }
-    Ok(out)
-}
-
-/// The JSON key `colour` of `km solve`: the colours by name, the observer
-/// and the illuminant.
-pub fn json(colours: &[(&'static str, Colour)]) -> Value {
-    let mut o = serde_json::Map::new();
-    o.insert("observer".into(), json!("CIE 1931 2°"));
-    o.insert("illuminant".into(), json!("D65"));
-    for (name, c) in colours {
-        o.insert((*name).into(), c.to_json());
-    }
-    Value::Object(o)
-}
-
-/// The lines of the text table.
-pub fn table_lines(colours: &[(&'static str, Colour)]) -> String {
-    let mut s = String::from("colour (D65, CIE 1931 2°):\n");
-    for (name, c) in colours {
-        s.push_str(&format!("  {name:<14}{}\n", c.words()));
-    }
-    s
+    solution_colours(wavelengths, sol).map_err(|(stage, e)| match stage {
+        ColourStage::Spectrum => anyhow!("--colour: the spectrum: {e}"),
+        ColourStage::Lab => anyhow!("--colour: {e}"),
+    })
 }
 
 /// Write `patches` as an SVG swatch to `path`, atomically, never over one of `inputs`.
@@ -180,11 +90,7 @@ pub fn sweep_text(
     for (p, colours) in points.iter().zip(&per_point) {
         let mut cells: Vec<String> = p.values.iter().map(|v| km::text::number(*v)).collect();
         for (_, c) in colours {
-            let (x, l) = (c.xyz, c.lab);
-            // `+ 0.0` after rounding: no `-0.000000`.
-            let six = |v: f64| format!("{:.6}", (v * 1e6).round() / 1e6 + 0.0);
-            cells.extend([x.x, x.y, x.z, l.l, l.a, l.b].map(six));
-            cells.push(c.hex());
+            cells.extend(c.cells());
         }
         if transmits && colours.len() == 1 {
             cells.extend(std::iter::repeat_n(String::new(), 7));

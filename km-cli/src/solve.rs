@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use clap::builder::TypedValueParser;
+use km::settings::{FlagError, option_flag};
 use km::{KmError, Method, Scene, Solution};
 
 use crate::stdout;
@@ -263,23 +264,10 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     km::solve_repeated(scene, &opts, s.repeat).map_err(|e| flag_error(e, args.method, s.tolerance))
 }
 
-/// A library refusal in the words of the flags that caused it (`--tolerance`,
-/// `--directions`, `--cone`, `--method`).
+/// A library refusal in the words of the flags that caused it
+/// (`km::settings::solve_flag_error`).
 pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow::Error {
-    match (&e, tolerance) {
-        (
-            KmError::NoAccuracySetting { .. }
-            | KmError::TargetUnreachable { .. }
-            | KmError::TargetOverBudget { .. }
-            | KmError::Option { name: "accuracy target", .. },
-            Some(t),
-        ) => anyhow::Error::new(e).context(format!("--tolerance {t}")),
-        (KmError::Option { name: "directions" | "cone", .. }, _) => option_flag(e),
-        (KmError::Unsupported(_), _) => {
-            anyhow::Error::new(e).context(format!("--method {}", method.name()))
-        }
-        _ => e.into(),
-    }
+    km::settings::solve_flag_error(e, method, tolerance).into()
 }
 
 impl SolveArgs {
@@ -342,17 +330,7 @@ fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Opti
         budget: 1.0,
         cancel: None,
     };
-    opts.with_budget(args.budget).map_err(option_flag)
-}
-
-/// A library option error in the words of its flag: `--NAME VALUE: REASON`.
-fn option_flag(e: KmError) -> anyhow::Error {
-    match e {
-        KmError::Option { name, value, reason } => {
-            anyhow::anyhow!("--{} {value}: {reason}", name.replace('_', "-"))
-        }
-        e => e.into(),
-    }
+    Ok(opts.with_budget(args.budget).map_err(option_flag)?)
 }
 
 /// `I/N` with `0 <= I < N`.
@@ -371,7 +349,7 @@ fn parse_shard(text: &str) -> Result<(u64, u64)> {
 pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -> Result<()> {
     let p = km::profile(scene, opts).map_err(|e| match e {
         e @ KmError::Option { .. } => option_flag(e),
-        e => anyhow::Error::new(e).context(format!("--method {}", opts.method.name())),
+        e => FlagError::after(format!("--method {}", opts.method.name()), e),
     })?;
     stdout::print(&match format {
         OutputFormat::Json => return stdout::print_json(&p.to_json()),
@@ -380,67 +358,14 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
     })
 }
 
-/// Whether the user gave argument `id` on the command line (not a default).
-fn given(m: &clap::ArgMatches, id: &str) -> bool {
-    matches!(m.try_get_raw(id), Ok(Some(_)))
-        && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
-}
-
 /// Refuse a flag that does not apply to the chosen method or mode (clap cannot
-/// know the method: checked after parsing), saying why.
+/// know the method: checked after parsing; `km::settings::refuse_flags`).
 pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
-    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
-    let method = |m: &clap::ArgMatches| m.get_one::<Method>("method").copied();
-    match matches.subcommand() {
-        Some((command @ ("solve" | "sweep"), m)) => {
-            let method = method(m).unwrap_or(Method::Multiflux);
-            for s in km::settings::SETTINGS {
-                if given(m, s.name) && !s.applies_to(method) {
-                    let names: Vec<_> = s.methods.iter().map(|x| x.name()).collect();
-                    bail!(
-                        "{} does not apply to --method {}: it sets {} (--method {})",
-                        flag(s.name),
-                        method.name(),
-                        s.sets,
-                        names.join(" or ")
-                    );
-                }
-            }
-            // A sweep prints its rows: no shard, no timing of repeated solves.
-            let once = ["shard", "repeat"].into_iter().find(|id| given(m, id));
-            if let Some(id) = once.filter(|_| command == "sweep") {
-                bail!("{} applies to km solve, not to km sweep", flag(id));
-            }
-            if given(m, "shard") && (given(m, "json") || given(m, "format")) {
-                bail!(
-                    "--shard writes its partial tally to --out and prints no result: --json and \
-                     --format apply to `km merge` and to whole runs"
-                );
-            }
-            if given(m, "tolerance") && given(m, "samples") {
-                bail!("give either --samples or --tolerance: the target chooses the photon count");
-            }
-            if given(m, "tolerance") && given(m, "shard") {
-                bail!(
-                    "--tolerance does not combine with --shard (every shard would choose its own \
-                     photon count): run a pilot `km solve SCENE --method mc --tolerance T --json`, \
-                     read the sample count it chose (`tolerance.samples` of the JSON), then shard with \
-                     `--samples N --shard I/K --out FILE` and `km merge`"
-                );
-            }
-        }
-        Some(("profile", m)) => {
-            let method = method(m).unwrap_or(Method::Dipole);
-            let mc_only = ["samples", "seed"].into_iter().find(|id| given(m, id));
-            if let Some(id) = mc_only.filter(|_| method != Method::Mc) {
-                bail!(
-                    "{} does not apply to --method {}: it sets the Monte Carlo run (--method mc)",
-                    flag(id),
-                    method.name()
-                );
-            }
-        }
-        _ => {}
-    }
-    Ok(())
+    let Some((command, m)) = matches.subcommand() else { return Ok(()) };
+    let given = |id: &str| {
+        matches!(m.try_get_raw(id), Ok(Some(_)))
+            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+    };
+    let method = m.try_get_one::<Method>("method").ok().flatten().copied();
+    km::settings::refuse_flags(command, method, given).map_err(anyhow::Error::msg)
 }

@@ -25,6 +25,8 @@
 //! * [`drawdown`]: one film's readings to `K`, `S` (with Saunderson's
 //!   correction and the readings' uncertainty) and its hiding curves: what
 //!   `km fit --km` computes.
+//! * [`request`]: a fit asked for with plain options (`km fit`'s flags):
+//!   the mode, the inputs built and checked, the fit run, its JSON and text.
 //! * [`text`]: the fits as text for people (the tables `km fit` prints).
 //! * [`colour`]: spectra to CIE 1931 XYZ (2° observer; 1964 10° too), CIELAB
 //!   under D65 or D50, sRGB (IEC 61966-2-1), the CIEDE2000 colour difference,
@@ -46,6 +48,7 @@ pub mod kubelka;
 pub mod linalg;
 mod measurement;
 pub mod reflectance;
+pub mod request;
 pub mod rxt;
 mod search;
 pub mod slab;

@@ -173,6 +173,29 @@ pub struct RowOverrides {
     pub fixed: Option<RowFixed>,
 }
 
+impl RowOverrides {
+    /// The overrides of a caller's options: the fractions of the specular
+    /// reflection in `M_R` and of the unscattered beam in `M_T` override the
+    /// file's when they differ from 1 (their defaults), the uncertainties
+    /// `[sigma_r, sigma_t, sigma_u]` stand where a row gives none.
+    pub fn from_options(
+        specular_in_m_r: f64,
+        unscattered_in_m_t: f64,
+        sigmas: [Option<f64>; 3],
+        fixed: Option<RowFixed>,
+    ) -> RowOverrides {
+        let [sigma_r, sigma_t, sigma_u] = sigmas;
+        RowOverrides {
+            specular_in_m_r: (specular_in_m_r != 1.0).then_some(specular_in_m_r),
+            unscattered_in_m_t: (unscattered_in_m_t != 1.0).then_some(unscattered_in_m_t),
+            sigma_r,
+            sigma_t,
+            sigma_u,
+            fixed,
+        }
+    }
+}
+
 /// Refuse a fixed quantity for rows that all give `M_T` too (both unknowns
 /// are fitted there); in a file mixing both kinds it applies to the rows
 /// that give `M_R` alone.

@@ -14,10 +14,14 @@
 //! * [`check`]: the defects a drawn chart must not have (tick labels,
 //!   legend over data, missing error bars, staircase lines), read from its
 //!   layout and pixels; tests of every crate that draws charts use it.
+//! * [`fit`]: the hiding curves of a Kubelka–Munk drawdown fit.
 //! * [`font`]: the embedded font.
+//! * [`phase`]: the phase functions of a scene's layers.
 #![deny(missing_docs)]
 
 pub mod bsdf;
 pub mod chart;
 pub mod check;
+pub mod fit;
 pub mod font;
+pub mod phase;

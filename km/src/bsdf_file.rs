@@ -286,6 +286,26 @@ pub enum RequestError {
     FromBelowInFourier,
 }
 
+impl RequestError {
+    /// The refusal in the words of `km bsdf`'s flags (`--theta-i`,
+    /// `--theta-o`, `--phi`, `--from-below`).
+    pub fn flag_words(&self) -> String {
+        let RequestError::Angles { list, source } = self else {
+            return "--from-below does not apply to --format fourier (the file holds both sides)"
+                .into();
+        };
+        let flag = match list {
+            AngleList::ThetaI => "--theta-i",
+            AngleList::ThetaO => "--theta-o",
+            AngleList::Phi => "--phi",
+        };
+        match source {
+            e @ AngleListError::Grid { .. } => format!("{flag} {e}"),
+            e @ AngleListError::List { .. } => format!("{flag}: {e}"),
+        }
+    }
+}
+
 impl BsdfRequest {
     /// A request from angle lists as text ([`parse_angles`]); a list not
     /// given takes its default: `theta_i` the format's
@@ -518,4 +538,53 @@ fn meta(bsdf: &Bsdf, phi: &[f64], solver: &MultifluxOptions, from_below: bool) -
         },
         "seconds": null,
     })
+}
+
+/// A refusal or failure of [`BsdfFile::write`].
+#[derive(Debug, thiserror::Error)]
+pub enum WriteError {
+    /// The totals file of a CSV would be the table itself (`--out NAME.totals.csv`).
+    #[error("--out {}: the totals file would be the table itself", .0.display())]
+    TotalsIsTable(std::path::PathBuf),
+    /// A file could not be written.
+    #[error("cannot write {}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl BsdfFile {
+    /// Write the file's bytes to `out` and, for a CSV, its totals beside it
+    /// ([`totals_path`], written first), each atomically and never over one
+    /// of `inputs`. Returns the totals file when one was written; nothing is
+    /// written when the bytes were not asked for.
+    ///
+    /// # Errors
+    /// [`WriteError`]: a totals file that would be `out`, or a failed write.
+    pub fn write(
+        &self,
+        out: &Path,
+        inputs: &[std::path::PathBuf],
+    ) -> Result<Option<std::path::PathBuf>, WriteError> {
+        use km_core::atomic_file::{WriteOptions, write_atomic_with};
+        let Some(bytes) = &self.bytes else { return Ok(None) };
+        let opts = WriteOptions { inputs: inputs.to_vec(), ..Default::default() };
+        let write = |path: &Path, b: &[u8]| {
+            write_atomic_with(path, b, &opts)
+                .map_err(|source| WriteError::Io { path: path.to_path_buf(), source })
+        };
+        let totals = totals_path(out);
+        if let Some(t) = &self.totals {
+            if totals == out {
+                return Err(WriteError::TotalsIsTable(out.to_path_buf()));
+            }
+            write(&totals, t)?;
+        }
+        write(out, bytes)?;
+        Ok(self.totals.is_some().then_some(totals))
+    }
 }

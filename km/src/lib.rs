@@ -25,7 +25,8 @@
 //!   setting of a solve and the methods it applies to.
 //! * [`bsdf_file`]: the whole BSDF as an npz, CSV or Fourier BSDF file.
 //! * [`phase_report`]: each layer's phase function, moments and Mie
-//!   efficiencies as numbers; one sphere by Mie theory.
+//!   efficiencies as numbers, and as text; one sphere by Mie theory.
+//! * [`mcml_files`]: where an MCML run's files go, and its `.npz`.
 //!
 //! The crates below: `km-core` (scene, layers, Fresnel, planner, two-flux,
 //! [`Solution`]), `km-multiflux`, `km-montecarlo`, `km-dipole`; see
@@ -49,6 +50,7 @@ pub mod direction_set;
 mod error;
 pub mod field;
 pub mod mc_field;
+pub mod mcml_files;
 mod method;
 pub mod model_error;
 pub mod phase_report;

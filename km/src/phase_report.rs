@@ -6,6 +6,7 @@
 //! normalised as eq. P1: `integral p dw = 1`), its Legendre moments
 //! `chi_0 = 1 .. chi_K` (eq. P2, DISORT's `PMOM`), and for a layer of
 //! particles each population's Mie efficiencies and their mixture.
+//! [`table`] and [`csv`] write a report as text.
 //! [`mie_sphere`] gives one sphere's efficiencies, asymmetry, amplitudes
 //! `S1`, `S2`, phase function and moments.
 //!
@@ -21,6 +22,9 @@ use km_core::mie::{
 };
 use km_core::phase::{MAX_RM_MOMENTS, MAX_TABLE_MOMENTS, Phase, PhaseFunction};
 use km_core::{CoreError, Layer, Scene};
+
+mod text;
+pub use text::{channel_name, csv, table};
 
 /// The largest `K` of the moments `chi_0 .. chi_K` asked for.
 pub const MAX_MOMENTS: usize = 16_384;

@@ -5,7 +5,8 @@
 //! Python package's keyword arguments are checked against it, and
 //! [`Settings`] turns the values given into [`Options`], refusing a setting
 //! the method does not read, a value outside its range, or two settings that
-//! exclude each other, in the same words for both.
+//! exclude each other, in the same words for both. [`refuse_flags`] checks
+//! the flags given to a command against the method and the command.
 //!
 //! ```
 //! use km::settings::Settings;
@@ -19,6 +20,9 @@
 //! ```
 
 use crate::{DirectionSetOptions, KmError, Method, MethodOptions, Options};
+
+mod flags;
+pub use flags::{FlagError, option_flag, refuse_flags, solve_flag_error};
 
 /// What values a setting takes.
 #[derive(Debug, Clone, Copy, PartialEq)]

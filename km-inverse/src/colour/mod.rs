@@ -18,7 +18,9 @@
 //!    piecewise gamma; eq. C5–C6), and back ([`xyz_from_srgb`]);
 //! 5. [`ciede2000`]: the colour difference of two CIELAB colours (CIE
 //!    142-2001; Sharma, Wu & Dalal 2005, eq. 1–22; eq. C7);
-//! 6. [`swatch_svg`]: a small SVG image of labelled sRGB patches.
+//! 6. [`swatch_svg`]: a small SVG image of labelled sRGB patches;
+//! 7. [`report`]: the colour of a computed spectrum as the front ends report
+//!    it (JSON, a line of text, table cells).
 //!
 //! The tables (`km-inverse/data/`) are the CIE's: colour-matching functions
 //! at 1 nm (CIE 015:2018 Tables 1–2) and the D65, D50 relative spectral
@@ -33,6 +35,7 @@ use thiserror::Error;
 
 mod adaptation;
 mod ciede2000;
+pub mod report;
 mod srgb;
 mod swatch;
 mod weights;

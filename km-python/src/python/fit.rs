@@ -4,6 +4,7 @@
 
 use km_inverse::forward::Sample;
 use km_inverse::reflectance::Fixed;
+use km_inverse::request::FileKind;
 use km_inverse::slab::{FitOptions, FitResult, Measurement, Setup};
 use km_inverse::spectrum::{RowFit, RowFixed, RowOverrides, check_fixed, fit_rows, rows_json};
 use numpy::PyReadonlyArray1;
@@ -403,10 +404,9 @@ pub(crate) fn fit_file<'py>(
         // The checked reader: a FIFO or /dev/zero is refused before opening.
         let text = km::read_checked_text(&path, MAX_FILE_BYTES, "a measurement file", "")
             .map_err(|e| cannot(e.to_string()))?;
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
-        let rows = match ext.as_str() {
-            "rxt" => km_inverse::rxt::parse_rxt_within(&text, max, raise),
-            "csv" => {
+        let rows = match FileKind::of(&path) {
+            Some(FileKind::Rxt) => km_inverse::rxt::parse_rxt_within(&text, max, raise),
+            Some(FileKind::Csv) => {
                 let Some(thickness) = thickness else {
                     return Err(Error::option("thickness", "is required for a .csv file"));
                 };
@@ -421,21 +421,15 @@ pub(crate) fn fit_file<'py>(
                 };
                 km_inverse::rxt::parse_csv_within(&text, &how.setup()?, max, raise)
             }
-            _ => return Err(cannot("expected a .rxt or .csv file".into())),
+            None => return Err(cannot("expected a .rxt or .csv file".into())),
         }
         .map_err(|e| cannot(e.to_string()))?;
         check_fixed(&rows, fixed).map_err(|e| Error::option("fix_mu_s", format!("{name}: {e}")))?;
         // As `km fit FILE` (km_inverse::spectrum): fractions other than 1
         // override the file, the sigmas and g given here stand where a row
         // has none; the rows are fitted in parallel, each as the command does.
-        let over = RowOverrides {
-            specular_in_m_r: (specular_in_m_r != 1.0).then_some(specular_in_m_r),
-            unscattered_in_m_t: (unscattered_in_m_t != 1.0).then_some(unscattered_in_m_t),
-            sigma_r,
-            sigma_t,
-            sigma_u,
-            fixed,
-        };
+        let sigmas = [sigma_r, sigma_t, sigma_u];
+        let over = RowOverrides::from_options(specular_in_m_r, unscattered_in_m_t, sigmas, fixed);
         let opts = FitOptions { g, streams };
         // Stoppable by Ctrl-C between rows.
         let fits: Vec<RowFit> = rows
