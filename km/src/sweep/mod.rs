@@ -215,7 +215,7 @@ pub fn sweep(
     let grid = Grid::new(text, edits, axes, total);
     // One budget for the whole sweep (eq. L4), before any point is solved:
     // the first point stands for all (they differ in values only).
-    if let Ok(scene) = grid.from_text(&grid.point(0)) {
+    if let Ok(scene) = grid.text_scene(&grid.point(0)) {
         crate::request_budget::check_points(
             &scene,
             total,
@@ -246,7 +246,7 @@ pub fn sweep(
 /// The points of a grid sweep and their scenes.
 ///
 /// A point is, by definition, the scene file with the fixed edits and the
-/// point's values as `--set` edits of its text ([`Grid::from_text`]). When
+/// point's values as `--set` edits of its text ([`Grid::text_scene`]). When
 /// every axis is a typed [`Quantity`] the values are set on the parsed scene
 /// instead ([`apply`], no text parsed: about 20 times cheaper a point), once
 /// that is seen to give the same scene at the grid's first and last points
@@ -291,7 +291,7 @@ impl<'a> Grid<'a> {
             let point = self.point(index);
             let pairs: Vec<(Quantity, f64)> =
                 q.iter().copied().zip(point.iter().copied()).collect();
-            if apply(&base, &pairs).ok()? != self.from_text(&point).ok()? {
+            if apply(&base, &pairs).ok()? != self.text_scene(&point).ok()? {
                 return None;
             }
         }
@@ -310,7 +310,7 @@ impl<'a> Grid<'a> {
     }
 
     /// The scene file with the fixed edits and `point`'s values as edits.
-    fn from_text(&self, point: &[f64]) -> Result<Scene, KmError> {
+    fn text_scene(&self, point: &[f64]) -> Result<Scene, KmError> {
         let mut all = self.edits.to_vec();
         all.extend(
             self.axes
@@ -330,7 +330,7 @@ impl<'a> Grid<'a> {
                 return Ok(scene);
             }
         }
-        self.from_text(point)
+        self.text_scene(point)
     }
 }
 
@@ -394,7 +394,7 @@ mod tests {
             assert!(g.typed.is_some(), "{file} {a} {b}: not typed");
             for i in 0..axes[0].n * axes[1].n {
                 let p = g.point(i);
-                assert_eq!(g.scene(&p).unwrap(), g.from_text(&p).unwrap(), "{file} {p:?}");
+                assert_eq!(g.scene(&p).unwrap(), g.text_scene(&p).unwrap(), "{file} {p:?}");
             }
         }
     }
@@ -418,7 +418,7 @@ mod tests {
             let g = grid(text, &axes);
             assert!(g.typed.is_none(), "{a} on {text}: typed");
             if !a.contains("tau") {
-                assert!(Scene::from_toml_str(text).is_ok() && g.from_text(&g.point(2)).is_ok());
+                assert!(Scene::from_toml_str(text).is_ok() && g.text_scene(&g.point(2)).is_ok());
             }
         }
         // A typed sweep's answers are those of the scene file's points, bit for bit.
@@ -428,7 +428,7 @@ mod tests {
         let g = grid(&text, &axes);
         assert!(g.typed.is_some());
         for (i, p) in sweep(&text, &[], &axes, &opts).unwrap().iter().enumerate() {
-            let one = crate::solve(&g.from_text(&g.point(i)).unwrap(), &opts).unwrap();
+            let one = crate::solve(&g.text_scene(&g.point(i)).unwrap(), &opts).unwrap();
             assert_eq!(p.solution.channels, one.channels, "{i}");
         }
     }
