@@ -248,7 +248,7 @@ pub fn sweep(
 /// A point is, by definition, the scene file with the fixed edits and the
 /// point's values as `--set` edits of its text ([`Grid::text_scene`]). When
 /// every axis is a typed [`Quantity`] the values are set on the parsed scene
-/// instead ([`apply`], no text parsed: about 20 times cheaper a point), once
+/// instead ([`apply`]: no text parsed at each point; docs/benchmarks.md), once
 /// that is seen to give the same scene at the grid's first and last points
 /// (compared field by field). The check stands for every point: where the
 /// scene file derives other values from a swept key (a layer or substrate
