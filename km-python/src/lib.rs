@@ -11,8 +11,8 @@
 //! * [`build`]: scenes from Python values, by way of the scene file
 //!   ([`build::scene_from_table`]), so that validation and messages are the
 //!   scene file's own.
-//! * [`sweep`]: parameter sweeps ([`sweep::Target`], [`sweep::apply`]) and
-//!   batch solves on all cores ([`sweep::solve_many`]).
+//! * [`sweep`]: the binding of parameter sweeps (`km::sweep`: typed keys,
+//!   [`sweep::solve_sweep`]) and batch solves on all cores ([`sweep::solve_many`]).
 //! * [`Error`]: every refusal, with the scene key and line when it has them.
 //!
 //! The bindings themselves (feature `python`) are in the private module

@@ -1,211 +1,24 @@
-//! Parameter sweeps and batch solves.
+//! Parameter sweeps and batch solves: the binding of `km.solve_many`.
 //!
 //! A sweep is a base scene and, per point, new values of some of its
-//! parameters, named by their scene-file keys with the layer number of the
-//! file's messages (`layer[1].thickness`, 1-based, top first):
-//! `layer[i].sigma_a | sigma_s | thickness | tau | albedo | g | n`,
-//! `light.theta_deg`, `ambient.n`, `substrate.n`, `substrate.albedo`. A value
-//! applies to every channel. `tau` and `albedo` keep the other one of the
-//! pair (and a half-space stays a half-space).
+//! quantities, named by the sweep keys of `km::sweep::Quantity` (the one
+//! grammar `km sweep` parses too): `layer[i].sigma_a | sigma_s | thickness |
+//! tau | albedo | g | n | roughness`, `light.theta_deg`, `ambient.n`,
+//! `substrate.n | k | albedo | roughness`, 1-based layer numbers. A value
+//! applies to every channel. [`solve_sweep`] solves the points by
+//! `km::sweep::solve_points` on a pool of `threads` workers.
 //!
-//! [`solve_many`] solves the points on a rayon pool (all cores by default),
-//! in any order, each by [`crate::engine::solve`]; the answer of each point
-//! does not depend on the thread count. [`Columns`] gathers the answers into
-//! column arrays (point-major), what `km.solve_many` returns as numpy arrays.
+//! [`solve_many`] solves a list of scenes on a rayon pool (all cores by
+//! default), in any order, each by [`crate::engine::solve`]; the answer of
+//! each point does not depend on the thread count. [`Columns`] gathers the
+//! answers into column arrays (point-major), what `km.solve_many` returns as
+//! numpy arrays.
 
-use std::str::FromStr;
-
-use km::phase::Phase;
-use km::{CoreError, Layer, Light, MonoScene, Scene, Solution, Substrate};
+use km::{CoreError, KmError, Scene, Solution};
 use rayon::prelude::*;
 
 use crate::engine::{Options, solve};
 use crate::error::Error;
-
-/// What a sweep changes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Field {
-    /// Absorption coefficient, 1/length.
-    SigmaA,
-    /// Scattering coefficient, 1/length.
-    SigmaS,
-    /// Thickness, length (`inf` for a half-space).
-    Thickness,
-    /// Optical thickness, keeping the albedo.
-    Tau,
-    /// Single-scattering albedo, keeping tau.
-    Albedo,
-    /// Henyey–Greenstein asymmetry.
-    G,
-    /// Refractive index.
-    N,
-}
-
-/// One swept parameter of a scene.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Target {
-    /// A field of layer `index` (0-based here; 1-based in the key).
-    Layer {
-        /// Layer index, 0-based, top first.
-        index: usize,
-        /// Which field.
-        field: Field,
-    },
-    /// `light.theta_deg` (collimated light).
-    LightTheta,
-    /// `ambient.n`.
-    AmbientN,
-    /// `substrate.n` (transparent substrate).
-    SubstrateN,
-    /// `substrate.albedo` (Lambertian substrate).
-    SubstrateAlbedo,
-}
-
-impl FromStr for Target {
-    type Err = Error;
-    /// Parse a key such as `layer[2].g` (1-based layer number).
-    fn from_str(key: &str) -> Result<Self, Error> {
-        let bad = || {
-            Error::option(
-                key,
-                "unknown sweep key (expected layer[i].sigma_a|sigma_s|thickness|tau|albedo|g|n, \
-                 light.theta_deg, ambient.n, substrate.n or substrate.albedo; i from 1)",
-            )
-        };
-        match key {
-            "light.theta_deg" => return Ok(Target::LightTheta),
-            "ambient.n" => return Ok(Target::AmbientN),
-            "substrate.n" => return Ok(Target::SubstrateN),
-            "substrate.albedo" => return Ok(Target::SubstrateAlbedo),
-            _ => {}
-        }
-        let rest = key.strip_prefix("layer[").ok_or_else(bad)?;
-        let (num, field) = rest.split_once("].").ok_or_else(bad)?;
-        let number: usize = num.parse().map_err(|_| bad())?;
-        if number == 0 {
-            return Err(bad());
-        }
-        let field = match field {
-            "sigma_a" => Field::SigmaA,
-            "sigma_s" => Field::SigmaS,
-            "thickness" => Field::Thickness,
-            "tau" => Field::Tau,
-            "albedo" => Field::Albedo,
-            "g" => Field::G,
-            "n" => Field::N,
-            _ => return Err(bad()),
-        };
-        Ok(Target::Layer { index: number - 1, field })
-    }
-}
-
-impl Target {
-    /// The scene-file key (`layer[1].tau`, ...).
-    pub fn key(&self) -> String {
-        match *self {
-            Target::Layer { index, field } => {
-                let f = match field {
-                    Field::SigmaA => "sigma_a",
-                    Field::SigmaS => "sigma_s",
-                    Field::Thickness => "thickness",
-                    Field::Tau => "tau",
-                    Field::Albedo => "albedo",
-                    Field::G => "g",
-                    Field::N => "n",
-                };
-                format!("layer[{}].{f}", index + 1)
-            }
-            Target::LightTheta => "light.theta_deg".into(),
-            Target::AmbientN => "ambient.n".into(),
-            Target::SubstrateN => "substrate.n".into(),
-            Target::SubstrateAlbedo => "substrate.albedo".into(),
-        }
-    }
-}
-
-/// A copy of `base` with `values` set (one per target), validated as a scene
-/// file's values are.
-///
-/// # Errors
-/// A target that the scene does not have (a layer beyond the stack, the angle
-/// of diffuse light, the albedo of a transparent substrate) or a value outside
-/// its domain, named by its key.
-///
-/// ```
-/// use _km::sweep::{Target, apply};
-/// let base = km::Scene::from_toml_str("[[layer]]\ntau = 1.0\nalbedo = 0.9\n").unwrap();
-/// let t: Target = "layer[1].tau".parse().unwrap();
-/// let s = apply(&base, &[(t, 2.0)]).unwrap();
-/// assert!((s.channels()[0].layers()[0].tau() - 2.0).abs() < 1e-15);
-/// assert!((s.channels()[0].layers()[0].albedo() - 0.9).abs() < 1e-15);
-/// ```
-pub fn apply(base: &Scene, values: &[(Target, f64)]) -> Result<Scene, Error> {
-    let mut channels = Vec::with_capacity(base.channels().len());
-    for c in base.channels() {
-        let (mut light, mut ambient_n, mut substrate) = (c.light(), c.ambient_n(), c.substrate());
-        let mut layers = c.layers().to_vec();
-        for &(target, v) in values {
-            let key = target.key();
-            let invalid = |e: CoreError| -> Error {
-                Error::Scene(CoreError::scene(key.clone(), None, e.to_string()))
-            };
-            let refuse = |what: &str| Error::Scene(CoreError::scene(key.clone(), None, what));
-            if v.is_nan() {
-                return Err(refuse("NaN is not a value"));
-            }
-            match target {
-                Target::Layer { index, field } => {
-                    let count = layers.len();
-                    let l = layers
-                        .get_mut(index)
-                        .ok_or_else(|| refuse(&format!("the stack has {count} layer(s)")))?;
-                    let (g, n) = (l.g(), l.n());
-                    *l = match field {
-                        Field::SigmaA => l.with_coefficients(v, l.sigma_s()),
-                        Field::SigmaS => l.with_coefficients(l.sigma_a(), v),
-                        Field::Thickness => l.with_thickness(v),
-                        Field::Tau => {
-                            let albedo = l.albedo();
-                            Layer::from_tau_albedo(v, albedo, g, n)
-                        }
-                        Field::Albedo => {
-                            let tau = if l.is_half_space() { f64::INFINITY } else { l.tau() };
-                            Layer::from_tau_albedo(tau, v, g, n)
-                        }
-                        Field::G => Phase::henyey_greenstein(v).map(|phase| l.with_phase(phase)),
-                        Field::N => l.with_n(v),
-                    }
-                    .map_err(invalid)?;
-                }
-                Target::LightTheta => match light {
-                    Light::Collimated { .. } => light = Light::Collimated { theta_deg: v },
-                    Light::Diffuse => return Err(refuse("diffuse light has no angle")),
-                },
-                Target::AmbientN => ambient_n = v,
-                Target::SubstrateN => match substrate {
-                    Substrate::Transparent { .. } => substrate = Substrate::Transparent { n: v },
-                    _ => return Err(refuse("only a transparent substrate has an index")),
-                },
-                Target::SubstrateAlbedo => match substrate {
-                    Substrate::Lambertian { .. } => substrate = Substrate::Lambertian { albedo: v },
-                    _ => return Err(refuse("only a lambertian substrate has an albedo")),
-                },
-            }
-        }
-        // The whole channel, as the parser checks it (angles, indices, half-spaces).
-        let directions = c.directions_deg().to_vec();
-        let mono = MonoScene::new(light, ambient_n, layers, substrate, directions).map_err(
-            |e| match e {
-                CoreError::Scene { key, message, .. } => {
-                    Error::Scene(CoreError::Scene { key, line: None, message })
-                }
-                other => Error::Scene(other),
-            },
-        )?;
-        channels.push(mono);
-    }
-    base.with_channels(channels).map_err(Error::Scene)
-}
 
 /// Solve every scene by `opts`, in parallel on `threads` workers (`None`: all
 /// cores), each point by [`crate::engine::solve`] (Monte Carlo points run on
@@ -220,7 +33,7 @@ pub fn solve_many(
     opts: &Options,
     threads: Option<usize>,
 ) -> Result<Vec<Result<Solution, Error>>, Error> {
-    check_batch(scenes.iter(), scenes.len(), opts)?;
+    check_batch(scenes, opts)?;
     let mut point = opts.clone();
     if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);
@@ -242,84 +55,107 @@ fn whole(results: Vec<Result<Solution, Error>>) -> Result<Vec<Result<Solution, E
 /// space (docs/limits.md §8, case 33); half of that fits in 5 s and 500 MB.
 pub const MAX_POINTS: usize = 50_000;
 
-/// One budget for a whole batch (docs/limits.md eq. L4), before any point
-/// is solved: at most [`MAX_POINTS`] points, and their summed work (each
-/// point's estimate: `km::request_budget::point_work`) within the budget of
-/// one solve. `scenes` yields the points' scenes (a sweep's base scene
-/// stands for all its points).
-fn check_batch<'a>(
-    scenes: impl Iterator<Item = &'a Scene>,
-    points: usize,
-    opts: &Options,
-) -> Result<(), Error> {
+/// At most [`MAX_POINTS`] points in one call.
+fn check_count(points: usize) -> Result<(), Error> {
     if points > MAX_POINTS {
         return Err(Error::option(
             "scenes",
             format!("{points} points (at most {MAX_POINTS} per call): solve in chunks"),
         ));
     }
+    Ok(())
+}
+
+/// One budget for a whole batch of scenes (docs/limits.md eq. L4), before
+/// any point is solved: at most [`MAX_POINTS`] points, and their summed work
+/// (each point's estimate: `km::request_budget::point_work`) within the
+/// budget of one solve (a sweep's: `km::sweep::solve_points`).
+fn check_batch(scenes: &[Scene], opts: &Options) -> Result<(), Error> {
+    check_count(scenes.len())?;
     // Options the method refuses are each point's error, as before.
     let Ok(lib) = opts.library() else { return Ok(()) };
-    let mut total = 0.0;
-    let mut scenes = scenes.peekable();
-    let Some(first) = scenes.peek() else { return Ok(()) };
-    let Some((_, budget, unit)) = km::request_budget::point_work(first, &lib) else {
+    let Some((_, budget, unit)) =
+        scenes.first().and_then(|s| km::request_budget::point_work(s, &lib))
+    else {
         return Ok(());
     };
-    let each: Vec<&Scene> = scenes.collect();
-    let n_each = each.len().max(1);
-    for s in &each {
-        total += km::request_budget::point_work(s, &lib).map_or(0.0, |w| w.0);
-    }
-    // A sweep gives its base scene once for all its points.
-    let total = total * (points as f64 / n_each as f64);
-    if points > 1 && total > budget {
-        return Err(Error::option(
-            "budget",
-            format!(
-                "{points} points need about {total:.3e} {unit} in all, over the budget of \
-                 {budget:.3e} for one call: use fewer points, or a coarser grid"
-            ),
-        ));
+    let total: f64 =
+        scenes.iter().map(|s| km::request_budget::point_work(s, &lib).map_or(0.0, |w| w.0)).sum();
+    if scenes.len() > 1 && total > budget {
+        return Err(over_budget(scenes.len(), total, budget, unit));
     }
     Ok(())
 }
 
-/// Solve the sweep of `base` over `values` (point-major, `targets.len()`
-/// values per point), in parallel as [`solve_many`] does; each point is
-/// [`apply`] then [`crate::engine::solve`], built on the worker that solves it.
+/// The refusal of a request over its budget (`km::KmError::RequestTooLarge`)
+/// in the words of a Python call.
+fn over_budget(points: usize, total: f64, budget: f64, unit: &str) -> Error {
+    Error::option(
+        "budget",
+        format!(
+            "{points} points need about {total:.3e} {unit} in all, over the budget of \
+             {budget:.3e} for one call: use fewer points, or a coarser grid"
+        ),
+    )
+}
+
+/// Parse sweep keys by the one grammar (`km::sweep::quantities`), a bad key
+/// refused as an invalid option named by the key.
 ///
 /// # Errors
-/// A `values` length that is not a multiple of the number of targets, a thread
-/// pool that cannot be built, a raised cancel flag; each point's own error is
-/// in its slot.
+/// The first key that is no sweep key.
+pub fn quantities(keys: &[String]) -> Result<Vec<km::sweep::Quantity>, Error> {
+    km::sweep::quantities(keys).map_err(|e| match e {
+        KmError::Scene(CoreError::Scene { key, message, .. }) => Error::option(&key, message),
+        other => other.into(),
+    })
+}
+
+/// Solve the sweep of `base` over `values` (point-major, `keys.len()` values
+/// per point) by `km::sweep::solve_points` (each point set on `base`, then
+/// solved), on a pool of `threads` workers (`None`: all cores); Monte Carlo
+/// points run on one thread each, as in [`solve_many`].
+///
+/// # Errors
+/// A key that is no sweep key, a `values` length that is not a multiple of
+/// the number of keys, more than [`MAX_POINTS`] points, the request's budget,
+/// a thread pool that cannot be built, a raised cancel flag; each point's own
+/// error is in its slot.
 pub fn solve_sweep(
     base: &Scene,
-    targets: &[Target],
+    keys: &[String],
     values: &[f64],
     opts: &Options,
     threads: Option<usize>,
 ) -> Result<Vec<Result<Solution, Error>>, Error> {
+    let targets = quantities(keys)?;
     let k = targets.len();
     if k == 0 || !values.len().is_multiple_of(k) {
         return Err(Error::option("params", "need at least one key and one value per key"));
     }
-    check_batch(std::iter::once(base), values.len() / k, opts)?;
+    check_count(values.len() / k)?;
     let mut point = opts.clone();
     if point.method == km::Method::Mc && point.threads.is_none() {
         point.threads = Some(1);
     }
-    let run = || {
-        values
-            .par_chunks(k)
-            .map(|row| {
-                let pairs: Vec<(Target, f64)> =
-                    targets.iter().copied().zip(row.iter().copied()).collect();
-                apply(base, &pairs).and_then(|s| solve(&s, &point))
-            })
-            .collect::<Vec<_>>()
+    let (lib, repeat) = match (point.library(), point.settings()) {
+        (Ok(lib), Ok(s)) => (lib, s.repeat()),
+        // Options the method refuses are each point's error (after the point's values).
+        _ => {
+            let each = |row: &[f64]| {
+                let pairs: Vec<_> = targets.iter().copied().zip(row.iter().copied()).collect();
+                km::sweep::apply(base, &pairs).map_err(Error::from).and_then(|s| solve(&s, &point))
+            };
+            return whole(in_pool(threads, || values.par_chunks(k).map(each).collect())?);
+        }
     };
-    whole(in_pool(threads, run)?)
+    match in_pool(threads, || km::sweep::solve_points(base, &targets, values, &lib, repeat))? {
+        Ok(results) => Ok(results.into_iter().map(|r| r.map_err(Error::from)).collect()),
+        Err(KmError::RequestTooLarge { points, total, budget, unit, .. }) => {
+            Err(over_budget(points, total, budget, unit))
+        }
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// Run `f` on a pool of `threads` workers (`None`: rayon's global pool, all cores).
@@ -453,64 +289,22 @@ mod tests {
     }
 
     #[test]
-    fn keys_round_trip_and_bad_keys_are_named() {
-        for key in ["layer[3].g", "layer[1].sigma_a", "light.theta_deg", "substrate.albedo"] {
-            assert_eq!(key.parse::<Target>().unwrap().key(), key);
-        }
+    fn bad_keys_are_invalid_options_named_by_the_key() {
         for key in ["layer[0].g", "layer[1].gg", "layer.g", "ambient"] {
-            let e = key.parse::<Target>().unwrap_err();
+            let e = quantities(&[key.to_string()]).unwrap_err();
             assert_eq!(e.key(), Some(key));
-        }
-    }
-
-    #[test]
-    fn a_swept_scene_equals_the_scene_file_with_that_value() {
-        // Independent route: the same values written into the file.
-        let base = slab();
-        let g: Target = "layer[1].g".parse().unwrap();
-        let tau: Target = "layer[1].tau".parse().unwrap();
-        let swept = apply(&base, &[(g, 0.7), (tau, 3.0)]).unwrap();
-        let file = Scene::from_toml_str(
-            "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 3.0\nalbedo = 0.9\ng = 0.7\nn = 1.5\n\
-             [output]\ndirections_deg = [[0.0, 0.0], [40.0, 180.0]]\n",
-        )
-        .unwrap();
-        let (a, b) = (&swept.channels()[0].layers()[0], &file.channels()[0].layers()[0]);
-        // sigma_s = tau * albedo is recomputed from the albedo kept, so the two
-        // routes agree to rounding (a few ulp), not bit for bit.
-        assert!((a.tau() - b.tau()).abs() < 1e-14 && (a.albedo() - b.albedo()).abs() < 1e-14);
-        assert_eq!(a.g(), b.g());
-        let (x, y) = (
-            solve(&swept, &Options::default()).unwrap(),
-            solve(&file, &Options::default()).unwrap(),
-        );
-        assert!((x.channels[0].reflectance - y.channels[0].reflectance).abs() < 1e-12);
-    }
-
-    #[test]
-    fn out_of_domain_values_are_refused_with_their_key() {
-        let base = slab();
-        let cases = [
-            ("layer[1].g", 1.0, "|g| < 1"),
-            ("layer[1].albedo", 1.5, "[0, 1]"),
-            ("layer[2].tau", 1.0, "1 layer"),
-            ("light.theta_deg", 95.0, "[0, 90)"),
-            ("substrate.albedo", 0.5, "lambertian"),
-            ("layer[1].n", f64::NAN, "NaN"),
-        ];
-        for (key, v, what) in cases {
-            let e = apply(&base, &[(key.parse().unwrap(), v)]).unwrap_err();
-            assert!(e.to_string().contains(what), "{key} = {v}: {e}");
-            assert!(e.to_string().contains(key) || e.key() == Some(key), "{key}: {e}");
+            assert!(e.to_string().contains("unknown sweep key"), "{e}");
         }
     }
 
     #[test]
     fn batch_equals_one_by_one_for_any_thread_count() {
         let base = slab();
-        let tau: Target = "layer[1].tau".parse().unwrap();
-        let scenes: Vec<Scene> =
-            (0..24).map(|i| apply(&base, &[(tau, 0.1 * (i + 1) as f64)]).unwrap()).collect();
+        let keys = ["layer[1].tau".to_string()];
+        let tau = quantities(&keys).unwrap()[0];
+        let scenes: Vec<Scene> = (0..24)
+            .map(|i| km::sweep::apply(&base, &[(tau, 0.1 * (i + 1) as f64)]).unwrap())
+            .collect();
         let opts = Options::default();
         for threads in [Some(1), Some(2), None] {
             let many = solve_many(&scenes, &opts, threads).unwrap();
@@ -520,7 +314,7 @@ mod tests {
         }
         // The sweep route (values applied on the workers) gives the same answers.
         let values: Vec<f64> = (0..24).map(|i| 0.1 * (i + 1) as f64).collect();
-        let swept = solve_sweep(&base, &[tau], &values, &opts, Some(2)).unwrap();
+        let swept = solve_sweep(&base, &keys, &values, &opts, Some(2)).unwrap();
         for (a, b) in swept.iter().zip(&solve_many(&scenes, &opts, Some(2)).unwrap()) {
             assert_eq!(a.as_ref().unwrap().channels, b.as_ref().unwrap().channels);
         }
@@ -541,5 +335,15 @@ mod tests {
         let cols = Columns::gather(&res, 1, 0);
         assert!(cols.errors.iter().all(|e| e.is_some()), "{:?}", cols.errors);
         assert!(cols.scalars[0].1.iter().all(|x| x.is_nan()));
+    }
+
+    #[test]
+    fn options_the_method_refuses_are_each_points_error() {
+        let opts = Options { method: km::Method::Km, streams: Some(8), ..Default::default() };
+        let keys = ["layer[1].g".to_string()];
+        let res = solve_sweep(&slab(), &keys, &[0.1, 2.0], &opts, Some(1)).unwrap();
+        // The point's own value is refused first, then the option.
+        assert_eq!(res[0].as_ref().unwrap_err().key(), Some("streams"));
+        assert_eq!(res[1].as_ref().unwrap_err().key(), Some("layer[1].g"));
     }
 }

@@ -59,7 +59,7 @@ pub mod request_budget;
 mod run;
 pub mod settings;
 mod solver;
-mod sweep;
+pub mod sweep;
 pub mod text;
 
 pub use direction_set::DirectionSetOptions;

@@ -359,9 +359,10 @@ scenes : Scene or iterable of Scene
 method : {{"multiflux", "km", "mc", "dipole", "direction-set"}}, default "multiflux"
     As for :func:`solve`.
 params : mapping of str to array_like, optional
-    Sweep keys (``layer[i].sigma_a|sigma_s|thickness|tau|albedo|g|n`` with
-    ``i`` from 1, ``light.theta_deg``, ``ambient.n``, ``substrate.n``,
-    ``substrate.albedo``) to arrays of values, broadcast together.
+    Sweep keys (``layer[i].sigma_a|sigma_s|thickness|tau|albedo|g|n|roughness``
+    with ``i`` from 1, ``light.theta_deg``, ``ambient.n``,
+    ``substrate.n|k|albedo|roughness``; the grammar of ``km sweep``) to
+    arrays of values, broadcast together.
 errors : {{"raise", "nan"}}, default "raise"
     ``"raise"``: the first failed point raises its error (``point 17: ...``);
     ``"nan"``: a failed point is NaN and its message is in ``Batch.errors``.

@@ -11,7 +11,7 @@ use super::settings::options_from;
 use super::{PyScene, PySolution, guarded, py_err};
 use crate::engine::Options;
 use crate::error::Error;
-use crate::sweep::{Columns, Target};
+use crate::sweep::Columns;
 use km::Method;
 
 /// The partial tally of one Monte Carlo shard, made by `km.run_shard`.
@@ -269,20 +269,17 @@ pub(crate) fn _solve_sweep<'py>(
     check_errors_mode(py, errors)?;
     let threads = pool_threads(py, settings)?;
     let opts = options_from(py, method, settings)?;
-    let targets = keys
-        .iter()
-        .map(|k| k.parse::<Target>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| py_err(py, e))?;
+    // Parsed here too, so that a bad key is named before the shape is checked.
+    crate::sweep::quantities(&keys).map_err(|e| py_err(py, e))?;
     let view = values.as_array();
-    if view.ncols() != targets.len() {
+    if view.ncols() != keys.len() {
         return Err(py_err(py, Error::option("params", "one column of values per key")));
     }
     let flat: Vec<f64> = view.iter().copied().collect();
     let base = &scene.get().scene;
     let (channels, directions) = (base.channels().len(), base.channels()[0].directions_deg().len());
     let results = interruptible(py, |c| {
-        crate::sweep::solve_sweep(base, &targets, &flat, &opts.with_cancel(c), threads)
+        crate::sweep::solve_sweep(base, &keys, &flat, &opts.with_cancel(c), threads)
     })?;
     columns_dict(py, results, channels, directions, base.labels().to_vec(), errors)
 }

@@ -1,9 +1,23 @@
-//! `km sweep`: one scene solved over a grid of edited values (`--set
-//! KEY=START:STOP:N`), the points in parallel, the rows in a fixed order.
+//! Sweeps: one scene solved at many values of some of its quantities.
+//!
+//! [`Quantity`] is the one grammar of sweep keys (typed: a layer's field,
+//! the light's angle, an index, the substrate's values), [`apply`] sets
+//! values on a parsed scene and [`solve_points`] solves a list of points in
+//! parallel under one request budget: Python's `km.solve_many(...,
+//! params=...)`. [`sweep`] is `km sweep`: a scene file over a grid of
+//! `--set KEY=START:STOP:N` axes, the points in parallel, the rows
+//! ([`sweep_text`]) in a fixed order; its points are set on the parsed scene
+//! whenever that gives the scene file's own point (see `Grid`).
+
+mod quantity;
+mod rows;
 
 use km_core::set::SetEdit;
 use km_core::{Scene, Solution};
 use rayon::prelude::*;
+
+pub use quantity::{LayerField, Quantity, apply, quantities, solve_points};
+pub use rows::{SweepFormat, sweep_text};
 
 use crate::{KmError, Options};
 
@@ -198,20 +212,10 @@ pub fn sweep(
             )));
         }
     };
-    let values: Vec<Vec<f64>> = axes.iter().map(SweepAxis::values).collect();
+    let grid = Grid::new(text, edits, axes, total);
     // One budget for the whole sweep (eq. L4), before any point is solved:
     // the first point stands for all (they differ in values only).
-    let edits_at = |point: &[f64]| {
-        let mut all = edits.to_vec();
-        all.extend(
-            axes.iter()
-                .zip(point)
-                .map(|(a, v)| SetEdit { key: a.key.clone(), value: format!("{v:?}") }),
-        );
-        all
-    };
-    let first: Vec<f64> = values.iter().map(|v| v[0]).collect();
-    if let Ok(scene) = Scene::from_toml_str_edited(text, &edits_at(&first)) {
+    if let Ok(scene) = grid.text_scene(&grid.point(0)) {
         crate::request_budget::check_points(
             &scene,
             total,
@@ -225,18 +229,8 @@ pub fn sweep(
         KmError::SweepPoint { point: at.join(" "), source: Box::new(e) }
     };
     let solve_at = |index: usize| {
-        // Mixed-radix digits of `index`, the last axis fastest.
-        let mut rest = index;
-        let mut point = vec![0.0; axes.len()];
-        for (k, a) in axes.iter().enumerate().rev() {
-            point[k] = values[k][rest % a.n];
-            rest /= a.n;
-        }
-        let solve = || {
-            let scene = Scene::from_toml_str_edited(text, &edits_at(&point))?;
-            crate::solve(&scene, options)
-        };
-        match solve() {
+        let point = grid.point(index);
+        match grid.scene(&point).and_then(|scene| crate::solve(&scene, options)) {
             Ok(solution) => Ok(SweepPoint { values: point, solution }),
             Err(e) if e.is_cancelled() => Err(KmError::Cancelled),
             Err(e) => Err(named(&point, e)),
@@ -249,164 +243,95 @@ pub fn sweep(
     std::iter::once(Ok(first)).chain(rest).collect()
 }
 
-/// How [`sweep_text`] lays out the rows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum SweepFormat {
-    /// Aligned columns (22 characters each).
-    #[cfg_attr(feature = "clap", value(help = "Aligned columns"))]
-    Table,
-    /// Comma-separated values with a header.
-    Csv,
-    /// One JSON object per line.
-    Jsonl,
-}
-
-/// The five totals of a sweep row, by name.
-const SWEEP_QUANTITIES: [&str; 5] =
-    ["reflectance", "reflectance_specular", "transmittance", "transmittance_direct", "absorptance"];
-
-/// The columns of a sweep's rows after the swept values and the channel:
-/// the totals, their standard errors (Monte Carlo), the BRDF/BTDF values at
-/// the scene's `[output]` directions and their standard errors.
-struct Columns {
-    /// Monte Carlo: standard error columns.
-    mc: bool,
-    /// BRDF values per row.
-    n_brdf: usize,
-    /// BTDF values per row (0 when nothing is transmitted at any point).
-    n_btdf: usize,
-}
-
-impl Columns {
-    fn of(points: &[SweepPoint]) -> Columns {
-        let sols = || points.iter().map(|p| &p.solution);
-        let most = |f: fn(&km_core::ChannelResult) -> usize| {
-            sols().flat_map(|s| s.channels.iter().map(f)).max().unwrap_or(0)
-        };
-        let opaque = sols().all(crate::text::btdf_is_empty);
-        Columns {
-            mc: sols().any(|s| s.channels.iter().any(|c| c.stderr.is_some())),
-            n_brdf: most(|c| c.brdf.len()),
-            n_btdf: if opaque { 0 } else { most(|c| c.btdf.len()) },
-        }
-    }
-
-    fn names(&self) -> Vec<String> {
-        let mut h: Vec<String> = SWEEP_QUANTITIES.iter().map(|q| q.to_string()).collect();
-        if self.mc {
-            h.extend(SWEEP_QUANTITIES.iter().map(|q| format!("stderr_{q}")));
-        }
-        h.extend((0..self.n_brdf).map(|i| format!("brdf_{i}")));
-        h.extend((0..self.n_btdf).map(|i| format!("btdf_{i}")));
-        if self.mc {
-            h.extend((0..self.n_brdf).map(|i| format!("stderr_brdf_{i}")));
-            h.extend((0..self.n_btdf).map(|i| format!("stderr_btdf_{i}")));
-        }
-        h
-    }
-
-    /// The numbers of one channel in the order of [`Columns::names`] (NaN
-    /// where a value is missing).
-    fn values(&self, c: &km_core::ChannelResult) -> Vec<f64> {
-        let mut v =
-            vec![c.reflectance, c.reflectance_specular, c.transmittance, c.transmittance_direct];
-        v.push(c.absorptance);
-        let u = c.stderr.clone().unwrap_or_default();
-        if self.mc {
-            let se = [
-                u.reflectance,
-                u.reflectance_specular,
-                u.transmittance,
-                u.transmittance_direct,
-                u.absorptance,
-            ];
-            v.extend(se.iter().map(|e| e.unwrap_or(f64::NAN)));
-        }
-        fn list(x: &[f64], n: usize) -> impl Iterator<Item = f64> + '_ {
-            (0..n).map(move |i| x.get(i).copied().unwrap_or(f64::NAN))
-        }
-        v.extend(list(&c.brdf, self.n_brdf));
-        v.extend(list(&c.btdf, self.n_btdf));
-        if self.mc {
-            v.extend(list(u.brdf.as_deref().unwrap_or(&[]), self.n_brdf));
-            v.extend(list(u.btdf.as_deref().unwrap_or(&[]), self.n_btdf));
-        }
-        v
-    }
-}
-
-/// The rows of `km sweep` (docs/cli.md): the swept values, the channel (for
-/// spectral scenes), the five totals, then for Monte Carlo their standard
-/// errors, the BRDF/BTDF values at the scene's `[output]` directions
-/// (`brdf_I`, `btdf_I`; no BTDF columns when nothing is transmitted) and, for
-/// Monte Carlo, theirs; one row per point and channel in grid order, with a
-/// header for the table and CSV. Numbers are written as
-/// [`crate::text::number`] writes them (round trip, exponent form for small
-/// magnitudes).
+/// The points of a grid sweep and their scenes.
 ///
-/// ```
-/// let text = "[[layer]]\ntau = 1\nalbedo = 0.9\n";
-/// let axes = [km::SweepAxis::parse("layer[1].g=0:0.5:2").unwrap()];
-/// let pts = km::sweep(text, &[], &axes, &km::Options::new(km::Method::Km)).unwrap();
-/// let csv = km::sweep_text(&axes, &pts, km::SweepFormat::Csv);
-/// assert_eq!(csv.lines().count(), 3);
-/// assert!(csv.starts_with("layer[1].g,reflectance,"));
-/// ```
-pub fn sweep_text(axes: &[SweepAxis], points: &[SweepPoint], format: SweepFormat) -> String {
-    let mut out = String::new();
-    let mut line = |l: String| {
-        out.push_str(&l);
-        out.push('\n');
-    };
-    let spectral = points.first().is_some_and(|p| p.solution.channels.len() > 1);
-    let cols = Columns::of(points);
-    let mut header: Vec<String> = axes.iter().map(|a| a.key.clone()).collect();
-    if spectral {
-        header.push("channel".into());
+/// A point is, by definition, the scene file with the fixed edits and the
+/// point's values as `--set` edits of its text ([`Grid::text_scene`]). When
+/// every axis is a typed [`Quantity`] the values are set on the parsed scene
+/// instead ([`apply`]: no text parsed at each point; docs/benchmarks.md), once
+/// that is seen to give the same scene at the grid's first and last points
+/// (compared field by field). The check stands for every point: where the
+/// scene file derives other values from a swept key (a layer or substrate
+/// index defaulting to `ambient.n`, `sigma_s` from `mu_s_prime` and `g`, the
+/// lengths of `units`, a preset or particles), or refuses the key in that
+/// layer's form (`tau` in a layer of `sigma_a`, `sigma_s`), the two routes
+/// differ at every value but the file's own, so at one of two distinct
+/// values (an axis with equal ends has one value only). A point whose values
+/// the parsed scene refuses is built from the text, so its error is the
+/// scene file's.
+struct Grid<'a> {
+    /// The scene file.
+    text: &'a str,
+    /// The fixed edits.
+    edits: &'a [SetEdit],
+    /// The axes.
+    axes: &'a [SweepAxis],
+    /// The values of each axis.
+    values: Vec<Vec<f64>>,
+    /// The scene file with the fixed edits, and the axes' quantities, when
+    /// the values are set on the parsed scene.
+    typed: Option<(Scene, Vec<Quantity>)>,
+}
+
+impl<'a> Grid<'a> {
+    fn new(text: &'a str, edits: &'a [SetEdit], axes: &'a [SweepAxis], total: usize) -> Self {
+        let values = axes.iter().map(SweepAxis::values).collect();
+        let mut grid = Grid { text, edits, axes, values, typed: None };
+        grid.typed = grid.typed(total);
+        grid
     }
-    let names = cols.names();
-    header.extend(names.iter().cloned());
-    let column =
-        |cells: &[String]| cells.iter().map(|c| format!("{c:>22}")).collect::<Vec<_>>().join(" ");
-    match format {
-        SweepFormat::Csv => line(header.join(",")),
-        SweepFormat::Table => line(column(&header)),
-        SweepFormat::Jsonl => {}
-    }
-    for p in points {
-        for (c, ch) in p.solution.channels.iter().enumerate() {
-            let nums = cols.values(ch);
-            let label = p.solution.labels.get(c).cloned().unwrap_or_default();
-            if format == SweepFormat::Jsonl {
-                let mut o = serde_json::Map::new();
-                for (a, v) in axes.iter().zip(&p.values) {
-                    o.insert(a.key.clone(), (*v).into());
-                }
-                if spectral {
-                    o.insert("channel".into(), label.into());
-                }
-                for (q, v) in names.iter().zip(nums) {
-                    o.insert(
-                        q.clone(),
-                        if v.is_nan() { serde_json::Value::Null } else { v.into() },
-                    );
-                }
-                line(serde_json::Value::Object(o).to_string());
-                continue;
+
+    /// The parsed scene and the quantities, when both routes agree at the
+    /// first and last points.
+    fn typed(&self, total: usize) -> Option<(Scene, Vec<Quantity>)> {
+        let q: Vec<Quantity> =
+            self.axes.iter().map(|a| a.key.parse().ok()).collect::<Option<_>>()?;
+        let base = Scene::from_toml_str_edited(self.text, self.edits).ok()?;
+        for index in [0, total - 1] {
+            let point = self.point(index);
+            let pairs: Vec<(Quantity, f64)> =
+                q.iter().copied().zip(point.iter().copied()).collect();
+            if apply(&base, &pairs).ok()? != self.text_scene(&point).ok()? {
+                return None;
             }
-            let mut cells: Vec<String> = p.values.iter().map(|v| crate::text::number(*v)).collect();
-            if spectral {
-                cells.push(label);
-            }
-            cells.extend(
-                nums.iter()
-                    .map(|v| if v.is_nan() { String::new() } else { crate::text::number(*v) }),
-            );
-            line(if format == SweepFormat::Csv { cells.join(",") } else { column(&cells) });
         }
+        Some((base, q))
     }
-    out
+
+    /// The values of point `index`: its mixed-radix digits, the last axis fastest.
+    fn point(&self, index: usize) -> Vec<f64> {
+        let mut rest = index;
+        let mut point = vec![0.0; self.axes.len()];
+        for (k, a) in self.axes.iter().enumerate().rev() {
+            point[k] = self.values[k][rest % a.n];
+            rest /= a.n;
+        }
+        point
+    }
+
+    /// The scene file with the fixed edits and `point`'s values as edits.
+    fn text_scene(&self, point: &[f64]) -> Result<Scene, KmError> {
+        let mut all = self.edits.to_vec();
+        all.extend(
+            self.axes
+                .iter()
+                .zip(point)
+                .map(|(a, v)| SetEdit { key: a.key.clone(), value: format!("{v:?}") }),
+        );
+        Ok(Scene::from_toml_str_edited(self.text, &all)?)
+    }
+
+    /// The scene of `point`: set on the parsed scene when the grid allows it.
+    fn scene(&self, point: &[f64]) -> Result<Scene, KmError> {
+        if let Some((base, q)) = &self.typed {
+            let pairs: Vec<(Quantity, f64)> =
+                q.iter().copied().zip(point.iter().copied()).collect();
+            if let Ok(scene) = apply(base, &pairs) {
+                return Ok(scene);
+            }
+        }
+        self.text_scene(point)
+    }
 }
 
 #[cfg(test)]
@@ -440,5 +365,71 @@ mod tests {
         let want = 1e-300 + (1e-19 - 1e-300) * 0.5;
         assert!((v[1] - want).abs() <= 1e-16 * want, "{v:?}");
         assert_eq!((v[0], v[2]), (1e-300, 1e-19));
+    }
+
+    fn example(name: &str) -> String {
+        std::fs::read_to_string(format!("{}/../examples/{name}", env!("CARGO_MANIFEST_DIR")))
+            .unwrap()
+    }
+
+    fn grid<'a>(text: &'a str, axes: &'a [SweepAxis]) -> Grid<'a> {
+        let total = axes.iter().map(|a| a.n).product();
+        Grid::new(text, &[], axes, total)
+    }
+
+    /// The typed keys of the example scenes are set on the parsed scene, and
+    /// every point equals the scene file's (the text route), field for field.
+    #[test]
+    fn typed_points_are_the_scene_files_points() {
+        let cases = [
+            ("paint-over-primer.toml", "layer[1].thickness=5:40:8", "layer[2].g=0:0.9:4"),
+            ("paint-over-primer.toml", "layer[1].sigma_s=0.1:0.5:5", "light.theta_deg=0:60:7"),
+            ("fresnel-slab.toml", "layer[1].n=1:2:5", "layer[1].roughness=0:0.5:3"),
+            ("seed-three-layers.toml", "layer[1].sigma_a=0:0.3:4", "substrate.albedo=0.2:1:5"),
+        ];
+        for (file, a, b) in cases {
+            let text = example(file);
+            let axes = [SweepAxis::parse(a).unwrap(), SweepAxis::parse(b).unwrap()];
+            let g = grid(&text, &axes);
+            assert!(g.typed.is_some(), "{file} {a} {b}: not typed");
+            for i in 0..axes[0].n * axes[1].n {
+                let p = g.point(i);
+                assert_eq!(g.scene(&p).unwrap(), g.text_scene(&p).unwrap(), "{file} {p:?}");
+            }
+        }
+    }
+
+    /// Where the file derives values from the swept key, or refuses it in
+    /// that layer's form, the points are the text's.
+    #[test]
+    fn derived_or_refused_keys_take_the_text_route() {
+        let no_n = "[[layer]]\nsigma_a = 0.1\nsigma_s = 1\nthickness = 1\n";
+        let mu = "[[layer]]\nmu_a = 0.1\nmu_s_prime = 1\ng = 0.5\nthickness = 1\n";
+        let cm = "units = \"cm\"\n[[layer]]\nmu_a = 0.1\nmu_s = 1\nthickness = 1\n";
+        let cases = [
+            (no_n, "ambient.n=1:1.5:3"),
+            (mu, "layer[1].g=0:0.8:5"),
+            (cm, "layer[1].thickness=1:2:3"),
+            (no_n, "layer[1].tau=1:2:3"),
+        ];
+        for (text, a) in cases {
+            // The file and its points are valid: the text route answers.
+            let axes = [SweepAxis::parse(a).unwrap()];
+            let g = grid(text, &axes);
+            assert!(g.typed.is_none(), "{a} on {text}: typed");
+            if !a.contains("tau") {
+                assert!(Scene::from_toml_str(text).is_ok() && g.text_scene(&g.point(2)).is_ok());
+            }
+        }
+        // A typed sweep's answers are those of the scene file's points, bit for bit.
+        let text = example("paint-over-primer.toml");
+        let opts = Options::new(crate::Method::Km);
+        let axes = [SweepAxis::parse("layer[2].g=0:0.9:4").unwrap()];
+        let g = grid(&text, &axes);
+        assert!(g.typed.is_some());
+        for (i, p) in sweep(&text, &[], &axes, &opts).unwrap().iter().enumerate() {
+            let one = crate::solve(&g.text_scene(&g.point(i)).unwrap(), &opts).unwrap();
+            assert_eq!(p.solution.channels, one.channels, "{i}");
+        }
     }
 }
