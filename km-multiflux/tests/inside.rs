@@ -146,7 +146,7 @@ fn node_directions_equal_the_node_radiances() {
 /// 2e-5 of it.
 #[test]
 fn angular_integrals_give_flux_and_fluence() {
-    let scenes = [
+    let scenes: [(&str, f64); 2] = [
         (
             "[light]\ntheta_deg = 30.0\n[[layer]]\nsigma_a = 0.2\nsigma_s = 1.0\nthickness = 0.5\n\
           g = 0.6\nn = 1.5\n[[layer]]\nsigma_a = 0.05\nsigma_s = 2.0\nthickness = 1.0\n\
@@ -210,7 +210,7 @@ fn angular_integrals_give_flux_and_fluence() {
                 let (mut fl, mut ph) = (r.beam_down[kz] - r.beam_up[kz], 0.0);
                 let mu_b = {
                     let n = medium_at(ch, *z);
-                    let s0 = (*theta as f64).to_radians().sin();
+                    let s0 = theta.to_radians().sin();
                     (1.0f64 - (s0 / n).powi(2)).sqrt()
                 };
                 ph += (r.beam_down[kz] + r.beam_up[kz]) / mu_b;
