@@ -87,6 +87,7 @@ struct RawSubstrate {
 struct RawOutput {
     directions_deg: Option<Spanned<Value>>,
     depths: Option<Spanned<Value>>,
+    inside_directions_deg: Option<Spanned<Value>>,
 }
 
 #[derive(Deserialize)]
@@ -209,6 +210,10 @@ impl Parser {
             None => Vec::new(),
             Some(v) => self.depths(v, scale)?,
         };
+        let inside = match raw.output.as_ref().and_then(|o| o.inside_directions_deg.as_ref()) {
+            None => Vec::new(),
+            Some(v) => self.inside_directions(v)?,
+        };
 
         // [spectrum]
         let (labels, wavelengths_nm) = match &raw.spectrum {
@@ -245,7 +250,9 @@ impl Parser {
             None if channels == 3 => vec!["R".into(), "G".into(), "B".into()],
             None => (0..channels).map(|c| c.to_string()).collect(),
         };
-        Ok(Scene::new(out, labels, wavelengths_nm)?.with_depths(depths))
+        Ok(Scene::new(out, labels, wavelengths_nm)?
+            .with_depths(depths)
+            .with_inside_directions(inside))
     }
 
     /// `[[layer]]`: each layer's coefficients and top face, every coefficient
