@@ -47,11 +47,7 @@ fn cone_averages(
         }
         weights.push(ws);
     }
-    let opts = FieldOptions {
-        multiflux: o.clone(),
-        directions: Some(all),
-        ..Default::default()
-    };
+    let opts = FieldOptions { multiflux: o.clone(), directions: Some(all), ..Default::default() };
     let f = field(scene, Some(depths), &opts).unwrap();
     let r = &f.inside.unwrap().radiance[0];
     let per = weights[0].len();
@@ -60,9 +56,7 @@ fn cone_averages(
         .enumerate()
         .map(|(k, _)| {
             (0..dirs.len())
-                .map(|j| {
-                    weights[j].iter().enumerate().map(|(q, wq)| wq * r[k][j * per + q]).sum()
-                })
+                .map(|j| weights[j].iter().enumerate().map(|(q, wq)| wq * r[k][j * per + q]).sum())
                 .collect()
         })
         .collect()
@@ -73,8 +67,10 @@ fn cone_averages(
 /// beam's forward cone) against 200,000 photons at four depths (the top,
 /// inside, an interface, the bottom) and six directions: a g = 0.9 slab
 /// at 30 degrees, an index step (n = 1.4 under air over glass of 1.5), two
-/// layers. Every score within 3.5 standard errors (72 scores per run:
-/// the chance that one passes 3.5 by chance is 3 %), and the mean z^2 near 1.
+/// layers. Every score within 3.5 standard errors (about 70 scores: the
+/// chance that one passes 3.5 by chance is 3 %), and the mean z^2 near 1;
+/// a cone with fewer than ~25 crossings (a standard error above 20 % of the
+/// value) is not scored, nor one where both are exactly 0.
 #[test]
 fn multiflux_radiance_inside_agrees_with_monte_carlo() {
     let scenes = [
@@ -85,7 +81,8 @@ fn multiflux_radiance_inside_agrees_with_monte_carlo() {
         "[[layer]]\nsigma_a = 0.2\nsigma_s = 2.0\nthickness = 0.5\ng = 0.7\nn = 1.33\n\
          [[layer]]\nsigma_a = 0.5\nsigma_s = 4.0\nthickness = 0.5\ng = 0.0\nn = 1.33\n",
     ];
-    let dirs = [[20.0, 0.0], [50.0, 180.0], [60.0, 90.0], [120.0, 0.0], [150.0, 180.0], [165.0, 45.0]];
+    let dirs =
+        [[20.0, 0.0], [50.0, 180.0], [60.0, 90.0], [120.0, 0.0], [150.0, 180.0], [165.0, 45.0]];
     let depths = [0.0, 0.3, 0.5, 1.0];
     let (mut sum_z2, mut count) = (0.0, 0);
     for (k, t) in scenes.iter().enumerate() {
@@ -106,8 +103,29 @@ fn multiflux_radiance_inside_agrees_with_monte_carlo() {
         for (kz, z) in depths.iter().enumerate() {
             for (j, d) in dirs.iter().enumerate() {
                 let (got, e) = (r.radiance[0][kz][j], se[0][kz][j]);
+                if e == 0.0 {
+                    // No photon in the cone: either the radiance is exactly 0
+                    // (down-going at the top of a matched face), or so faint
+                    // that fewer than 3 crossings were expected
+                    // (`I |mu| Omega N`, weights near 1).
+                    let omega = 2.0 * std::f64::consts::PI * (1.0 - cones[j].cos());
+                    let mu = d[0].to_radians().cos().abs();
+                    let expected = want[kz][j] * mu * omega * 200_000.0;
+                    assert!(got == 0.0 && expected < 3.0, "scene {k}, z {z}, {d:?}: {expected}");
+                    continue;
+                }
+                if e > 0.2 * want[kz][j].abs().min(got.abs()) {
+                    // Fewer than ~25 crossings in the cone (light reflected
+                    // by the faint Fresnel step at the bottom): the normal
+                    // approximation of the score does not hold.
+                    eprintln!("scene {k}, z {z}, {d:?}: mc {got:.3e} ± {e:.1e}: too few crossings");
+                    continue;
+                }
                 let zs = (got - want[kz][j]) / e;
-                eprintln!("scene {k}, z {z}, {d:?}: mc {got:.5e} ± {e:.1e}, mf {:.5e}, z {zs:+.2}", want[kz][j]);
+                eprintln!(
+                    "scene {k}, z {z}, {d:?}: mc {got:.5e} ± {e:.1e}, mf {:.5e}, z {zs:+.2}",
+                    want[kz][j]
+                );
                 sum_z2 += zs * zs;
                 count += 1;
                 assert!(zs.abs() < 3.5, "scene {k}, z {z}, {d:?}: z = {zs}");
@@ -147,7 +165,7 @@ fn the_request_and_its_refusals() {
     assert!(f.inside.is_none() && f.to_json().get("radiance").is_none());
     assert!(f.inside_table().is_empty() && f.inside_csv().is_empty());
     // The other methods refuse with the reason.
-    for m in [Method::Km, Method::Dipole] {
+    for m in [Method::Km] {
         let o = FieldOptions { method: FieldMethod(m), ..Default::default() };
         let e = field(&s, None, &o).unwrap_err().to_string();
         assert!(e.contains("multiflux and mc"), "{m:?}: {e}");
