@@ -153,7 +153,7 @@ pub struct McOptions {
     /// Optional radiance inside the stack ([`InsideBins`]), read with
     /// [`crate::solve_inside`]. Its sums count in the tally memory.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inside: Option<InsideBins>,
+    pub inside: Option<Box<InsideBins>>,
 }
 
 /// Photons traced between two reads of [`McOptions::cancel`] within a batch

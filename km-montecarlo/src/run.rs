@@ -103,7 +103,7 @@ pub struct InsideResult {
 ///     "[[layer]]\nsigma_a = 0.0\nsigma_s = 0.0\nthickness = 1.0\n\
 ///      [substrate]\nkind = \"lambertian\"\nalbedo = 0.5\n").unwrap();
 /// let inside = InsideBins { depths: vec![0.5], directions: vec![[150.0, 0.0]], half_angle_deg: 5.0 };
-/// let opts = McOptions { samples: 20_000, inside: Some(inside), ..Default::default() };
+/// let opts = McOptions { samples: 20_000, inside: Some(Box::new(inside)), ..Default::default() };
 /// let (_, r) = solve_inside(&scene, &opts).unwrap();
 /// let want = 0.5 / std::f64::consts::PI;
 /// assert!((r[0].radiance[0] - want).abs() < 4.0 * r[0].radiance_se[0]);

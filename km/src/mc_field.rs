@@ -189,7 +189,7 @@ pub fn mc_inside(
     };
     bins.validate()?;
     let cones: Vec<f64> = bins.half_angles().iter().map(|a| a.to_degrees()).collect();
-    let o = McOptions { inside: Some(bins), ..opts.clone() };
+    let o = McOptions { inside: Some(Box::new(bins)), ..opts.clone() };
     let (_, results) = km_montecarlo::solve_inside(scene, &o)?;
     let nd = directions.len();
     let split = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks(nd).map(<[f64]>::to_vec).collect() };
