@@ -522,6 +522,8 @@ pub(crate) fn attach(
 
 /// [`attach`]'s last step: the field of `scene` by `opts` into `sol`.
 fn attach_field(scene: &Scene, opts: &FieldOptions, sol: &mut Solution) -> Result<(), KmError> {
+    // The radiance inside is `km field`'s only (docs/field.md §6): none here.
+    let opts = &FieldOptions { directions: Some(Vec::new()), ..opts.clone() };
     let f = field(scene, None, opts)?;
     for (c, layers) in sol.channels.iter_mut().zip(&f.absorptance_layers) {
         if c.absorptance_layers.is_none() && !layers.is_empty() {

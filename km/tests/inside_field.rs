@@ -139,6 +139,14 @@ fn multiflux_radiance_inside_agrees_with_monte_carlo() {
     assert!((0.5..1.6).contains(&mean), "mean z^2 {mean}");
 }
 
+/// The scene of `the_request_and_its_refusals` without its directions.
+fn plain_with_depths() -> Scene {
+    Scene::from_toml_str(
+        "[[layer]]\nsigma_a = 0.2\nsigma_s = 2.0\nthickness = 1.0\n[output]\ndepths = [0.0, 0.5]\n",
+    )
+    .unwrap()
+}
+
 /// The request: the scene's key, the JSON keys, the refusal of the
 /// methods without a radiance inside.
 #[test]
@@ -169,6 +177,17 @@ fn the_request_and_its_refusals() {
     let o = FieldOptions { method: FieldMethod(Method::Km), ..Default::default() };
     let e = field(&s, None, &o).unwrap_err().to_string();
     assert!(e.contains("multiflux and mc"), "{e}");
+    // `km solve` ignores the directions: its answer and field are those of
+    // the scene without them, by every method.
+    let methods = [
+        km::Options::from(MultifluxOptions::default()),
+        km::Options::from(km_core::two_flux::KmOptions::default()),
+    ];
+    for m in &methods {
+        let a = km::solve(&s, m).unwrap();
+        let b = km::solve(&plain_with_depths(), m).unwrap();
+        assert_eq!(a.field.as_ref().map(|f| f.fluence.clone()), b.field.map(|f| f.fluence));
+    }
     // A bad direction in the scene file names the key.
     let e = Scene::from_toml_str(
         "[[layer]]\ntau = 1.0\nalbedo = 0.5\n[output]\ninside_directions_deg = [[90.0, 0.0]]\n",
