@@ -36,6 +36,14 @@ pub struct FieldArgs {
     /// Monte Carlo depth-bin width [mc] (default: half the smallest gap between depths).
     #[arg(long)]
     pub dz: Option<f64>,
+    /// Directions of the radiance inside, THETA:PHI in degrees, comma-separated
+    /// (theta from the downward normal, > 90 up-going) instead of the scene's
+    /// [output] inside_directions_deg [multiflux, mc].
+    #[arg(long, value_delimiter = ',', num_args = 1.., value_parser = direction_parser)]
+    pub directions: Option<Vec<[f64; 2]>>,
+    /// Half-angle in degrees of the cone the Monte Carlo radiance inside is averaged over [mc].
+    #[arg(long, default_value_t = km::field::DEFAULT_INSIDE_CONE_DEG)]
+    pub mc_cone: f64,
     /// How F_dr is computed [dipole].
     #[arg(long, value_enum, default_value_t = km::DipoleOptions::default().fdr)]
     pub fdr: km::FdrModel,
@@ -63,8 +71,13 @@ pub fn run(args: &FieldArgs) -> Result<()> {
         bail!("--samples 0: need at least one photon");
     }
     let plot = args.plot.as_deref().map(plot_target).transpose()?;
-    let mut opts =
-        FieldOptions { method: FieldMethod(args.method), dz: args.dz, ..Default::default() };
+    let mut opts = FieldOptions {
+        method: FieldMethod(args.method),
+        dz: args.dz,
+        directions: args.directions.clone(),
+        mc_cone_deg: Some(args.mc_cone),
+        ..Default::default()
+    };
     opts.multiflux.streams = args.streams;
     opts.mc.samples = args.samples;
     opts.mc.seed = args.seed;
@@ -77,9 +90,21 @@ pub fn run(args: &FieldArgs) -> Result<()> {
         if args.csv { OutputFormat::Csv } else { OutputFormat::of(args.json, args.format) };
     match format {
         OutputFormat::Json => stdout::print_json(&f.to_json()),
-        OutputFormat::Csv => stdout::print(&csv(&f)),
-        OutputFormat::Table => stdout::print(&table(&f)),
+        OutputFormat::Csv => stdout::print(&join(csv(&f), f.inside_csv())),
+        OutputFormat::Table => stdout::print(&join(table(&f), f.inside_table())),
     }
+}
+
+/// The depth table and, when asked, the radiance's after a blank line.
+fn join(a: String, b: String) -> String {
+    if b.is_empty() { a } else { format!("{a}\n{b}") }
+}
+
+/// `THETA:PHI` in degrees.
+fn direction_parser(s: &str) -> std::result::Result<[f64; 2], String> {
+    let (t, p) = s.split_once(':').ok_or_else(|| format!("{s}: expected THETA:PHI in degrees"))?;
+    let num = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{s}: {e}"));
+    Ok([num(t)?, num(p)?])
 }
 
 /// The directory and stem of `--plot FILE.svg` (the file must end in `.svg`).

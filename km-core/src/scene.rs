@@ -444,6 +444,9 @@ pub struct Scene {
     wavelengths_nm: Option<Vec<f64>>,
     /// Depths of depth-resolved output (`[output] depths`; empty: none asked).
     depths: Vec<f64>,
+    /// Directions of the radiance inside the stack at those depths
+    /// (`[output] inside_directions_deg`; empty: none asked).
+    inside_directions: Vec<[f64; 2]>,
 }
 
 impl Scene {
@@ -509,6 +512,7 @@ impl Scene {
             labels: vec!["0".into()],
             wavelengths_nm: None,
             depths: Vec::new(),
+            inside_directions: Vec::new(),
         }
     }
 
@@ -549,7 +553,13 @@ impl Scene {
                 ));
             }
         }
-        Ok(Scene { channels, labels, wavelengths_nm, depths: Vec::new() })
+        Ok(Scene {
+            channels,
+            labels,
+            wavelengths_nm,
+            depths: Vec::new(),
+            inside_directions: Vec::new(),
+        })
     }
 
     /// This scene with other channels (same labels, wavelengths and depths).
@@ -558,7 +568,8 @@ impl Scene {
     /// Those of [`Scene::new`] (a different number of channels).
     pub fn with_channels(&self, channels: Vec<MonoScene>) -> Result<Scene, CoreError> {
         Ok(Scene::new(channels, self.labels.clone(), self.wavelengths_nm.clone())?
-            .with_depths(self.depths.clone()))
+            .with_depths(self.depths.clone())
+            .with_inside_directions(self.inside_directions.clone()))
     }
 
     /// This scene with the depths of depth-resolved output (`[output]
@@ -571,6 +582,21 @@ impl Scene {
     /// The depths of depth-resolved output the scene asks for (empty: none).
     pub fn depths(&self) -> &[f64] {
         &self.depths
+    }
+
+    /// This scene with the directions `[theta, phi]` (degrees; `theta` from
+    /// the downward normal, `< 90` down-going, `> 90` up-going) of the
+    /// radiance inside the stack at its depths (`[output]
+    /// inside_directions_deg`; checked by their users).
+    pub fn with_inside_directions(mut self, directions: Vec<[f64; 2]>) -> Scene {
+        self.inside_directions = directions;
+        self
+    }
+
+    /// The directions of the radiance inside the stack the scene asks for
+    /// (empty: none).
+    pub fn inside_directions(&self) -> &[[f64; 2]] {
+        &self.inside_directions
     }
 
     /// The channels, in order (at least one).
@@ -611,6 +637,7 @@ impl Scene {
                 .as_ref()
                 .map(|w| keep.iter().filter_map(|&i| w.get(i).copied()).collect()),
             depths: self.depths.clone(),
+            inside_directions: self.inside_directions.clone(),
         }
     }
 

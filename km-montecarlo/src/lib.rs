@@ -56,7 +56,8 @@ pub use grid::{GridRaw, GridResult, McGrid};
 pub use km_core::Cancel;
 pub use options::{CANCEL_CHECK_PHOTONS, Estimator, McOptions, Progress, RadialBins};
 pub use run::{
-    RadialProfile, merge_grid, projected_steps, radial_profile, run_shard, solve, solve_grid,
+    InsideResult, RadialProfile, merge_grid, projected_steps, radial_profile, run_shard, solve,
+    solve_grid, solve_inside,
 };
 pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,

@@ -50,6 +50,27 @@ pub struct RadialBins {
     pub count: usize,
 }
 
+/// Planes and directions of the radiance inside the stack (docs/field.md
+/// §4a): at each depth, the photons crossing the plane there within a cone
+/// of half-angle `half_angle_deg` around each direction score `w / |mu|`,
+/// and the tally over the cone's solid angle is the radiance's cone average.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InsideBins {
+    /// Depths of the planes, in the scene's length unit (finite, `>= 0`; a
+    /// depth on an interface is the layer above's side).
+    pub depths: Vec<f64>,
+    /// Directions `[theta, phi]` in degrees: `theta` from the downward normal
+    /// (`< 90` down-going, `> 90` up-going, not 90), `phi` with 180 on the
+    /// side towards which the beam travels.
+    pub directions: Vec<[f64; 2]>,
+    /// Half-angle of the cones, degrees (`(0, 45]`; narrowed near the
+    /// horizon as the exit cones are, eq. B2').
+    pub half_angle_deg: f64,
+}
+
+/// Most planes times directions of [`InsideBins`].
+pub const MAX_INSIDE_BINS: usize = 100_000;
+
 /// Options of a Monte Carlo run.
 ///
 /// `Default` gives 10^6 photons, seed 1, survival biasing, all cores,
@@ -129,6 +150,10 @@ pub struct McOptions {
     /// count in the tally memory ([`McOptions::max_tally_bytes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<McGrid>,
+    /// Optional radiance inside the stack ([`InsideBins`]), read with
+    /// [`crate::solve_inside`]. Its sums count in the tally memory.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inside: Option<Box<InsideBins>>,
 }
 
 /// Photons traced between two reads of [`McOptions::cancel`] within a batch
@@ -177,6 +202,7 @@ impl Default for McOptions {
             force_threads: false,
             max_tally_bytes: DEFAULT_MAX_TALLY_BYTES,
             grid: None,
+            inside: None,
         }
     }
 }
@@ -248,6 +274,9 @@ impl McOptions {
         if let Some(g) = &self.grid {
             g.validate()?;
         }
+        if let Some(b) = &self.inside {
+            b.validate()?;
+        }
         Ok(())
     }
 
@@ -286,6 +315,54 @@ impl McOptions {
             max_events: Some(DEFAULT_MAX_EVENTS),
             ..self.clone()
         }
+    }
+}
+
+impl InsideBins {
+    /// Check the planes, directions and cone.
+    ///
+    /// # Errors
+    /// [`McError::Option`] naming the field.
+    pub fn validate(&self) -> Result<(), McError> {
+        if self.depths.is_empty() || self.directions.is_empty() {
+            return Err(bad("inside", "[]", "need at least one depth and one direction"));
+        }
+        if self.depths.len().saturating_mul(self.directions.len()) > MAX_INSIDE_BINS {
+            return Err(bad(
+                "inside",
+                self.depths.len() * self.directions.len(),
+                "more than 10^5 depths x directions",
+            ));
+        }
+        if let Some(z) = self.depths.iter().find(|z| !(z.is_finite() && **z >= 0.0)) {
+            return Err(bad("inside.depths", z, "every depth must be finite and >= 0"));
+        }
+        for d in &self.directions {
+            if !(d[0] >= 0.0 && d[0] <= 180.0) || d[0] == 90.0 || !d[1].is_finite() {
+                return Err(bad(
+                    "inside.directions",
+                    format!("{d:?}"),
+                    "theta must lie in [0, 180] degrees and not be 90, phi be finite",
+                ));
+            }
+        }
+        let a = self.half_angle_deg;
+        if !(a > 0.0 && a <= 45.0) {
+            return Err(bad("inside.half_angle_deg", a, "must lie in (0, 45] degrees"));
+        }
+        Ok(())
+    }
+
+    /// Per direction, the cone's half-angle (radians; narrowed so that the
+    /// cone stays within its hemisphere, eq. B2').
+    pub fn half_angles(&self) -> Vec<f64> {
+        self.directions
+            .iter()
+            .map(|d| {
+                let t = if d[0] > 90.0 { 180.0 - d[0] } else { d[0] };
+                crate::bins::cone_half_angle(t.to_radians(), self.half_angle_deg.to_radians())
+            })
+            .collect()
     }
 }
 

@@ -73,6 +73,74 @@ pub fn solve_grid(scene: &Scene, opts: &McOptions) -> Result<(Solution, Vec<Grid
     grids_of(&parts, m)
 }
 
+/// The radiance inside the stack of one channel ([`solve_inside`]): per
+/// plane and direction (plane-major, `k * directions + j`) the cone average
+/// of the radiance per unit incident power (1/sr), its standard error, and
+/// per direction the cone's solid angle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InsideResult {
+    /// Cone averages of the diffuse radiance (the collimated light apart).
+    pub radiance: Vec<f64>,
+    /// Their standard errors (eq. T1).
+    pub radiance_se: Vec<f64>,
+    /// Solid angle of each direction's cone, sr.
+    pub solid_angle: Vec<f64>,
+}
+
+/// [`solve`] with the radiance inside the stack of `opts.inside`
+/// ([`crate::options::InsideBins`], docs/field.md §4a): the photons crossing
+/// each plane within the cone of a direction score `w / |mu|`, and the sum
+/// per photon over the cone's solid angle `Omega` estimates the radiance's
+/// cone average, `I = (1/N) sum w / (|mu| Omega)` (eq. D16).
+///
+/// # Errors
+/// Those of [`solve`]; [`McError::Option`] when `opts.inside` is `None`.
+///
+/// ```
+/// use km_montecarlo::{McOptions, options::InsideBins, solve_inside};
+/// // A clear slab on a Lambertian floor: up-going radiance rho/pi everywhere.
+/// let scene = km_core::Scene::from_toml_str(
+///     "[[layer]]\nsigma_a = 0.0\nsigma_s = 0.0\nthickness = 1.0\n\
+///      [substrate]\nkind = \"lambertian\"\nalbedo = 0.5\n").unwrap();
+/// let inside = InsideBins { depths: vec![0.5], directions: vec![[150.0, 0.0]], half_angle_deg: 5.0 };
+/// let opts = McOptions { samples: 20_000, inside: Some(Box::new(inside)), ..Default::default() };
+/// let (_, r) = solve_inside(&scene, &opts).unwrap();
+/// let want = 0.5 / std::f64::consts::PI;
+/// assert!((r[0].radiance[0] - want).abs() < 4.0 * r[0].radiance_se[0]);
+/// ```
+pub fn solve_inside(
+    scene: &Scene,
+    opts: &McOptions,
+) -> Result<(Solution, Vec<InsideResult>), McError> {
+    let Some(bins) = &opts.inside else {
+        return Err(McError::Option {
+            name: "inside",
+            value: "none".into(),
+            reason: "the run has no planes inside (set McOptions::inside)",
+        });
+    };
+    let parts = [trace_shard(scene, opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
+    let omega: Vec<f64> =
+        bins.half_angles().into_iter().map(crate::bins::cone_solid_angle).collect();
+    let nd = omega.len();
+    let results = m
+        .stats
+        .iter()
+        .zip(&parts[0].channels)
+        .map(|(s, meta)| {
+            let l = meta.layout();
+            let (mut radiance, mut radiance_se) = (Vec::new(), Vec::new());
+            for k in 0..l.inside {
+                radiance.push(s.mean(l.inside(k)) / omega[k % nd]);
+                radiance_se.push(s.stderr(l.inside(k)) / omega[k % nd]);
+            }
+            InsideResult { radiance, radiance_se, solid_angle: omega.clone() }
+        })
+        .collect();
+    Ok((build_solution(&parts, &m), results))
+}
+
 /// [`crate::merge`] with the grid tallies: the merged solution and, per
 /// channel, the [`GridResult`] (bit-identical to [`solve_grid`]'s).
 ///
@@ -153,6 +221,7 @@ fn trace_shard(
                 grid_z: l.grid.z,
                 grid_r: l.grid.r,
                 grid_a: l.grid.a,
+                inside: l.inside,
             }
         })
         .collect();

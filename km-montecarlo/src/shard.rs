@@ -94,6 +94,9 @@ pub struct ChannelMeta {
     /// Grid angle bins.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub grid_a: usize,
+    /// Planes times directions of the radiance inside ([`crate::options::InsideBins`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub inside: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -108,6 +111,7 @@ impl ChannelMeta {
             rings: self.rings,
             radial: self.radial,
             grid: crate::grid::GridDims { z: self.grid_z, r: self.grid_r, a: self.grid_a },
+            inside: self.inside,
         }
     }
 }
@@ -373,7 +377,9 @@ fn check_part(i: usize, p: &Partial, verify_checksum: bool) -> Result<(), McErro
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite() && *x > 0.0));
         let want_grid = p.options.grid.map(|g| g.dims()).unwrap_or_default();
-        let grid_ok = m.layout().grid == want_grid;
+        let want_inside =
+            p.options.inside.as_ref().map_or(0, |b| b.depths.len() * b.directions.len());
+        let grid_ok = m.layout().grid == want_grid && m.inside == want_inside;
         let len = layout_len(m);
         let stored = p.batches.first().and_then(|b| b.channels.get(c)).map(|cb| cb.sums.len());
         if !lens_ok || !norms_ok || !grid_ok || len.is_none() || len != stored {
@@ -415,7 +421,10 @@ fn layout_len(m: &ChannelMeta) -> Option<usize> {
         .checked_add(two(m.dirs)?)?
         .checked_add(two(m.rings)?)?
         .checked_add(m.radial)?
-        .checked_add(crate::grid::GridDims { z: m.grid_z, r: m.grid_r, a: m.grid_a }.checked_len()?)
+        .checked_add(
+            crate::grid::GridDims { z: m.grid_z, r: m.grid_r, a: m.grid_a }.checked_len()?,
+        )?
+        .checked_add(m.inside)
 }
 
 /// One batch of one channel: finite sums, non-negative escapes, balance (eq. S1).
@@ -445,6 +454,10 @@ fn check_batch(
     // signed bookings (those come last).
     let end = if l.grid.z > 0 { l.grid().a_z } else { l.len() };
     positive.extend(l.brdf(0)..end);
+    if l.grid.z > 0 {
+        // The radiance inside comes after the grid.
+        positive.extend(l.inside(0)..l.len());
+    }
     if let Some(&k) = positive.iter().find(|&&k| s[k] < 0.0) {
         return Err(format!("sum {k} = {} is negative", s[k]));
     }

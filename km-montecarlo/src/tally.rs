@@ -27,6 +27,8 @@ pub(crate) struct Layout {
     pub radial: usize,
     /// The grid's bin counts (all zero without a grid).
     pub grid: GridDims,
+    /// Planes times directions of the radiance inside (0: none).
+    pub inside: usize,
 }
 
 impl Layout {
@@ -76,9 +78,20 @@ impl Layout {
     pub fn grid(&self) -> GridOffsets {
         GridOffsets::new(self.radial(self.radial), self.grid)
     }
+    /// Weight over `|mu|` crossing plane `k / dirs` in the cone of direction
+    /// `k % dirs` of the radiance inside (after the grid).
+    pub fn inside(&self, k: usize) -> usize {
+        Self::BASE
+            + self.layers
+            + 2 * self.dirs
+            + 2 * self.rings
+            + self.radial
+            + self.grid.len()
+            + k
+    }
     /// Length of the vector of sums.
     pub fn len(&self) -> usize {
-        Self::BASE + self.layers + 2 * self.dirs + 2 * self.rings + self.radial + self.grid.len()
+        self.inside(self.inside)
     }
 }
 
@@ -88,7 +101,14 @@ mod tests {
 
     #[test]
     fn layout_is_contiguous() {
-        let l = Layout { layers: 3, dirs: 2, rings: 4, radial: 5, grid: GridDims::default() };
+        let l = Layout {
+            layers: 3,
+            dirs: 2,
+            rings: 4,
+            radial: 5,
+            grid: GridDims::default(),
+            inside: 0,
+        };
         assert_eq!(l.brdf(0), l.a_layer(2) + 1);
         assert_eq!(l.btdf(0), l.brdf(1) + 1);
         assert_eq!(l.ring_r(0), l.btdf(1) + 1);

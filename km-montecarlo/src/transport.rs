@@ -155,6 +155,32 @@ pub(crate) struct Tracer {
     all_effects: bool,
     /// The MCML-style grid, when asked.
     grid: Option<GridTally>,
+    /// The planes and cones of the radiance inside, when asked.
+    inside: Option<InsideTally>,
+}
+
+/// The planes and cones of the radiance inside (docs/field.md §4a).
+#[derive(Debug, Clone)]
+struct InsideTally {
+    /// Per plane its depth and the layer holding it (the one above at an interface).
+    planes: Vec<(f64, usize)>,
+    /// Directions as unit vectors (`z` down).
+    dirs: Vec<[f64; 3]>,
+    /// Cosine of each direction's cone half-angle.
+    cos_alpha: Vec<f64>,
+}
+
+impl InsideTally {
+    fn new(b: &crate::options::InsideBins, slabs: &[Slab]) -> InsideTally {
+        let planes = b
+            .depths
+            .iter()
+            .map(|&z| (z, slabs.iter().position(|s| z <= s.bottom).unwrap_or(usize::MAX)))
+            .collect();
+        let dirs = b.directions.iter().map(|d| direction_vector(d[0], d[1])).collect();
+        let cos_alpha = b.half_angles().iter().map(|a| a.cos()).collect();
+        InsideTally { planes, dirs, cos_alpha }
+    }
 }
 
 /// Normalisers that turn tallies into BRDF/BTDF values (eq. B1, B3) and `Rd(r)`.
@@ -206,9 +232,9 @@ impl Tracer {
             rings: ring_edges.len().saturating_sub(1),
             radial: opts.radial.map_or(0, |r| r.count),
             grid: opts.grid.map(|g| g.dims()).unwrap_or_default(),
+            inside: opts.inside.as_ref().map_or(0, |b| b.depths.len() * b.directions.len()),
         };
         Tracer {
-            slabs,
             ambient_n: scene.ambient_n(),
             below,
             sub_rough: scene.substrate_roughness(),
@@ -226,6 +252,8 @@ impl Tracer {
             roulette_survival: opts.roulette_survival,
             all_effects: opts.all_effects,
             grid: opts.grid.map(|g| GridTally::new(layout.grid(), &g)),
+            inside: opts.inside.as_ref().map(|b| InsideTally::new(b, &slabs)),
+            slabs,
         }
     }
 
@@ -306,6 +334,33 @@ impl Tracer {
             return;
         }
         self.angular(sums, w, u, false);
+    }
+
+    /// The radiance inside: a flight of the photon `p` in its layer from
+    /// depth `z0` to `z1` crosses (or touches) the planes of that layer
+    /// between them; at each, the weight over `|mu|` goes to the cone of
+    /// every direction that holds the flight's direction (eq. D16). The
+    /// collimated light is a delta, apart from the radiance: photons that
+    /// never scattered are not counted (under diffuse light they are).
+    #[inline]
+    fn cross_planes(&self, sums: &mut [f64], p: &Photon, z0: f64, z1: f64) {
+        let Some(t) = &self.inside else { return };
+        if !(p.scattered || self.bin_unscattered) || p.uz == 0.0 {
+            return;
+        }
+        let (lo, hi) = if z0 <= z1 { (z0, z1) } else { (z1, z0) };
+        let nd = t.dirs.len();
+        let score = p.w / p.uz.abs();
+        for (k, &(z, layer)) in t.planes.iter().enumerate() {
+            if layer != p.layer || z < lo || z > hi {
+                continue;
+            }
+            for (j, d) in t.dirs.iter().enumerate() {
+                if p.ux * d[0] + p.uy * d[1] + p.uz * d[2] >= t.cos_alpha[j] {
+                    sums[self.layout.inside(k * nd + j)] += score;
+                }
+            }
+        }
     }
 
     /// Cone bins and rings of an exit direction `v` (exit frame).
@@ -428,6 +483,9 @@ impl Tracer {
 
             if d * p.uz.abs() < (z_b - p.z).abs() {
                 // Step 3a: interaction inside the layer.
+                if self.inside.is_some() {
+                    self.cross_planes(sums, &p, p.z, p.z + d * p.uz);
+                }
                 p.x += d * p.ux;
                 p.y += d * p.uy;
                 p.z += d * p.uz;
@@ -468,6 +526,9 @@ impl Tracer {
 
             // Step 3b: reach the boundary ahead.
             let d_b = if p.uz != 0.0 { (z_b - p.z) / p.uz } else { f64::INFINITY };
+            if self.inside.is_some() {
+                self.cross_planes(sums, &p, p.z, z_b);
+            }
             if d_b.is_infinite() {
                 // A clear half-space (or a horizontal path): the photon never comes back.
                 if p.uz > 0.0 {

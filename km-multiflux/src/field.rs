@@ -297,7 +297,7 @@ pub(crate) fn layer_faces(
 /// layers above the cut (that layer's upper piece last) and below it (its
 /// lower piece first), each piece with its share of the optical thickness
 /// (scaled and true).
-fn split_at_depth(
+pub(crate) fn split_at_depth(
     scene: &MonoScene,
     layers: &[Scaled],
     i_cut: usize,

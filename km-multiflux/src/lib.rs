@@ -17,6 +17,7 @@
 //! * [`eigen`]: the half-size symmetric eigen-solution of a slab (seed eq. 18–19),
 //!   shared by both discretisations; `phase_matrix` builds the phase matrix of
 //!   each discretisation and renormalises it (one Sinkhorn–Knopp scaling).
+//! * [`inside`]: radiance at user directions at any depth inside the stack.
 //! * [`correction`]: the intensity correction for peaked phase functions at
 //!   exit directions (TMS and IMS, Nakajima & Tanaka 1988).
 //! * [`interface`]: Fresnel interfaces and Lambertian substrates as layers (seed §3.4).
@@ -38,6 +39,7 @@ pub mod error;
 mod exits;
 pub mod field;
 pub mod flatland;
+pub mod inside;
 pub mod interface;
 pub mod legendre;
 pub mod options;

@@ -113,3 +113,32 @@ def test_dipole_field_and_profile_equal_the_cli(km_cli, tmp_path):
     assert km.profile(s, points=5)["fluence"] is None
     with pytest.raises(km.KmError, match="dipole only"):
         km.profile(s, "mc", depths=[1.0], points=5, samples=100)
+
+
+def test_radiance_inside_equals_the_cli(km_cli, tmp_path):
+    """`directions=` gives the radiance inside (docs/field.md §2a, §4a) as
+    channels x depths x directions, the numbers of `km field --directions`."""
+    text = TEXT + "inside_directions_deg = [[10.0, 0.0], [150.0, 180.0]]\n"
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    s = km.Scene.from_toml(text)
+    f = km.field(s)
+    r = f["radiance"]
+    assert r["values"].shape == (1, 7, 2) and r["directions"].shape == (2, 2)
+    assert r["stderr"] is None and r["cone_half_angle_deg"] is None
+    out = json.loads(subprocess.run([km_cli, "field", path, "--json"], check=True,
+                                    capture_output=True, text=True).stdout)
+    assert np.array_equal(r["values"][0], np.array(out["radiance"]["values"]))
+    # The directions given here replace the scene's.
+    g = km.field(s, depths=[0.5], directions=[[150.0, 180.0]])
+    assert g["radiance"]["values"].shape == (1, 1, 1)
+    assert g["radiance"]["values"][0, 0, 0] == pytest.approx(r["values"][0, 2, 1], rel=1e-12)
+    mc = km.field(s, "mc", samples=5000, depths=[0.5], directions=[[150.0, 180.0]], mc_cone=10.0)
+    assert mc["radiance"]["stderr"].shape == (1, 1, 1)
+    assert mc["radiance"]["cone_half_angle_deg"][0] == pytest.approx(10.0)
+    # No directions: no key (every existing output unchanged).
+    assert "radiance" not in km.field(km.Scene.from_toml(TEXT))
+    with pytest.raises(km.KmError, match="multiflux and mc"):
+        km.field(s, "km")
+    with pytest.raises(ValueError, match="pairs"):
+        km.field(s, directions=[1.0, 2.0])

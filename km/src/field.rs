@@ -13,6 +13,12 @@
 //!   dipole integrated over the plane, with the collimated beam
 //!   ([`km_dipole::depth_field`], eq. D24–D27 of `docs/diffusion.md`);
 //! * the direction set is refused with the reason.
+//!
+//! With directions (`[output] inside_directions_deg`, or
+//! [`FieldOptions::directions`]) the radiance `I(z, theta, phi)` at those
+//! directions and depths as well ([`InsideField`], docs/field.md §2a, §4a):
+//! multi-flux exact at any depth ([`km_multiflux::inside`]), Monte Carlo as
+//! cone averages with standard errors ([`crate::mc_field::mc_inside`]).
 
 use std::time::Instant;
 
@@ -44,6 +50,37 @@ pub struct FieldOptions {
     pub dz: Option<f64>,
     /// Dipole settings (the model and its `F_dr`).
     pub dipole: km_dipole::DipoleOptions,
+    /// Directions of the radiance inside (`None`: the scene's `[output]
+    /// inside_directions_deg`; empty: none).
+    pub directions: Option<Vec<[f64; 2]>>,
+    /// Monte Carlo cone half-angle of the radiance inside, degrees (`None`:
+    /// [`DEFAULT_INSIDE_CONE_DEG`]).
+    pub mc_cone_deg: Option<f64>,
+}
+
+/// The default Monte Carlo cone half-angle of the radiance inside, degrees.
+pub const DEFAULT_INSIDE_CONE_DEG: f64 = 5.0;
+
+/// The radiance inside the stack at the field's depths and some directions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InsideField {
+    /// The directions `[theta, phi]`, degrees: `theta` from the downward
+    /// normal (`< 90` down-going, `> 90` up-going), `phi = 180` the side
+    /// towards which the beam travels.
+    pub directions: Vec<[f64; 2]>,
+    /// `radiance[c][k][j]`: channel `c`, depth `k`, direction `j`; the
+    /// diffuse radiance per unit incident irradiance (1/sr), the collimated
+    /// beams apart.
+    pub radiance: Vec<Vec<Vec<f64>>>,
+    /// Their standard errors (Monte Carlo).
+    pub stderr: Option<Vec<Vec<Vec<f64>>>>,
+    /// Per channel and depth, the down-going and up-going collimated beams'
+    /// irradiance on a horizontal plane (multi-flux; delta-M scaled, the
+    /// truncated forward peak with them).
+    pub beams: Option<[Vec<Vec<f64>>; 2]>,
+    /// The Monte Carlo cone half-angle of each direction, degrees (its
+    /// resolution: the values are cone averages).
+    pub cone_half_angle_deg: Option<Vec<f64>>,
 }
 
 /// A method for [`FieldOptions`] (a [`Method`] with a default).
@@ -87,6 +124,8 @@ pub struct Field {
     pub absorptance_layers: Vec<Vec<f64>>,
     /// Standard errors (Monte Carlo only).
     pub stderr: Option<FieldStderr>,
+    /// The radiance at user directions, when asked.
+    pub inside: Option<InsideField>,
     /// The solver's own wall time in seconds.
     pub seconds: f64,
 }
@@ -121,8 +160,10 @@ pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Resu
         net_flux: Vec::new(),
         absorptance_layers: Vec::new(),
         stderr: None,
+        inside: None,
         seconds: 0.0,
     };
+    let directions = opts.directions.as_deref().unwrap_or(scene.inside_directions());
     match method {
         Method::Multiflux => {
             for mono in scene.channels() {
@@ -173,8 +214,54 @@ pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Resu
             return Err(Unsupported { method, reason: Reason::NoDepthField }.into());
         }
     }
+    if !directions.is_empty() {
+        f.inside = Some(inside(scene, depths, directions, opts)?);
+    }
     f.seconds = start.elapsed().as_secs_f64();
     Ok(f)
+}
+
+/// The radiance at `directions` and `depths` by `opts.method` (multi-flux
+/// or Monte Carlo; the others refuse with the reason).
+fn inside(
+    scene: &Scene,
+    depths: &[f64],
+    directions: &[[f64; 2]],
+    opts: &FieldOptions,
+) -> Result<InsideField, KmError> {
+    match opts.method.0 {
+        Method::Multiflux => {
+            let (mut radiance, mut down, mut up) = (Vec::new(), Vec::new(), Vec::new());
+            for mono in scene.channels() {
+                let r = km_multiflux::inside::inside_radiance(
+                    mono,
+                    &opts.multiflux,
+                    depths,
+                    directions,
+                )?;
+                radiance.push(r.radiance);
+                down.push(r.beam_down);
+                up.push(r.beam_up);
+            }
+            Ok(InsideField {
+                directions: directions.to_vec(),
+                radiance,
+                stderr: None,
+                beams: Some([down, up]),
+                cone_half_angle_deg: None,
+            })
+        }
+        Method::Mc => {
+            let cone = opts.mc_cone_deg.unwrap_or(DEFAULT_INSIDE_CONE_DEG);
+            crate::mc_field::mc_inside(scene, depths, directions, cone, &opts.mc)
+        }
+        m => Err(KmError::Option {
+            name: "inside_directions_deg",
+            value: m.name().into(),
+            reason: "the radiance inside the stack is given by the multiflux and mc methods \
+                     (docs/field.md §2a, §4a)",
+        }),
+    }
 }
 
 fn check_depths(depths: &[f64]) -> Result<(), KmError> {
@@ -235,7 +322,94 @@ impl Field {
                 "net_flux": shape(&se.net_flux),
             });
         }
+        if let Some(r) = &self.inside {
+            let shape3 = |v: &Vec<Vec<Vec<f64>>>| if one { json!(v[0]) } else { json!(v) };
+            let mut o = json!({
+                "directions": r.directions,
+                "values": shape3(&r.radiance),
+            });
+            if let Some(se) = &r.stderr {
+                o["stderr"] = shape3(se);
+            }
+            if let Some([d, u]) = &r.beams {
+                o["beam_down"] = shape(d);
+                o["beam_up"] = shape(u);
+            }
+            if let Some(c) = &r.cone_half_angle_deg {
+                o["cone_half_angle_deg"] = json!(c);
+            }
+            out["radiance"] = o;
+        }
         out
+    }
+
+    /// The radiance inside as a text table (`km field`'s table; empty
+    /// without one): per channel, a row per depth and direction.
+    pub fn inside_table(&self) -> String {
+        use std::fmt::Write as _;
+        let Some(r) = &self.inside else { return String::new() };
+        let mut s = String::from(
+            "radiance inside (1/sr per unit incident irradiance; theta from the downward \
+             normal, phi = 180 the beam's forward side; collimated beams apart)\n",
+        );
+        if let Some(c) = &r.cone_half_angle_deg {
+            let cones: Vec<String> = c.iter().map(|a| format!("{a:.3}")).collect();
+            let _ = writeln!(s, "cone averages, half-angles (degrees): {}", cones.join(", "));
+        }
+        for (c, label) in self.labels.iter().enumerate() {
+            if self.labels.len() > 1 {
+                let _ = writeln!(s, "channel {label}");
+            }
+            let _ = writeln!(s, "{:>12} {:>8} {:>8} {:>14}", "z", "theta", "phi", "I");
+            for (k, z) in self.depths.iter().enumerate() {
+                for (j, d) in r.directions.iter().enumerate() {
+                    let se = r
+                        .stderr
+                        .as_ref()
+                        .map_or(String::new(), |e| format!(" ± {:.2e}", e[c][k][j]));
+                    let _ = writeln!(
+                        s,
+                        "{z:>12.6} {:>8.3} {:>8.3} {:>14.6e}{se}",
+                        d[0], d[1], r.radiance[c][k][j]
+                    );
+                }
+                if let Some([dn, up]) = &r.beams
+                    && (dn[c][k] != 0.0 || up[c][k] != 0.0)
+                {
+                    let _ = writeln!(
+                        s,
+                        "{z:>12.6} beams: down {:.6e}, up {:.6e} (irradiance)",
+                        dn[c][k], up[c][k]
+                    );
+                }
+            }
+        }
+        s
+    }
+
+    /// The radiance inside as CSV (`km field --csv`'s second table; empty
+    /// without one): `channel,z,theta,phi,radiance` and `radiance_se`
+    /// (Monte Carlo), one row per channel, depth and direction.
+    pub fn inside_csv(&self) -> String {
+        use std::fmt::Write as _;
+        let Some(r) = &self.inside else { return String::new() };
+        let mut s = String::from("channel,z,theta,phi,radiance");
+        if r.stderr.is_some() {
+            s += ",radiance_se";
+        }
+        s += "\n";
+        for (c, label) in self.labels.iter().enumerate() {
+            for (k, z) in self.depths.iter().enumerate() {
+                for (j, d) in r.directions.iter().enumerate() {
+                    let _ = write!(s, "{label},{z},{},{},{}", d[0], d[1], r.radiance[c][k][j]);
+                    if let Some(e) = &r.stderr {
+                        let _ = write!(s, ",{}", e[c][k][j]);
+                    }
+                    s += "\n";
+                }
+            }
+        }
+        s
     }
 }
 
@@ -348,6 +522,8 @@ pub(crate) fn attach(
 
 /// [`attach`]'s last step: the field of `scene` by `opts` into `sol`.
 fn attach_field(scene: &Scene, opts: &FieldOptions, sol: &mut Solution) -> Result<(), KmError> {
+    // The radiance inside is `km field`'s only (docs/field.md §6): none here.
+    let opts = &FieldOptions { directions: Some(Vec::new()), ..opts.clone() };
     let f = field(scene, None, opts)?;
     for (c, layers) in sol.channels.iter_mut().zip(&f.absorptance_layers) {
         if c.absorptance_layers.is_none() && !layers.is_empty() {

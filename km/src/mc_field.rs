@@ -164,3 +164,40 @@ fn interpolate(x: &[f64], se: &[f64], t: f64) -> (f64, f64) {
     let s = ((1.0 - w).powi(2) * se[i].powi(2) + w * w * se[i + 1].powi(2)).sqrt();
     (v, s)
 }
+
+/// The radiance at `directions` and `depths` by Monte Carlo (docs/field.md
+/// §4a): the photons crossing the plane at each depth within a cone of
+/// half-angle `cone_deg` around each direction
+/// ([`km_montecarlo::solve_inside`]), as cone averages with standard errors
+/// (the cone is the estimator's resolution). A run of its own, with the
+/// options' photons and seed.
+///
+/// # Errors
+/// Depths or directions out of range, a cone outside `(0, 45]` degrees
+/// ([`KmError::MonteCarlo`] naming the option), and the run's errors.
+pub fn mc_inside(
+    scene: &Scene,
+    depths: &[f64],
+    directions: &[[f64; 2]],
+    cone_deg: f64,
+    opts: &McOptions,
+) -> Result<crate::field::InsideField, KmError> {
+    let bins = km_montecarlo::options::InsideBins {
+        depths: depths.to_vec(),
+        directions: directions.to_vec(),
+        half_angle_deg: cone_deg,
+    };
+    bins.validate()?;
+    let cones: Vec<f64> = bins.half_angles().iter().map(|a| a.to_degrees()).collect();
+    let o = McOptions { inside: Some(Box::new(bins)), ..opts.clone() };
+    let (_, results) = km_montecarlo::solve_inside(scene, &o)?;
+    let nd = directions.len();
+    let split = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks(nd).map(<[f64]>::to_vec).collect() };
+    Ok(crate::field::InsideField {
+        directions: directions.to_vec(),
+        radiance: results.iter().map(|r| split(&r.radiance)).collect(),
+        stderr: Some(results.iter().map(|r| split(&r.radiance_se)).collect()),
+        beams: None,
+        cone_half_angle_deg: Some(cones),
+    })
+}

@@ -97,6 +97,7 @@ struct RawSubstrate {
 struct RawOutput {
     directions_deg: Option<Spanned<Value>>,
     depths: Option<Spanned<Value>>,
+    inside_directions_deg: Option<Spanned<Value>>,
 }
 
 #[derive(Deserialize)]
@@ -219,6 +220,10 @@ impl Parser {
             None => Vec::new(),
             Some(v) => self.depths(v, scale)?,
         };
+        let inside = match raw.output.as_ref().and_then(|o| o.inside_directions_deg.as_ref()) {
+            None => Vec::new(),
+            Some(v) => self.inside_directions(v)?,
+        };
 
         // [spectrum]
         let (labels, wavelengths_nm) = match &raw.spectrum {
@@ -255,7 +260,9 @@ impl Parser {
             None if channels == 3 => vec!["R".into(), "G".into(), "B".into()],
             None => (0..channels).map(|c| c.to_string()).collect(),
         };
-        Ok(Scene::new(out, labels, wavelengths_nm)?.with_depths(depths))
+        Ok(Scene::new(out, labels, wavelengths_nm)?
+            .with_depths(depths)
+            .with_inside_directions(inside))
     }
 
     /// `[[layer]]`: each layer's coefficients and top face, every coefficient

@@ -210,6 +210,8 @@ def field(
     dz: float | None = None,
     fdr: str | None = None,
     dipole: str | None = None,
+    directions: Sequence[Sequence[float]] | None = None,
+    mc_cone: float | None = None,
 ) -> dict[str, Any]:
     """The light field inside the stack, as ``km field SCENE --json`` (docs/field.md).
 
@@ -222,6 +224,12 @@ def field(
     field of a half-space, docs/diffusion.md eq. D24-D27; the direction set
     raises :class:`KmError` with the reason); ``streams`` [multiflux],
     ``samples`` (default 10^5), ``seed``, ``dz`` (bin width) [mc].
+    With ``directions`` (``[theta, phi]`` degrees, theta from the downward
+    normal; default the scene's ``[output] inside_directions_deg``) also
+    ``radiance``: a dict of ``directions`` (J x 2), ``values`` (C x D x J,
+    1/sr), ``stderr`` (Monte Carlo, else None), ``beam_down``, ``beam_up``
+    (C x D, multiflux, else None), ``cone_half_angle_deg`` (J, Monte Carlo:
+    ``mc_cone`` narrowed near the horizon, else None); multiflux and mc only.
     """
 
 def profile(

@@ -497,6 +497,8 @@ def field(
     dz: float | None = None,
     fdr: Literal["exact", "egan-hilgeman"] | None = None,
     dipole: Literal["jensen2001", "better"] | None = None,
+    directions: Sequence[Sequence[float]] | npt.ArrayLike | None = None,
+    mc_cone: float | None = None,
 ) -> dict[str, Any]:
     """The light field inside the stack, as ``km field SCENE --json`` (docs/field.md).
 
@@ -522,6 +524,14 @@ def field(
         [dipole] How ``F_dr`` is computed (default "exact"), as ``km.solve``.
     dipole : {"jensen2001", "better"}, optional
         [dipole] Which dipole (default "jensen2001"), as ``km.solve``.
+    directions : array_like of shape (J, 2), optional
+        [multiflux, mc] Directions ``[theta, phi]`` in degrees of the
+        radiance inside (theta from the downward normal, < 90 down-going,
+        > 90 up-going, not 90; phi = 180 the side the beam travels to),
+        instead of the scene's ``[output] inside_directions_deg``.
+    mc_cone : float, optional
+        [mc] Half-angle in degrees of the cone over which the radiance
+        inside is averaged (default 5; docs/field.md §4a).
 
     Returns
     -------
@@ -529,7 +539,12 @@ def field(
         ``depths`` (D,), ``fluence``, ``absorbed`` (per unit depth) and
         ``net_flux`` (C x D, per unit incident irradiance),
         ``absorptance_layers`` (C x L), ``stderr`` (Monte Carlo: a dict of
-        the same three arrays, else None), ``method``, ``labels``, ``seconds``.
+        the same three arrays, else None), ``method``, ``labels``, ``seconds``;
+        with directions, ``radiance``: a dict of ``directions`` (J x 2),
+        ``values`` (C x D x J, 1/sr per unit incident irradiance, the
+        collimated beams apart), ``stderr`` (Monte Carlo, else None),
+        ``beam_down``, ``beam_up`` (C x D, multiflux, else None) and
+        ``cone_half_angle_deg`` (J, Monte Carlo, else None).
 
     Raises
     ------
@@ -546,8 +561,15 @@ def field(
     (1, 3)
     """
     d = None if depths is None else [float(x) for x in np.asarray(depths, dtype=float).ravel()]
+    dirs = None
+    if directions is not None:
+        a = np.asarray(directions, dtype=float)
+        if a.ndim != 2 or a.shape[1] != 2:
+            raise ValueError(f"directions: expected pairs [theta, phi], got shape {a.shape}")
+        dirs = [[float(t), float(p)] for t, p in a]
     out: dict[str, Any] = _km.field(scene, method, depths=d, streams=streams, samples=samples,
-                                    seed=seed, dz=dz, fdr=fdr, dipole=dipole)
+                                    seed=seed, dz=dz, fdr=fdr, dipole=dipole, directions=dirs,
+                                    mc_cone=mc_cone)
     return out
 
 

@@ -21,7 +21,7 @@ pub(crate) fn rows(py: Python<'_>, v: Vec<Vec<f64>>) -> PyResult<Bound<'_, PyAny
 /// The fluence rate, absorbed power density and net flux at depths (see `km.field`).
 #[pyfunction]
 #[pyo3(signature = (scene, method="multiflux", *, depths=None, streams=None, samples=None,
-                    seed=None, dz=None, fdr=None, dipole=None))]
+                    seed=None, dz=None, fdr=None, dipole=None, directions=None, mc_cone=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn field<'py>(
     py: Python<'py>,
@@ -34,9 +34,17 @@ pub(crate) fn field<'py>(
     dz: Option<f64>,
     fdr: Option<&str>,
     dipole: Option<&str>,
+    directions: Option<Vec<[f64; 2]>>,
+    mc_cone: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
-    let mut opts = FieldOptions { method: FieldMethod(method), dz, ..Default::default() };
+    let mut opts = FieldOptions {
+        method: FieldMethod(method),
+        dz,
+        directions,
+        mc_cone_deg: mc_cone,
+        ..Default::default()
+    };
     // The dipole's model and F_dr through the one table of settings (its
     // choices, defaults and the refusal of either for another method), as
     // `km solve` and `km.solve` read them.
@@ -85,6 +93,38 @@ pub(crate) fn field<'py>(
         s.set_item("absorbed", rows(py, se.absorbed)?)?;
         s.set_item("net_flux", rows(py, se.net_flux)?)?;
         d.set_item("stderr", s)?;
+    }
+    if let Some(r) = f.inside {
+        let cube = |v: Vec<Vec<Vec<f64>>>| -> PyResult<Bound<'py, PyAny>> {
+            let (c, k) = (v.len(), v.first().map_or(0, Vec::len));
+            let j = v.first().and_then(|x| x.first()).map_or(0, Vec::len);
+            let flat: Vec<f64> = v.into_iter().flatten().flatten().collect();
+            Ok(flat.into_pyarray(py).reshape([c, k, j])?.into_any())
+        };
+        let o = PyDict::new(py);
+        let nj = r.directions.len();
+        let dirs: Vec<f64> = r.directions.into_iter().flatten().collect();
+        o.set_item("directions", dirs.into_pyarray(py).reshape([nj, 2])?)?;
+        o.set_item("values", cube(r.radiance)?)?;
+        match r.stderr {
+            Some(se) => o.set_item("stderr", cube(se)?)?,
+            None => o.set_item("stderr", py.None())?,
+        }
+        match r.beams {
+            Some([dn, up]) => {
+                o.set_item("beam_down", rows(py, dn)?)?;
+                o.set_item("beam_up", rows(py, up)?)?;
+            }
+            None => {
+                o.set_item("beam_down", py.None())?;
+                o.set_item("beam_up", py.None())?;
+            }
+        }
+        match r.cone_half_angle_deg {
+            Some(c) => o.set_item("cone_half_angle_deg", c.into_pyarray(py))?,
+            None => o.set_item("cone_half_angle_deg", py.None())?,
+        }
+        d.set_item("radiance", o)?;
     }
     d.set_item("seconds", f.seconds)?;
     Ok(d)

@@ -464,6 +464,45 @@ impl Parser {
         }
         Ok(out)
     }
+
+    /// `[output] inside_directions_deg`: pairs `[theta, phi]` in degrees,
+    /// `theta` in `[0, 180]` from the downward normal but not 90, `phi` finite.
+    pub(super) fn inside_directions(&self, v: &Spanned<Value>) -> Result<Vec<[f64; 2]>, CoreError> {
+        let key = "output.inside_directions_deg";
+        let line = self.line(v.span());
+        let Value::Array(items) = v.get_ref() else {
+            return Err(CoreError::scene(key, line, "expected a list of [theta, phi] pairs"));
+        };
+        let mut out = Vec::with_capacity(items.len());
+        for item in items {
+            let Value::Array(pair) = item else {
+                return Err(CoreError::scene(key, line, "each direction is a pair [theta, phi]"));
+            };
+            if pair.len() != 2 {
+                return Err(CoreError::scene(key, line, "each direction is a pair [theta, phi]"));
+            }
+            let theta = self.number(key, line, &pair[0])?;
+            let phi = self.number(key, line, &pair[1])?;
+            if !(0.0..=180.0).contains(&theta) || theta == 90.0 {
+                return Err(CoreError::scene(
+                    key,
+                    line,
+                    format!(
+                        "theta = {theta} must lie in [0, 180] degrees from the downward normal \
+                         (< 90 down-going, > 90 up-going) and not be 90"
+                    ),
+                ));
+            }
+            if !phi.is_finite() {
+                return Err(CoreError::scene(key, line, format!("phi = {phi} must be finite")));
+            }
+            out.push([theta, phi]);
+        }
+        if out.len() > 10_000 {
+            return Err(CoreError::scene(key, line, "at most 10000 directions"));
+        }
+        Ok(out)
+    }
 }
 
 #[derive(Clone, Copy, PartialEq)]

@@ -1,0 +1,344 @@
+//! Radiance at user directions inside the stack, `I(z, theta, phi)`, at any
+//! depth (`docs/field.md` §2a, eq. D12–D15).
+//!
+//! The stack is cut at the depth `z` into the part above and the part below
+//! (the layer holding `z` split into two pieces of its own optical
+//! thickness, as [`crate::internal_field`] does), and each part's operators
+//! carry the user directions as probes (exit directions of zero quadrature
+//! weight, `docs/multiflux.md` §5 and [`crate::adding::probed`]): a probe's
+//! row of a layer's operator is the integral of that layer's source function
+//! along the probe's path, done analytically per eigenmode (Stamnes et al.
+//! 1988 §3.6, eq. 14 of `docs/multiflux.md`), and the adding carries it
+//! through the layers above and below. At the cut the core streams are those
+//! of eq. 19' and each probe's pair of streams is eq. PA2 of the star
+//! product read at the common boundary: the radiance arriving at `z` from
+//! above in direction `mu` and from below, each with its own reflections
+//! between the two parts. Fourier orders are summed as a cosine series in
+//! the azimuth (`cos m (phi - 180 deg)`, the BSDF's convention: `phi = 180`
+//! is the side towards which the beam travels).
+
+use faer::Mat;
+use km_core::{MonoScene, Substrate};
+
+use crate::MultifluxError;
+use crate::adding::probed::Augmented;
+use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, last_moment};
+use crate::field::split_at_depth;
+use crate::options::MultifluxOptions;
+use crate::quadrature::{AngularGrid, mu_of_invariant};
+use crate::solver::{media_grid, resolve_streams, scale_layers};
+
+/// Radiance at user directions inside the stack, per unit incident
+/// irradiance (per unit incident power), at each requested depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InsideRadiance {
+    /// The depths, in the scene's length unit from the top surface.
+    pub depths: Vec<f64>,
+    /// The directions `[theta, phi]` in degrees: `theta` from the downward
+    /// normal (`theta < 90` down-going, `theta > 90` up-going), `phi` the
+    /// azimuth with 180 on the side towards which the beam travels.
+    pub directions: Vec<[f64; 2]>,
+    /// `radiance[k][j]`: the diffuse radiance at depth `k` in direction `j`
+    /// (1/sr; the collimated beams, deltas in angle, are apart).
+    pub radiance: Vec<Vec<f64>>,
+    /// Irradiance on a horizontal plane of the down-going collimated beam at
+    /// each depth (delta-M scaled: the truncated forward peak travels with
+    /// it); 0 for diffuse light.
+    pub beam_down: Vec<f64>,
+    /// The same for the beam reflected by interfaces below, going up.
+    pub beam_up: Vec<f64>,
+    /// Fourier orders summed.
+    pub orders: usize,
+}
+
+/// Most depths times directions of one request.
+pub const MAX_INSIDE_VALUES: usize = 1_000_000;
+
+/// [`InsideRadiance`] of `scene` at `depths` (each finite, in `[0, D]`; at an
+/// interface, the layer above's side) in `directions` (`[theta, phi]`
+/// degrees, `theta` in `[0, 180]` but not 90, `phi` finite).
+///
+/// Orders: 0 for diffuse light; under a beam up to the last non-negligible
+/// phase-function moment (every order the streams resolve with all
+/// effects), stopping after two orders below `FOURIER_TOL` of the largest
+/// value (DISORT's test). The single-scattering correction of peaked phase
+/// functions (TMS/IMS) is not applied inside: the radiance is the delta-M
+/// solution's (`docs/field.md` §2a).
+///
+/// # Errors
+/// An empty list, a depth outside the stack, a direction out of range, a
+/// rough face, too many values ([`MultifluxError::Option`]), and those of
+/// the solver.
+///
+/// ```
+/// use km_multiflux::{MultifluxOptions, inside::inside_radiance};
+/// // A clear slab on a Lambertian floor of albedo 0.5: the up-going radiance
+/// // is the floor's albedo / pi at every depth and angle.
+/// let s = km_core::Scene::from_toml_str(
+///     "[[layer]]\nsigma_a = 0.0\nsigma_s = 0.0\nthickness = 1.0\n\
+///      [substrate]\nkind = \"lambertian\"\nalbedo = 0.5\n").unwrap();
+/// let r = inside_radiance(&s.channels()[0], &MultifluxOptions::default(), &[0.5], &[[150.0, 0.0]])
+///     .unwrap();
+/// assert!((r.radiance[0][0] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+/// ```
+pub fn inside_radiance(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    depths: &[f64],
+    directions: &[[f64; 2]],
+) -> Result<InsideRadiance, MultifluxError> {
+    check_request(scene, depths, directions)?;
+    let streams = resolve_streams(scene, opts)?;
+    let (n_sub, grid) = media_grid(scene, streams);
+    let layers = scale_layers(scene, opts, streams);
+    let beams: Vec<f64> = scene.beam_invariant().into_iter().collect();
+    let diffuse = beams.is_empty();
+    // Distinct polar angles in the local hemisphere (theta and 180 - theta
+    // share a probe: its down- and up-going streams).
+    let local = |t: f64| if t > 90.0 { 180.0 - t } else { t };
+    let mut polar: Vec<f64> = Vec::new();
+    let p_of: Vec<usize> = directions
+        .iter()
+        .map(|d| {
+            let t = local(d[0]);
+            polar.iter().position(|&p| p == t).unwrap_or_else(|| {
+                polar.push(t);
+                polar.len() - 1
+            })
+        })
+        .collect();
+    let last = if diffuse {
+        0
+    } else if opts.all_effects {
+        2 * streams - 1
+    } else {
+        last_moment(&layers)
+    }
+    .min(opts.max_fourier_order.unwrap_or(usize::MAX));
+    let nd = depths.len();
+    let mut out = InsideRadiance {
+        depths: depths.to_vec(),
+        directions: directions.to_vec(),
+        radiance: vec![vec![0.0; directions.len()]; nd],
+        beam_down: vec![0.0; nd],
+        beam_up: vec![0.0; nd],
+        orders: 0,
+    };
+    let mut stop = FourierStop::default();
+    let mut largest = 0.0f64;
+    for m in 0..=last {
+        let mut term = 0.0f64;
+        for (k, &z) in depths.iter().enumerate() {
+            let (i_cut, dz) = locate(scene, z);
+            let n_cut = scene.layers()[i_cut].n();
+            // The probes by Snell invariant in the medium at the cut.
+            let setup = ExtraSetup {
+                n0: n_cut,
+                n_sub: None,
+                layers: &layers,
+                tms_layers: &[],
+                corr: &[],
+                secondary: false,
+            };
+            let extras = Extras::new(&beams, &polar, &setup);
+            let pieces = OrderPieces {
+                grid: &grid,
+                extras: &extras,
+                corr: &[],
+                count: extras.ex.len(),
+                m,
+                orders: last + 1,
+                all_effects: opts.all_effects,
+            };
+            let (above, below) = split_at_depth(scene, &layers, i_cut, dz);
+            let scene_above = scene.with_substrate(Substrate::Transparent { n: n_cut })?;
+            let scene_below = scene.with_ambient_n(n_cut)?;
+            let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), opts.neumann_order)?;
+            let b_ops = pieces.stack(&scene_below, &below, n_sub, opts.neumann_order)?;
+            let n0 = scene.ambient_n();
+            // Incident light on the probes themselves (diffuse light only: a
+            // probe that propagates in the ambient medium receives 1/pi).
+            let probe_in: Vec<f64> = extras.ex[extras.r0..extras.t0]
+                .iter()
+                .map(|&(s, _)| {
+                    if diffuse && m == 0 && mu_of_invariant(s, n0).is_some() {
+                        1.0 / std::f64::consts::PI
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let a = input(scene, &grid, m);
+            let cut = probes_at_cut(&a_ops, &b_ops, &a, &probe_in, &grid, n_cut, beams.len())
+                .ok_or_else(|| MultifluxError::Numerical {
+                    what: "inside_radiance",
+                    detail: format!("depth {z}, order {m}"),
+                })?;
+            if m == 0 {
+                out.beam_down[k] = cut.beam_down;
+                out.beam_up[k] = cut.beam_up;
+            }
+            for (j, d) in directions.iter().enumerate() {
+                let p = p_of[j];
+                let v = if d[0] < 90.0 { cut.down[p] } else { cut.up[p] };
+                let c = (m as f64 * (d[1] - 180.0).to_radians()).cos();
+                out.radiance[k][j] += v * c;
+                term = term.max(v.abs());
+            }
+        }
+        out.orders = m + 1;
+        if m == 0 {
+            largest = term;
+            continue;
+        }
+        if !opts.all_effects {
+            let now = out.radiance.iter().flatten().fold(0.0f64, |a, &b| a.max(b.abs()));
+            largest = largest.max(now);
+            if stop.converged(term, largest) {
+                break;
+            }
+        }
+    }
+    if !out.radiance.iter().flatten().all(|v| v.is_finite()) {
+        return Err(MultifluxError::Numerical {
+            what: "inside_radiance",
+            detail: "non-finite radiance".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// The checks of [`inside_radiance`]'s request.
+fn check_request(
+    scene: &MonoScene,
+    depths: &[f64],
+    directions: &[[f64; 2]],
+) -> Result<(), MultifluxError> {
+    let bad = |name, value: f64, reason| Err(MultifluxError::Option { name, value, reason });
+    if depths.is_empty() {
+        return bad("depths", 0.0, "need at least one depth");
+    }
+    if directions.is_empty() {
+        return bad("directions", 0.0, "need at least one direction");
+    }
+    if depths.len().saturating_mul(directions.len()) > MAX_INSIDE_VALUES {
+        return bad(
+            "directions",
+            directions.len() as f64,
+            "more than 10^6 depths x directions in one request",
+        );
+    }
+    let total: f64 = scene.layers().iter().map(|l| l.thickness()).sum();
+    if let Some(&z) = depths.iter().find(|&&z| !(z.is_finite() && z >= 0.0 && z <= total)) {
+        return bad("depths", z, "every depth must be finite and lie in the stack");
+    }
+    for d in directions {
+        if !(d[0] >= 0.0 && d[0] <= 180.0) || d[0] == 90.0 {
+            return bad("directions", d[0], "theta must lie in [0, 180] degrees and not be 90");
+        }
+        if !d[1].is_finite() {
+            return bad("directions", d[1], "phi must be finite");
+        }
+    }
+    if scene.has_rough_face() {
+        return bad(
+            "directions",
+            f64::NAN,
+            "radiance inside a stack with a rough face is not computed (its probes are not \
+             right, docs/rough.md §7); use the Monte Carlo method",
+        );
+    }
+    Ok(())
+}
+
+/// The layer holding depth `z` (the upper one at an interface) and the depth
+/// below its top.
+fn locate(scene: &MonoScene, z: f64) -> (usize, f64) {
+    let (mut i_cut, mut z_top) = (0, 0.0);
+    for (i, l) in scene.layers().iter().enumerate() {
+        i_cut = i;
+        if z <= z_top + l.thickness() {
+            break;
+        }
+        z_top += l.thickness();
+    }
+    (i_cut, (z - z_top).max(0.0))
+}
+
+/// The light entering the stack's top for Fourier order `m` on the core
+/// (ambient nodes and the beam).
+fn input(scene: &MonoScene, grid: &AngularGrid, m: usize) -> Mat<f64> {
+    let na0 = grid.medium(scene.ambient_n()).mu.len();
+    let beams = usize::from(scene.beam_invariant().is_some());
+    let mut a = Mat::<f64>::zeros(na0 + beams, 1);
+    if beams == 0 {
+        if m == 0 {
+            for i in 0..na0 {
+                a[(i, 0)] = 1.0 / std::f64::consts::PI;
+            }
+        }
+    } else {
+        a[(na0, 0)] = 1.0;
+    }
+    a
+}
+
+/// The probes' streams at the cut, and the beams'.
+struct ProbesAtCut {
+    down: Vec<f64>,
+    up: Vec<f64>,
+    beam_down: f64,
+    beam_up: f64,
+}
+
+/// The streams at the cut between the stack above (`above`) and below
+/// (`below`) for the input `a` on the top's core and `probe_in` on the
+/// top's probes (eq. D13–D14 of `docs/field.md`, eq. PA2 of
+/// [`crate::adding::probed`] read at the common boundary):
+///
+/// ```text
+/// d = (I - R1' R2)^-1 T1 a,   u = R2 d
+/// DP = [T1_p a + t1 a_p + R1'_p u + r1' R2_p d] / (1 - r1' r2),   UP = R2_p d + r2 DP
+/// ```
+///
+/// `None` if they are not finite.
+fn probes_at_cut(
+    above: &Augmented,
+    below: &Augmented,
+    a: &Mat<f64>,
+    probe_in: &[f64],
+    grid: &AngularGrid,
+    n_cut: f64,
+    beams: usize,
+) -> Option<ProbesAtCut> {
+    use faer::linalg::solvers::Solve;
+    let ta = &above.core.t_down * a;
+    let dim = below.core.r_top.ncols();
+    let mut x = Mat::<f64>::identity(dim, dim);
+    x -= &above.core.r_bottom * &below.core.r_top;
+    let d = x.partial_piv_lu().solve(ta);
+    let u = &below.core.r_top * &d;
+    let (pa, pb) = (&above.probes, &below.probes);
+    let np = pa.len();
+    let row_dot = |m: &Mat<f64>, p: usize, v: &Mat<f64>| -> f64 {
+        (0..m.ncols()).map(|j| m[(p, j)] * v[(j, 0)]).sum()
+    };
+    let (mut down, mut up) = (vec![0.0; np], vec![0.0; np]);
+    for p in 0..np {
+        let t1 = row_dot(&pa.t_down, p, a) + pa.diag[1][p] * probe_in[p];
+        let r1u = row_dot(&pa.r_bottom, p, &u);
+        let r2d = row_dot(&pb.r_top, p, &d);
+        let (r1, r2) = (pa.diag[2][p], pb.diag[0][p]);
+        let dp = (t1 + r1u + r1 * r2d) / (1.0 - r1 * r2);
+        down[p] = dp;
+        up[p] = r2d + r2 * dp;
+    }
+    let nn = grid.medium(n_cut).mu.len();
+    let out = ProbesAtCut {
+        beam_down: if beams == 0 { 0.0 } else { d[(nn, 0)] },
+        beam_up: if beams == 0 { 0.0 } else { u[(nn, 0)] },
+        down,
+        up,
+    };
+    out.down.iter().chain(&out.up).all(|v| v.is_finite()).then_some(out)
+}
