@@ -168,8 +168,8 @@ struct ReproduceArgs {
     #[arg(long)]
     quiet: bool,
     /// Regenerate one figure or study only (fig3, fig4, fig5, fig6, fig7, fig9, fig10,
-    /// speedup, dipole, diffusion-limits, pareto, stability, savings, paint); its section goes
-    /// to DIR/report-NAME.md.
+    /// speedup, dipole, diffusion-limits, pareto, stability, savings, paint, rough-lobes); its
+    /// section goes to DIR/report-NAME.md.
     #[arg(long, value_name = "NAME")]
     only: Option<String>,
 }

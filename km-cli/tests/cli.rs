@@ -100,3 +100,17 @@ fn check_describes_channels() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("channels: 3 (R, G, B)"), "{text}");
 }
+
+/// `km reproduce --help` names every recipe `--only` accepts (the list in
+/// the help is written by hand; the recipes are km-bench's).
+#[test]
+fn reproduce_help_names_every_recipe() {
+    let out = km(&["reproduce", "--help"]);
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    let words: Vec<&str> =
+        help.split(|c: char| c.is_whitespace() || c == ',' || c == '(' || c == ')').collect();
+    for (name, _) in km_bench::recipes::all() {
+        assert!(words.contains(&name), "`km reproduce --help` does not name the recipe {name}");
+    }
+}

@@ -25,8 +25,8 @@ use crate::adding::probed::Augmented;
 use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, last_moment};
 use crate::field::split_at_depth;
 use crate::options::MultifluxOptions;
+use crate::prepare::{media_grid, resolve_streams, scale_layers};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
-use crate::solver::{media_grid, resolve_streams, scale_layers};
 
 /// Radiance at user directions inside the stack, per unit incident
 /// irradiance (per unit incident power), at each requested depth.

@@ -31,6 +31,7 @@ use km_multiflux::MultifluxOptions;
 use km_multiflux::depth::DepthField;
 
 use crate::error::{KmError, Reason, Unsupported};
+pub use crate::inside::InsideField;
 use crate::mc_field::{MAX_DEPTH_BINS, mc_depths};
 use crate::{Method, MethodOptions, Solver};
 
@@ -60,28 +61,6 @@ pub struct FieldOptions {
 
 /// The default Monte Carlo cone half-angle of the radiance inside, degrees.
 pub const DEFAULT_INSIDE_CONE_DEG: f64 = 5.0;
-
-/// The radiance inside the stack at the field's depths and some directions.
-#[derive(Debug, Clone, PartialEq)]
-pub struct InsideField {
-    /// The directions `[theta, phi]`, degrees: `theta` from the downward
-    /// normal (`< 90` down-going, `> 90` up-going), `phi = 180` the side
-    /// towards which the beam travels.
-    pub directions: Vec<[f64; 2]>,
-    /// `radiance[c][k][j]`: channel `c`, depth `k`, direction `j`; the
-    /// diffuse radiance per unit incident irradiance (1/sr), the collimated
-    /// beams apart.
-    pub radiance: Vec<Vec<Vec<f64>>>,
-    /// Their standard errors (Monte Carlo).
-    pub stderr: Option<Vec<Vec<Vec<f64>>>>,
-    /// Per channel and depth, the down-going and up-going collimated beams'
-    /// irradiance on a horizontal plane (multi-flux; delta-M scaled, the
-    /// truncated forward peak with them).
-    pub beams: Option<[Vec<Vec<f64>>; 2]>,
-    /// The Monte Carlo cone half-angle of each direction, degrees (its
-    /// resolution: the values are cone averages).
-    pub cone_half_angle_deg: Option<Vec<f64>>,
-}
 
 /// A method for [`FieldOptions`] (a [`Method`] with a default).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

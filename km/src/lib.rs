@@ -49,6 +49,7 @@ pub mod cone;
 pub mod direction_set;
 mod error;
 pub mod field;
+mod inside;
 pub mod mc_field;
 pub mod mcml_files;
 mod method;

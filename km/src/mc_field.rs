@@ -181,7 +181,7 @@ pub fn mc_inside(
     directions: &[[f64; 2]],
     cone_deg: f64,
     opts: &McOptions,
-) -> Result<crate::field::InsideField, KmError> {
+) -> Result<crate::inside::InsideField, KmError> {
     let bins = km_montecarlo::options::InsideBins {
         depths: depths.to_vec(),
         directions: directions.to_vec(),
@@ -193,7 +193,7 @@ pub fn mc_inside(
     let (_, results) = km_montecarlo::solve_inside(scene, &o)?;
     let nd = directions.len();
     let split = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks(nd).map(<[f64]>::to_vec).collect() };
-    Ok(crate::field::InsideField {
+    Ok(crate::inside::InsideField {
         directions: directions.to_vec(),
         radiance: results.iter().map(|r| split(&r.radiance)).collect(),
         stderr: Some(results.iter().map(|r| split(&r.radiance_se)).collect()),
