@@ -31,7 +31,7 @@
 //! assert_eq!(merged.channels, solve(&scene, &opts).unwrap().channels);
 //! ```
 //!
-//! Reproducibility: batch `b` of channel `c` draws from a PCG-64 stream seeded
+//! Reproducibility: batch `b` of channel `c` draws from a xoshiro256++ generator seeded
 //! from `(seed, c, b)`; batches are summed in index order, so the result is a
 //! function of the seed and the options only, not of the thread count.
 #![deny(missing_docs)]

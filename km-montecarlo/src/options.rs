@@ -80,7 +80,7 @@ pub const MAX_INSIDE_BINS: usize = 100_000;
 pub struct McOptions {
     /// Number of photons per channel (`>= 1`).
     pub samples: u64,
-    /// Seed of the run; batch `b` of channel `c` uses a PCG stream seeded from `(seed, c, b)`.
+    /// Seed of the run; batch `b` of channel `c` uses a xoshiro256++ generator seeded from `(seed, c, b)`.
     pub seed: u64,
     /// Worker threads (`None`: rayon's default, all cores). Never changes the result.
     pub threads: Option<usize>,

@@ -464,18 +464,13 @@ impl Tracer {
                 break;
             }
             let slab = &self.slabs[p.layer];
-            // Step 1: fresh optical path length, exponential of mean 1 (eq.
-            // M1), drawn by the ziggurat (eq. M1'): no logarithm on the
-            // common path.
+            // Step 1: fresh optical path, exponential of mean 1 (eq. M1, M1').
             if p.s_left <= 0.0 {
                 p.s_left = rand::RngExt::sample(rng, rand_distr::Exp1);
             }
-            // Step 2: distance to the boundary ahead and free path. The
-            // boundary is chosen by a select (no jump on the sign of uz, which
-            // is a coin toss); only a horizontal path (uz = 0) takes a branch.
-            // `d < d_b = (z_b - z) / uz` is tested as `d |uz| < |z_b - z|`
-            // (no division; a horizontal path, uz = 0, never reaches a
-            // boundary); `d_b` itself is computed only at a boundary.
+            // Step 2: the boundary ahead by a select (no jump on the sign of
+            // uz, a coin toss); `d < d_b = (z_b - z) / uz` tested as `d |uz| <
+            // |z_b - z|` (no division; uz = 0 never reaches a boundary).
             let z_b = if p.uz > 0.0 { slab.bottom } else { slab.top };
             // A clear layer has inv_sigma_t = inf: d is inf (or NaN for a
             // zero path, s_left = 0), and either fails the test below.

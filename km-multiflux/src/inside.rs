@@ -27,6 +27,7 @@ use crate::field::split_at_depth;
 use crate::options::MultifluxOptions;
 use crate::prepare::{media_grid, resolve_streams, scale_layers};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
+use crate::stack::Scaled;
 
 /// Radiance at user directions inside the stack, per unit incident
 /// irradiance (per unit incident power), at each requested depth.
@@ -124,56 +125,23 @@ pub fn inside_radiance(
         beam_up: vec![0.0; nd],
         orders: 0,
     };
+    let shared = Shared {
+        scene,
+        opts,
+        grid: &grid,
+        layers: &layers,
+        beams: &beams,
+        polar: &polar,
+        n_sub,
+        diffuse,
+        orders: last + 1,
+    };
     let mut stop = FourierStop::default();
     let mut largest = 0.0f64;
     for m in 0..=last {
         let mut term = 0.0f64;
         for (k, &z) in depths.iter().enumerate() {
-            let (i_cut, dz) = locate(scene, z);
-            let n_cut = scene.layers()[i_cut].n();
-            // The probes by Snell invariant in the medium at the cut.
-            let setup = ExtraSetup {
-                n0: n_cut,
-                n_sub: None,
-                layers: &layers,
-                tms_layers: &[],
-                corr: &[],
-                secondary: false,
-            };
-            let extras = Extras::new(&beams, &polar, &setup);
-            let pieces = OrderPieces {
-                grid: &grid,
-                extras: &extras,
-                corr: &[],
-                count: extras.ex.len(),
-                m,
-                orders: last + 1,
-                all_effects: opts.all_effects,
-            };
-            let (above, below) = split_at_depth(scene, &layers, i_cut, dz);
-            let scene_above = scene.with_substrate(Substrate::Transparent { n: n_cut })?;
-            let scene_below = scene.with_ambient_n(n_cut)?;
-            let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), opts.neumann_order)?;
-            let b_ops = pieces.stack(&scene_below, &below, n_sub, opts.neumann_order)?;
-            let n0 = scene.ambient_n();
-            // Incident light on the probes themselves (diffuse light only: a
-            // probe that propagates in the ambient medium receives 1/pi).
-            let probe_in: Vec<f64> = extras.ex[extras.r0..extras.t0]
-                .iter()
-                .map(|&(s, _)| {
-                    if diffuse && m == 0 && mu_of_invariant(s, n0).is_some() {
-                        1.0 / std::f64::consts::PI
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let a = input(scene, &grid, m);
-            let cut = probes_at_cut(&a_ops, &b_ops, &a, &probe_in, &grid, n_cut, beams.len())
-                .ok_or_else(|| MultifluxError::Numerical {
-                    what: "inside_radiance",
-                    detail: format!("depth {z}, order {m}"),
-                })?;
+            let cut = shared.probes_at(z, m)?;
             if m == 0 {
                 out.beam_down[k] = cut.beam_down;
                 out.beam_up[k] = cut.beam_up;
@@ -206,6 +174,73 @@ pub fn inside_radiance(
         });
     }
     Ok(out)
+}
+
+/// What every depth and Fourier order of [`inside_radiance`] shares.
+struct Shared<'a> {
+    scene: &'a MonoScene,
+    opts: &'a MultifluxOptions,
+    grid: &'a AngularGrid,
+    layers: &'a [Scaled],
+    beams: &'a [f64],
+    polar: &'a [f64],
+    n_sub: Option<f64>,
+    diffuse: bool,
+    orders: usize,
+}
+
+impl Shared<'_> {
+    /// The probes' streams at depth `z` in Fourier order `m`: the stack cut
+    /// at `z`, each half added with the probes as extra directions, and the
+    /// two halves' adding read off at the cut.
+    fn probes_at(&self, z: f64, m: usize) -> Result<ProbesAtCut, MultifluxError> {
+        let (i_cut, dz) = locate(self.scene, z);
+        let n_cut = self.scene.layers()[i_cut].n();
+        // The probes by Snell invariant in the medium at the cut.
+        let setup = ExtraSetup {
+            n0: n_cut,
+            n_sub: None,
+            layers: self.layers,
+            tms_layers: &[],
+            corr: &[],
+            secondary: false,
+        };
+        let extras = Extras::new(self.beams, self.polar, &setup);
+        let pieces = OrderPieces {
+            grid: self.grid,
+            extras: &extras,
+            corr: &[],
+            count: extras.ex.len(),
+            m,
+            orders: self.orders,
+            all_effects: self.opts.all_effects,
+        };
+        let (above, below) = split_at_depth(self.scene, self.layers, i_cut, dz);
+        let scene_above = self.scene.with_substrate(Substrate::Transparent { n: n_cut })?;
+        let scene_below = self.scene.with_ambient_n(n_cut)?;
+        let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), self.opts.neumann_order)?;
+        let b_ops = pieces.stack(&scene_below, &below, self.n_sub, self.opts.neumann_order)?;
+        let n0 = self.scene.ambient_n();
+        // Incident light on the probes themselves (diffuse light only: a
+        // probe that propagates in the ambient medium receives 1/pi).
+        let probe_in: Vec<f64> = extras.ex[extras.r0..extras.t0]
+            .iter()
+            .map(|&(s, _)| {
+                if self.diffuse && m == 0 && mu_of_invariant(s, n0).is_some() {
+                    1.0 / std::f64::consts::PI
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let a = input(self.scene, self.grid, m);
+        let cut = probes_at_cut(&a_ops, &b_ops, &a, &probe_in, self.grid, n_cut, self.beams.len())
+            .ok_or_else(|| MultifluxError::Numerical {
+                what: "inside_radiance",
+                detail: format!("depth {z}, order {m}"),
+            })?;
+        Ok(cut)
+    }
 }
 
 /// The checks of [`inside_radiance`]'s request.

@@ -58,13 +58,17 @@ fn z_scores(text: &str, dz: f64, nz: usize, samples: u64, streams: usize) -> Vec
     out
 }
 
-/// Every bin but the first within 3 standard errors on all six scenes, at
+/// Every bin but the first within 4 standard errors on all six scenes, at
 /// 20,000 photons (a few seconds; the standard errors are 1-3 % of the
 /// values, while the 24-stream multi-flux field is converged far below
-/// that). The run's seed is fixed, so the test is deterministic; the sum of
-/// squares also bounds a bias hiding under 3 sigma: mean z^2 below 2 (its
-/// expectation is 1 for an unbiased tracer; the ~130 scores are
-/// correlated, phi and A of one bin carry the same photons).
+/// that). 4 is the family-wise bound of the ~130 scores: for a false alarm
+/// in 1 % of seeds each may exceed its bound with probability 0.01 / 130,
+/// |z| < 3.95 (Bonferroni); a bound of 3 on every score fails for an
+/// unbiased tracer in about one seed in six (measured: 2 of 12 seeds, worst
+/// |z| 3.12 and 3.03). The run's seed is fixed, so the test is
+/// deterministic; the sum of squares bounds a bias hiding under the bound:
+/// mean z^2 below 2 (its expectation is 1 for an unbiased tracer; phi and A
+/// of one bin carry the same photons, so the scores are correlated).
 #[test]
 fn multiflux_phi_and_a_match_monte_carlo() {
     let mut all = Vec::new();
@@ -73,7 +77,7 @@ fn multiflux_phi_and_a_match_monte_carlo() {
         let worst = zs.iter().fold(0.0f64, |m, z| m.max(z.abs()));
         eprintln!("scene {k}: worst |z| {worst:.2}");
         assert!(zs.iter().all(|z| z.is_finite()), "scene {k}: {zs:?}");
-        assert!(worst < 3.0, "scene {k}: {zs:?}");
+        assert!(worst < 4.0, "scene {k}: {zs:?}");
         all.extend(zs);
     }
     let chi2 = all.iter().map(|z| z * z).sum::<f64>() / all.len() as f64;
@@ -93,7 +97,7 @@ fn multiflux_phi_and_a_match_monte_carlo_at_a_million_photons() {
         let zs = z_scores(t, *dz, *nz, 1_000_000, 48);
         let worst = zs.iter().fold(0.0f64, |m, z| m.max(z.abs()));
         eprintln!("scene {k}: worst |z| {worst:.2}");
-        assert!(worst < 3.0, "scene {k}: {zs:?}");
+        assert!(worst < 4.0, "scene {k}: {zs:?}");
         all.extend(zs);
     }
     let chi2 = all.iter().map(|z| z * z).sum::<f64>() / all.len() as f64;

@@ -95,39 +95,46 @@ pub(crate) fn field<'py>(
         d.set_item("stderr", s)?;
     }
     if let Some(r) = f.inside {
-        let cube = |v: Vec<Vec<Vec<f64>>>| -> PyResult<Bound<'py, PyAny>> {
-            let (c, k) = (v.len(), v.first().map_or(0, Vec::len));
-            let j = v.first().and_then(|x| x.first()).map_or(0, Vec::len);
-            let flat: Vec<f64> = v.into_iter().flatten().flatten().collect();
-            Ok(flat.into_pyarray(py).reshape([c, k, j])?.into_any())
-        };
-        let o = PyDict::new(py);
-        let nj = r.directions.len();
-        let dirs: Vec<f64> = r.directions.into_iter().flatten().collect();
-        o.set_item("directions", dirs.into_pyarray(py).reshape([nj, 2])?)?;
-        o.set_item("values", cube(r.radiance)?)?;
-        match r.stderr {
-            Some(se) => o.set_item("stderr", cube(se)?)?,
-            None => o.set_item("stderr", py.None())?,
-        }
-        match r.beams {
-            Some([dn, up]) => {
-                o.set_item("beam_down", rows(py, dn)?)?;
-                o.set_item("beam_up", rows(py, up)?)?;
-            }
-            None => {
-                o.set_item("beam_down", py.None())?;
-                o.set_item("beam_up", py.None())?;
-            }
-        }
-        match r.cone_half_angle_deg {
-            Some(c) => o.set_item("cone_half_angle_deg", c.into_pyarray(py))?,
-            None => o.set_item("cone_half_angle_deg", py.None())?,
-        }
-        d.set_item("radiance", o)?;
+        d.set_item("radiance", radiance_dict(py, r)?)?;
     }
     d.set_item("seconds", f.seconds)?;
     Ok(d)
+}
+
+/// The radiance inside as `km.field` returns it: the directions, the values
+/// and standard errors as (channel, depth, direction) arrays, the collimated
+/// beams and the Monte Carlo cones (`None` where the method has none).
+fn radiance_dict<'py>(py: Python<'py>, r: km::field::InsideField) -> PyResult<Bound<'py, PyDict>> {
+    let cube = |v: Vec<Vec<Vec<f64>>>| -> PyResult<Bound<'py, PyAny>> {
+        let (c, k) = (v.len(), v.first().map_or(0, Vec::len));
+        let j = v.first().and_then(|x| x.first()).map_or(0, Vec::len);
+        let flat: Vec<f64> = v.into_iter().flatten().flatten().collect();
+        Ok(flat.into_pyarray(py).reshape([c, k, j])?.into_any())
+    };
+    let o = PyDict::new(py);
+    let nj = r.directions.len();
+    let dirs: Vec<f64> = r.directions.into_iter().flatten().collect();
+    o.set_item("directions", dirs.into_pyarray(py).reshape([nj, 2])?)?;
+    o.set_item("values", cube(r.radiance)?)?;
+    match r.stderr {
+        Some(se) => o.set_item("stderr", cube(se)?)?,
+        None => o.set_item("stderr", py.None())?,
+    }
+    match r.beams {
+        Some([dn, up]) => {
+            o.set_item("beam_down", rows(py, dn)?)?;
+            o.set_item("beam_up", rows(py, up)?)?;
+        }
+        None => {
+            o.set_item("beam_down", py.None())?;
+            o.set_item("beam_up", py.None())?;
+        }
+    }
+    match r.cone_half_angle_deg {
+        Some(c) => o.set_item("cone_half_angle_deg", c.into_pyarray(py))?,
+        None => o.set_item("cone_half_angle_deg", py.None())?,
+    }
+    Ok(o)
 }
 
 /// `Rd(r)` of a pencil beam, and with `depths` the dipole's `phi(r, z)` (see `km.profile`).
