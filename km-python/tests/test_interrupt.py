@@ -30,7 +30,12 @@ LIMIT = 30
 
 PRELUDE = textwrap.dedent(
     f"""
-    import os, sys, time
+    import os, signal, sys, time
+    # Python raises KeyboardInterrupt only where SIGINT was not ignored at
+    # its start; a shell's background job (`cmd &` without job control)
+    # starts with SIGINT ignored. The default handler makes the child the
+    # same wherever the tests run.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     import km
     S = km.Scene.from_toml({SCENE!r})
 
