@@ -73,7 +73,7 @@ pub fn internal_field(
 
 /// The layer holding depth `z` (the upper one at an interface) and the depth
 /// below its top.
-fn locate(scene: &MonoScene, z: f64) -> (usize, f64) {
+pub(crate) fn locate(scene: &MonoScene, z: f64) -> (usize, f64) {
     let (mut i_cut, mut z_top) = (0, 0.0);
     for (i, l) in scene.layers().iter().enumerate() {
         i_cut = i;
@@ -134,7 +134,7 @@ pub(crate) fn field_in_layer(
 /// The light entering the stack's top for Fourier order `m`: the unit beam
 /// (its own column after the ambient medium's nodes), or diffuse light of
 /// unit irradiance (radiance `1/pi` at every node, order 0 only).
-fn input(scene: &MonoScene, grid: &AngularGrid, m: usize) -> Mat<f64> {
+pub(crate) fn input(scene: &MonoScene, grid: &AngularGrid, m: usize) -> Mat<f64> {
     let na0 = grid.medium(scene.ambient_n()).mu.len();
     let beams = usize::from(scene.beam_invariant().is_some());
     let mut a = Mat::<f64>::zeros(na0 + beams, 1);

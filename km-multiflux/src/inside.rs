@@ -23,7 +23,7 @@ use km_core::{MonoScene, Substrate};
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
 use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, last_moment};
-use crate::field::split_at_depth;
+use crate::field::{input, locate, split_at_depth};
 use crate::options::MultifluxOptions;
 use crate::prepare::{media_grid, resolve_streams, scale_layers};
 use crate::quadrature::{AngularGrid, mu_of_invariant};
@@ -284,38 +284,6 @@ fn check_request(
         );
     }
     Ok(())
-}
-
-/// The layer holding depth `z` (the upper one at an interface) and the depth
-/// below its top.
-fn locate(scene: &MonoScene, z: f64) -> (usize, f64) {
-    let (mut i_cut, mut z_top) = (0, 0.0);
-    for (i, l) in scene.layers().iter().enumerate() {
-        i_cut = i;
-        if z <= z_top + l.thickness() {
-            break;
-        }
-        z_top += l.thickness();
-    }
-    (i_cut, (z - z_top).max(0.0))
-}
-
-/// The light entering the stack's top for Fourier order `m` on the core
-/// (ambient nodes and the beam).
-fn input(scene: &MonoScene, grid: &AngularGrid, m: usize) -> Mat<f64> {
-    let na0 = grid.medium(scene.ambient_n()).mu.len();
-    let beams = usize::from(scene.beam_invariant().is_some());
-    let mut a = Mat::<f64>::zeros(na0 + beams, 1);
-    if beams == 0 {
-        if m == 0 {
-            for i in 0..na0 {
-                a[(i, 0)] = 1.0 / std::f64::consts::PI;
-            }
-        }
-    } else {
-        a[(na0, 0)] = 1.0;
-    }
-    a
 }
 
 /// The probes' streams at the cut, and the beams'.
