@@ -174,6 +174,14 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
             bound.max(f64::MIN_POSITIVE)
         ));
     }
+    // A request the solve does not answer is named, not dropped in silence.
+    if !scene.inside_directions().is_empty() {
+        sol.notes.push(
+            "the radiance inside ([output] inside_directions_deg) is not part of a solve: \
+             `km field` gives it (library: km::field::field; Python: km.field)"
+                .to_string(),
+        );
+    }
     // The closed forms say how far they are off (eq. K25), on the channels
     // solved (before the dipole's half-space cut: the estimate covers it).
     if matches!(method, Method::Km | Method::Dipole) {

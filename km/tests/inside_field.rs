@@ -177,8 +177,8 @@ fn the_request_and_its_refusals() {
     let o = FieldOptions { method: FieldMethod(Method::Km), ..Default::default() };
     let e = field(&s, None, &o).unwrap_err().to_string();
     assert!(e.contains("multiflux and mc"), "{e}");
-    // `km solve` ignores the directions: its answer and field are those of
-    // the scene without them, by every method.
+    // `km solve` does not answer the directions: its answer and field are
+    // those of the scene without them, by every method.
     let methods = [
         km::Options::from(MultifluxOptions::default()),
         km::Options::from(km_core::two_flux::KmOptions::default()),
@@ -187,6 +187,9 @@ fn the_request_and_its_refusals() {
         let a = km::solve(&s, m).unwrap();
         let b = km::solve(&plain_with_depths(), m).unwrap();
         assert_eq!(a.field.as_ref().map(|f| f.fluence.clone()), b.field.map(|f| f.fluence));
+        // ... and says so in a note, which the scene without them has not.
+        let named = |n: &Vec<String>| n.iter().any(|t| t.contains("inside_directions_deg"));
+        assert!(named(&a.notes) && !named(&b.notes), "{:?}", a.notes);
     }
     // A bad direction in the scene file names the key.
     let e = Scene::from_toml_str(
