@@ -32,7 +32,7 @@ use km_multiflux::depth::DepthField;
 
 use crate::error::{KmError, Reason, Unsupported};
 pub use crate::inside::InsideField;
-use crate::mc_field::{MAX_DEPTH_BINS, mc_depths};
+use crate::mc_field::{check_depths, mc_depths};
 use crate::{Method, MethodOptions, Solver};
 
 /// The settings of [`field`]: the method and its options.
@@ -241,23 +241,6 @@ fn inside(
                      (docs/field.md §2a, §4a)",
         }),
     }
-}
-
-fn check_depths(depths: &[f64]) -> Result<(), KmError> {
-    let bad = |value: String, reason| Err(KmError::Option { name: "depths", value, reason });
-    if depths.is_empty() {
-        return bad(
-            "[]".into(),
-            "no depth asked for: add [output] depths = [...] or { step, max } to the scene",
-        );
-    }
-    if depths.len() > MAX_DEPTH_BINS {
-        return bad(depths.len().to_string(), "at most 100000 depths");
-    }
-    if let Some(z) = depths.iter().find(|z| !(z.is_finite() && **z >= 0.0)) {
-        return bad(z.to_string(), "every depth must be finite and >= 0");
-    }
-    Ok(())
 }
 
 /// Monte Carlo bins any depth; a depth below the stack (in the substrate)

@@ -42,6 +42,25 @@ pub struct McDepthValues {
     pub bins: DepthField,
 }
 
+/// The depths of a field request (every method's): at least one, at most
+/// [`MAX_DEPTH_BINS`], each finite and `>= 0`. The one check of them.
+pub(crate) fn check_depths(depths: &[f64]) -> Result<(), KmError> {
+    let bad = |value: String, reason| Err(KmError::Option { name: "depths", value, reason });
+    if depths.is_empty() {
+        return bad(
+            "[]".into(),
+            "no depth asked for: add [output] depths = [...] or { step, max } to the scene",
+        );
+    }
+    if depths.len() > MAX_DEPTH_BINS {
+        return bad(depths.len().to_string(), "at most 100000 depths");
+    }
+    if let Some(z) = depths.iter().find(|z| !(z.is_finite() && **z >= 0.0)) {
+        return bad(z.to_string(), "every depth must be finite and >= 0");
+    }
+    Ok(())
+}
+
 /// `phi`, `A` and `F` of `scene` by Monte Carlo at `depths` (each finite
 /// and `>= 0`, in the scene's length unit), on bins of width `dz` (default:
 /// half the smallest gap between distinct depths, or the deepest depth / 200,
@@ -66,13 +85,8 @@ pub fn mc_depths(
     dz: Option<f64>,
     opts: &McOptions,
 ) -> Result<McDepthValues, KmError> {
+    check_depths(depths)?;
     let bad = |name, value: String, reason| Err(KmError::Option { name, value, reason });
-    if depths.is_empty() {
-        return bad("depths", "[]".into(), "need at least one depth");
-    }
-    if let Some(z) = depths.iter().find(|z| !(z.is_finite() && **z >= 0.0)) {
-        return bad("depths", z.to_string(), "every depth must be finite and >= 0");
-    }
     let deepest = depths.iter().copied().fold(0.0, f64::max);
     let dz = match dz {
         Some(d) if d.is_finite() && d > 0.0 => d,
