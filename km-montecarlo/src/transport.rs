@@ -37,7 +37,7 @@ use crate::bins::{
 use crate::grid::GridTally;
 use crate::options::{Estimator, McOptions, RadialBins};
 use crate::rng::{McRng, uniform};
-use crate::sampling::{azimuth, azimuth_unscaled};
+use crate::sampling::{AzimuthTable, azimuth};
 use crate::tally::Layout;
 
 /// One layer as the tracer needs it.
@@ -157,6 +157,8 @@ pub(crate) struct Tracer {
     grid: Option<GridTally>,
     /// The planes and cones of the radiance inside, when asked.
     inside: Option<InsideTally>,
+    /// The scattering azimuth's table (docs/montecarlo.md eq. M4').
+    azimuth: AzimuthTable,
 }
 
 /// The planes and cones of the radiance inside (docs/field.md §4a).
@@ -253,6 +255,7 @@ impl Tracer {
             all_effects: opts.all_effects,
             grid: opts.grid.map(|g| GridTally::new(layout.grid(), &g)),
             inside: opts.inside.as_ref().map(|b| InsideTally::new(b, &slabs)),
+            azimuth: AzimuthTable::new(),
             slabs,
         }
     }
@@ -398,7 +401,7 @@ impl Tracer {
     /// zero-mean absorption so that R + T + A = 1 per photon; analog
     /// absorption ends the photon with probability `absorb`. Returns `false`
     /// when the photon is gone; `booked` receives what was booked.
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn absorb(
         &self,
@@ -510,8 +513,8 @@ impl Tracer {
                     Some(hg) => hg.sample(u),
                     None => slab.phase.sample_cos(u),
                 };
-                let (c, s, r2) = azimuth_unscaled(rng);
-                (p.ux, p.uy, p.uz) = spin_unscaled(p.ux, p.uy, p.uz, cos_t, c, s, r2);
+                let (c, s) = self.azimuth.sample(rng);
+                (p.ux, p.uy, p.uz) = spin_unscaled(p.ux, p.uy, p.uz, cos_t, c, s, 1.0);
                 if steps.is_multiple_of(RENORMALISE_EVERY) {
                     renormalise(&mut p);
                 }

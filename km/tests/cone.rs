@@ -13,17 +13,25 @@ const PEAK: &str = "[light]\nkind = \"collimated\"\ntheta_deg = 30\n[[layer]]\nt
                     albedo = 0.9\ng = 0.99\n[output]\ndirections_deg = [[30.0, 180.0], \
                     [33.0, 180.0], [40.0, 180.0]]\n";
 
+fn mflux(streams: usize) -> Options {
+    Options::from(km::MultifluxOptions { streams: Some(streams), ..Default::default() })
+}
+
 fn mc(samples: u64) -> Options {
     Options::from(McOptions { samples, seed: 11, ..Default::default() })
 }
 
 /// Monte Carlo with its cones (the default 5 degrees, and 1 degree set by
 /// `cone_deg`) against the multi-flux values averaged over the same cones:
-/// within 3 standard errors of the Monte Carlo mean in every direction.
-/// The multi-flux cone means are converged to better than a fifth of that
-/// (48 against 64 and 96 streams: 23.000, 22.999, 23.008 on the peak;
-/// 0.484, 0.473, 0.468 in the tail, where the tolerance is 3 x 0.010).
-/// The point value on the peak (684.5 /sr) is 30 times the 5-degree mean.
+/// within 3 standard errors of the Monte Carlo mean plus the multi-flux
+/// discretisation error, taken as the change from the default 48 streams
+/// to 96, in every direction. That error is small in the 5-degree cones
+/// (23.000 -> 23.008 on the peak, 0.484 -> 0.468 in the tail, where 3
+/// standard errors are 3 x 0.010) but not in the 1-degree cone of the tail:
+/// 0.383, 0.327, 0.376, 0.371, 0.354 at 24, 32, 48, 64, 96 streams, against
+/// a Monte Carlo mean of 0.358 +- 0.005 over 80 seeds of 2e5 photons (each
+/// 3 standard errors about 0.12). The point value on the peak (684.5 /sr)
+/// is 30 times the 5-degree mean.
 #[test]
 fn cone_means_of_multiflux_agree_with_monte_carlo_at_g_099() {
     let scene = Scene::from_toml_str(PEAK).unwrap();
@@ -31,12 +39,17 @@ fn cone_means_of_multiflux_agree_with_monte_carlo_at_g_099() {
     for cone in [5.0, 1.0] {
         let m = km::solve(&scene, &mc(200_000).with_cone(cone)).unwrap();
         let f = km::solve(&scene, &Options::new(Method::Multiflux).with_cone(cone)).unwrap();
-        let (mc, fl) = (&m.channels[0], &f.channels[0]);
+        let fine = km::solve(&scene, &mflux(96).with_cone(cone)).unwrap();
+        assert_eq!(f.to_json()["streams"], 48, "the default streams the comment measures");
+        let (mc, fl, fl96) = (&m.channels[0], &f.channels[0], &fine.channels[0]);
         let se = mc.stderr.as_ref().unwrap().btdf.as_ref().unwrap();
         for (i, &s) in se.iter().enumerate() {
-            let (x, y) = (mc.btdf[i], fl.btdf[i]);
-            println!("cone {cone}, direction {i}: mc {x} +- {s}, multiflux {y}");
-            assert!((x - y).abs() < 3.0 * s, "cone {cone}, direction {i}: {x} +- {s} vs {y}");
+            let (x, y, disc) = (mc.btdf[i], fl.btdf[i], (fl.btdf[i] - fl96.btdf[i]).abs());
+            println!("cone {cone}, direction {i}: mc {x} +- {s}, multiflux {y} (disc. {disc})");
+            assert!(
+                (x - y).abs() < 3.0 * s + disc,
+                "cone {cone}, direction {i}: {x} +- {s} vs {y} (disc. {disc})"
+            );
         }
         // Both say which cones they are means over.
         for sol in [&m, &f] {
