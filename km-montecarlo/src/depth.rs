@@ -35,6 +35,9 @@ pub struct DepthField {
     pub a_below: Vec<f64>,
     /// The whole solution of the run (totals, absorptance per layer, ...).
     pub solution: km_core::Solution,
+    /// Per channel, the radiance inside at the planes and directions of the
+    /// options' `inside`, when they ask for it (the same run: [`crate::run::solve_grid_inside`]).
+    pub inside: Option<Vec<crate::run::InsideResult>>,
 }
 
 /// What [`DepthField::z_scores`] compares.
@@ -50,7 +53,9 @@ pub enum DepthQuantity {
 
 /// `phi(z)`, `A(z)` and `F(z)` of `scene` on `nz` bins of width `dz` from
 /// the top surface (the run's other options from `opts`; its `grid` is
-/// replaced by this one with no radial or angular resolution).
+/// replaced by this one with no radial or angular resolution). With
+/// `opts.inside` the same run also gives the radiance inside
+/// ([`DepthField::inside`]).
 ///
 /// # Errors
 /// Those of [`crate::solve`]; a non-positive `dz` or `nz = 0` ([`McError::Option`]).
@@ -73,7 +78,7 @@ pub fn depth_field(
 ) -> Result<DepthField, McError> {
     let grid = McGrid { dz, nz, dr: 1.0, nr: 0, na: 0 };
     let o = McOptions { grid: Some(grid), ..opts.clone() };
-    let (solution, grids) = crate::solve_grid(scene, &o)?;
+    let (solution, grids, inside) = crate::run::solve_grid_inside(scene, &o)?;
     let take = |v: &Vec<f64>| v[..nz].to_vec();
     Ok(DepthField {
         dz,
@@ -86,6 +91,7 @@ pub fn depth_field(
         flux_se: grids.iter().map(|g| g.flux_z_se.clone()).collect(),
         a_below: grids.iter().map(|g| g.raw.a_z[nz]).collect(),
         solution,
+        inside,
     })
 }
 

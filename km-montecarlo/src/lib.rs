@@ -57,7 +57,7 @@ pub use km_core::Cancel;
 pub use options::{CANCEL_CHECK_PHOTONS, Estimator, McOptions, Progress, RadialBins};
 pub use run::{
     InsideResult, RadialProfile, merge_grid, projected_steps, radial_profile, run_shard, solve,
-    solve_grid, solve_inside,
+    solve_grid, solve_grid_inside, solve_inside,
 };
 pub use shard::{
     Partial, merge, merge_files, parse_partial, read_partial, shard_batches, write_atomic,

@@ -121,11 +121,40 @@ pub fn solve_inside(
     };
     let parts = [trace_shard(scene, opts, 0, 1)?];
     let m = accumulate_in_memory(&parts)?;
+    let results = inside_of(bins, &parts, &m);
+    Ok((build_solution(&parts, &m), results))
+}
+
+/// What [`solve_grid_inside`] gives: the solution, per channel the grid,
+/// and per channel the radiance inside when the run asked for it.
+pub type GridInside = (Solution, Vec<GridResult>, Option<Vec<InsideResult>>);
+
+/// [`solve_grid`] and [`solve_inside`] in one run, when `opts` asks for
+/// both (`grid` and `inside`): the photons, and so the tallies, are those
+/// of either alone (a tally draws no random number), bit for bit, at the
+/// cost of one run.
+///
+/// # Errors
+/// Those of [`solve`]; [`McError::Option`] when `opts.grid` is `None`.
+pub fn solve_grid_inside(scene: &Scene, opts: &McOptions) -> Result<GridInside, McError> {
+    let parts = [trace_shard(scene, opts, 0, 1)?];
+    let m = accumulate_in_memory(&parts)?;
+    let inside = opts.inside.as_ref().map(|bins| inside_of(bins, &parts, &m));
+    let (solution, grids) = grids_of(&parts, m)?;
+    Ok((solution, grids, inside))
+}
+
+/// The cone averages of the radiance inside, per channel, from the merged
+/// batches of a run with the planes of `bins` (eq. D16).
+fn inside_of(
+    bins: &crate::options::InsideBins,
+    parts: &[Partial],
+    m: &Merged,
+) -> Vec<InsideResult> {
     let omega: Vec<f64> =
         bins.half_angles().into_iter().map(crate::bins::cone_solid_angle).collect();
     let nd = omega.len();
-    let results = m
-        .stats
+    m.stats
         .iter()
         .zip(&parts[0].channels)
         .map(|(s, meta)| {
@@ -137,8 +166,7 @@ pub fn solve_inside(
             }
             InsideResult { radiance, radiance_se, solid_angle: omega.clone() }
         })
-        .collect();
-    Ok((build_solution(&parts, &m), results))
+        .collect()
 }
 
 /// [`crate::merge`] with the grid tallies: the merged solution and, per

@@ -29,7 +29,7 @@
 //! Taylor series for the offset within a table cell, one draw and no
 //! branch, the pair again `psi`'s to a few ulp. Rejection's loop exit (taken
 //! with probability `pi/4`) was the least predictable branch of the photon
-//! loop; without it `km mc` traces about 7 % faster. The rejection sampler
+//! loop; without it `km mc` traces 4-7 % faster. The rejection sampler
 //! stays for the launch and the Lambertian re-emission (no table at hand).
 //!
 //! # Reference

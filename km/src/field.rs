@@ -18,7 +18,8 @@
 //! [`FieldOptions::directions`]) the radiance `I(z, theta, phi)` at those
 //! directions and depths as well ([`InsideField`], docs/field.md §2a, §4a):
 //! multi-flux exact at any depth ([`km_multiflux::inside`]), Monte Carlo as
-//! cone averages with standard errors ([`crate::mc_field::mc_inside`]).
+//! cone averages with standard errors, from the run of the profiles
+//! ([`crate::mc_field::mc_depths_inside`]).
 
 use std::time::Instant;
 
@@ -32,7 +33,7 @@ use km_multiflux::depth::DepthField;
 
 use crate::error::{KmError, Reason, Unsupported};
 pub use crate::inside::InsideField;
-use crate::mc_field::{check_depths, mc_depths};
+use crate::mc_field::{check_depths, mc_depths, mc_depths_inside};
 use crate::{Method, MethodOptions, Solver};
 
 /// The settings of [`field`]: the method and its options.
@@ -168,7 +169,16 @@ pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Resu
         }
         Method::Mc => {
             check_in_stack(scene, depths)?;
-            let v = mc_depths(scene, depths, opts.dz, &opts.mc)?;
+            let v = if directions.is_empty() {
+                mc_depths(scene, depths, opts.dz, &opts.mc)?
+            } else {
+                // The radiance inside from the same run as the profiles.
+                let cone = opts.mc_cone_deg.unwrap_or(DEFAULT_INSIDE_CONE_DEG);
+                let (v, inside) =
+                    mc_depths_inside(scene, depths, opts.dz, directions, cone, &opts.mc)?;
+                f.inside = Some(inside);
+                v
+            };
             f.absorptance_layers = v
                 .bins
                 .solution
@@ -193,15 +203,16 @@ pub fn field(scene: &Scene, depths: Option<&[f64]>, opts: &FieldOptions) -> Resu
             return Err(Unsupported { method, reason: Reason::NoDepthField }.into());
         }
     }
-    if !directions.is_empty() {
+    if !directions.is_empty() && f.inside.is_none() {
         f.inside = Some(inside(scene, depths, directions, opts)?);
     }
     f.seconds = start.elapsed().as_secs_f64();
     Ok(f)
 }
 
-/// The radiance at `directions` and `depths` by `opts.method` (multi-flux
-/// or Monte Carlo; the others refuse with the reason).
+/// The radiance at `directions` and `depths` by `opts.method` (multi-flux;
+/// Monte Carlo gives it from the run of the profiles, [`field`]'s `Mc`
+/// arm; the others refuse with the reason).
 fn inside(
     scene: &Scene,
     depths: &[f64],
@@ -229,10 +240,6 @@ fn inside(
                 beams: Some([down, up]),
                 cone_half_angle_deg: None,
             })
-        }
-        Method::Mc => {
-            let cone = opts.mc_cone_deg.unwrap_or(DEFAULT_INSIDE_CONE_DEG);
-            crate::mc_field::mc_inside(scene, depths, directions, cone, &opts.mc)
         }
         m => Err(KmError::Option {
             name: "inside_directions_deg",

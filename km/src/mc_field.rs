@@ -184,7 +184,8 @@ fn interpolate(x: &[f64], se: &[f64], t: f64) -> (f64, f64) {
 /// half-angle `cone_deg` around each direction
 /// ([`km_montecarlo::solve_inside`]), as cone averages with standard errors
 /// (the cone is the estimator's resolution). A run of its own, with the
-/// options' photons and seed.
+/// options' photons and seed ([`mc_depths_inside`] gives it with the depth
+/// profiles of the same run).
 ///
 /// # Errors
 /// Depths or directions out of range, a cone outside `(0, 45]` degrees
@@ -196,6 +197,39 @@ pub fn mc_inside(
     cone_deg: f64,
     opts: &McOptions,
 ) -> Result<crate::inside::InsideField, KmError> {
+    let (o, cones) = with_inside(depths, directions, cone_deg, opts)?;
+    let (_, results) = km_montecarlo::solve_inside(scene, &o)?;
+    Ok(inside_field(directions, &results, cones))
+}
+
+/// [`mc_depths`] and [`mc_inside`] from one run: the photons, and so every
+/// value, are those of the two separate runs of the same options and seed
+/// (a tally draws no random number), at the cost of one.
+///
+/// # Errors
+/// Those of [`mc_depths`] and [`mc_inside`].
+pub fn mc_depths_inside(
+    scene: &Scene,
+    depths: &[f64],
+    dz: Option<f64>,
+    directions: &[[f64; 2]],
+    cone_deg: f64,
+    opts: &McOptions,
+) -> Result<(McDepthValues, crate::inside::InsideField), KmError> {
+    let (o, cones) = with_inside(depths, directions, cone_deg, opts)?;
+    let mut v = mc_depths(scene, depths, dz, &o)?;
+    let results = v.bins.inside.take().unwrap_or_default();
+    Ok((v, inside_field(directions, &results, cones)))
+}
+
+/// `opts` with the planes and cones of the radiance inside, and the cones'
+/// half-angles in degrees (narrowed near the horizon).
+fn with_inside(
+    depths: &[f64],
+    directions: &[[f64; 2]],
+    cone_deg: f64,
+    opts: &McOptions,
+) -> Result<(McOptions, Vec<f64>), KmError> {
     let bins = km_montecarlo::options::InsideBins {
         depths: depths.to_vec(),
         directions: directions.to_vec(),
@@ -203,15 +237,23 @@ pub fn mc_inside(
     };
     bins.validate()?;
     let cones: Vec<f64> = bins.half_angles().iter().map(|a| a.to_degrees()).collect();
-    let o = McOptions { inside: Some(Box::new(bins)), ..opts.clone() };
-    let (_, results) = km_montecarlo::solve_inside(scene, &o)?;
+    Ok((McOptions { inside: Some(Box::new(bins)), ..opts.clone() }, cones))
+}
+
+/// The run's radiance inside as the field's answer (plane-major values
+/// split per depth).
+fn inside_field(
+    directions: &[[f64; 2]],
+    results: &[km_montecarlo::InsideResult],
+    cones: Vec<f64>,
+) -> crate::inside::InsideField {
     let nd = directions.len();
     let split = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks(nd).map(<[f64]>::to_vec).collect() };
-    Ok(crate::inside::InsideField {
+    crate::inside::InsideField {
         directions: directions.to_vec(),
         radiance: results.iter().map(|r| split(&r.radiance)).collect(),
         stderr: Some(results.iter().map(|r| split(&r.radiance_se)).collect()),
         beams: None,
         cone_half_angle_deg: Some(cones),
-    })
+    }
 }

@@ -199,3 +199,39 @@ fn the_request_and_its_refusals() {
     .to_string();
     assert!(e.contains("inside_directions_deg"), "{e}");
 }
+
+/// `km field --method mc` with inside directions traces once: its profiles
+/// and radiance are, bit for bit, those of the two runs it replaced (the
+/// profiles alone, `mc_depths`, and the radiance alone, `mc_inside`, with
+/// the same photons and seed), on a scene with an index step and two layers.
+#[test]
+fn monte_carlo_profiles_and_radiance_come_from_one_run() {
+    let s = Scene::from_toml_str(
+        "[light]\ntheta_deg = 20.0\n[[layer]]\nsigma_a = 0.3\nsigma_s = 3.0\nthickness = 0.5\n\
+         g = 0.5\nn = 1.4\n[[layer]]\nsigma_a = 0.1\nsigma_s = 5.0\nthickness = 0.5\n\
+         g = 0.8\nn = 1.4\n",
+    )
+    .unwrap();
+    let dirs = vec![[20.0, 0.0], [60.0, 90.0], [150.0, 180.0]];
+    let depths = [0.0, 0.25, 0.5, 1.0];
+    let mc = McOptions { samples: 20_000, seed: 3, ..Default::default() };
+    let opts = FieldOptions {
+        method: FieldMethod(Method::Mc),
+        mc: mc.clone(),
+        directions: Some(dirs.clone()),
+        mc_cone_deg: Some(4.0),
+        ..Default::default()
+    };
+    let f = field(&s, Some(&depths), &opts).unwrap();
+    let alone = km::mc_field::mc_depths(&s, &depths, None, &mc).unwrap();
+    let inside = km::mc_field::mc_inside(&s, &depths, &dirs, 4.0, &mc).unwrap();
+    assert_eq!(f.fluence, alone.fluence);
+    assert_eq!(f.absorbed, alone.absorbed);
+    assert_eq!(f.net_flux, alone.net_flux);
+    let r = f.inside.unwrap();
+    assert_eq!(r.radiance, inside.radiance);
+    assert_eq!(r.stderr, inside.stderr);
+    assert_eq!(r.cone_half_angle_deg, inside.cone_half_angle_deg);
+    // Not vacuous: the radiance is there, with photons in every cone.
+    assert!(r.stderr.unwrap()[0].iter().flatten().all(|&e| e > 0.0));
+}
