@@ -18,7 +18,6 @@ mod field;
 mod fit;
 mod mc;
 mod phase;
-mod progress;
 #[cfg(test)]
 mod settings_parity;
 mod solve;

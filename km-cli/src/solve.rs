@@ -183,7 +183,9 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         let Some(out) = &args.out else {
             bail!("--shard {shard} needs --out FILE for the partial tally");
         };
-        let part = km::mc_shard(&scene, &args.options()?, i, n)?;
+        let mut opts = args.settings.options(args.method)?;
+        let _bar = args.progress().then(|| km::progress::attach(&scene, &mut opts));
+        let part = km::mc_shard(&scene, &opts, i, n)?;
         write_json(out, &serde_json::to_value(&part)?, inputs)?;
         stdout::eprint(&format!("wrote shard {i}/{n} to {}\n", out.display()))?;
         return Ok(());
@@ -251,16 +253,11 @@ pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) ->
 }
 
 /// Solve `scene` with the method and options of `args` (through
-/// [`km::solve_repeated`], `--repeat` times).
+/// [`km::solve_repeated`], `--repeat` times; progress on stderr when it may be shown).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
     let s = &args.settings;
-    let opts = args.options()?;
-    let _bar = match &opts.method {
-        km::MethodOptions::Multiflux(o) if args.progress() => {
-            crate::progress::Ticker::multiflux(scene, o, s.tolerance.is_some())
-        }
-        _ => None,
-    };
+    let mut opts = args.settings.options(args.method)?;
+    let _bar = args.progress().then(|| km::progress::attach(scene, &mut opts));
     km::solve_repeated(scene, &opts, s.repeat).map_err(|e| flag_error(e, args.method, s.tolerance))
 }
 
@@ -273,28 +270,22 @@ pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow:
 impl SolveArgs {
     /// Whether a progress bar may be shown (stderr is a terminal, no `--quiet`).
     fn progress(&self) -> bool {
-        crate::progress::wanted(self.settings.quiet)
-    }
-
-    /// The library options of the flags (a progress bar when it may be shown).
-    fn options(&self) -> Result<km::Options> {
-        self.settings.options(self.method, self.progress())
+        km::progress::wanted(self.settings.quiet)
     }
 }
 
 impl MethodArgs {
-    /// The library options of these settings for `method`, with a progress
-    /// bar for Monte Carlo when `progress`.
-    pub fn options(&self, method: Method, progress: bool) -> Result<km::Options> {
+    /// The library options of these settings for `method`.
+    pub fn options(&self, method: Method) -> Result<km::Options> {
         if self.tolerance.is_some() && self.streams.is_some() {
             bail!("give either --streams or --tolerance, not both");
         }
-        options(method, self, progress)
+        options(method, self)
     }
 }
 
 /// The library options of the settings `args` for `method`.
-fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Options> {
+fn options(method: Method, args: &MethodArgs) -> Result<km::Options> {
     let method = match method {
         Method::Km => {
             km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping, model: args.km_model })
@@ -314,7 +305,6 @@ fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Opti
             seed: args.seed,
             threads: args.threads,
             estimator: args.estimator,
-            progress: progress.then(crate::progress::photons),
             all_effects: args.all_effects,
             ..Default::default()
         }),

@@ -60,7 +60,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         None
     };
     // The points run in parallel: no progress bar.
-    let opts = s.options(args.method, false)?;
+    let opts = s.options(args.method)?;
     let points = km::sweep(&text, &edits, &axes, &opts)
         .map_err(|e| flag_error(e, args.method, s.tolerance))?;
     let Some(w) = wavelengths else {
