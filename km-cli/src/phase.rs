@@ -79,5 +79,5 @@ fn parse_angles(spec: &str) -> Result<Vec<f64>> {
 fn plot_target(path: &Path) -> Result<(PathBuf, String)> {
     let png = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
     let svg = if png { path.with_extension("svg") } else { path.to_path_buf() };
-    crate::field::plot_target(&svg)
+    km_plot::chart::chart_target(&svg)
 }
