@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use clap::builder::TypedValueParser;
-use km::settings::{FlagError, option_flag};
+use km::settings::{FlagError, Settings, Value, option_flag};
 use km::{KmError, Method, Scene, Solution};
 
 use crate::stdout;
@@ -56,79 +56,44 @@ pub struct SolveArgs {
     pub colour: crate::colour::ColourArgs,
 }
 
-// The settings of a solve, one flag each (km::settings::SETTINGS; the same
-// flags in `km solve` and `km sweep`; no doc comment: it would become the
-// command's about).
-#[derive(clap::Args, Debug, Clone)]
+// The settings of a solve, one flag each, made from the one table
+// (`km::settings::command_line`; the same flags in `km solve` and `km sweep`),
+// and `--quiet` (no doc comment: it would become the command's about).
+#[derive(Debug, Clone)]
 pub struct MethodArgs {
-    /// Accuracy target: every number asked for (R, T, their delta parts, each BRDF/BTDF value)
-    /// within TOL * max(1, |x|); chooses streams or samples, reports `error_estimate` and
-    /// `tolerance.limited_by`, fails when unreachable [multiflux, mc].
-    #[arg(long)]
-    pub tolerance: Option<f64>,
-    /// Compute every effect (planner off), for comparison.
-    #[arg(long)]
-    pub all_effects: bool,
-    /// Two-flux coefficients K, S from the scene [km] (default gate1974, the least error
-    /// against multi-flux on the grid of docs/two-flux.md §13; seed: the paper's K = sigma_a,
-    /// S = sigma_s).
-    #[arg(long, value_enum, default_value_t = km::KmMapping::Gate1974)]
-    pub km_mapping: km::KmMapping,
-    /// Two-flux model [km]: four-flux carries a collimated beam as a beam (refracted,
-    /// Beer–Lambert on its path, Fresnel at its own angle); two-flux is the seed's diffuse
-    /// model (default four-flux; the same for diffuse light).
-    #[arg(long, value_enum, default_value_t = km::KmModel::FourFlux)]
-    pub km_model: km::KmModel,
-    /// Gauss nodes per hemisphere [multiflux] (default 16).
-    #[arg(long)]
-    pub streams: Option<usize>,
-    /// Truncate adding after this Neumann order (seed eq. 21) [multiflux]; default exact.
-    #[arg(long)]
-    pub order: Option<usize>,
-    /// Directions on the sphere, both hemispheres, in the medium of lowest index (4..=2000)
-    /// [direction-set] (the default is the seed's 303).
-    #[arg(long, value_name = "N", default_value_t = km::direction_set::DEFAULT_DIRECTIONS)]
-    pub directions: usize,
-    /// BRDF/BTDF values as means over cones of this half-angle, degrees, in (0, 45]: the
-    /// Monte Carlo bins (default 5), or the multi-flux values averaged over the same cones
-    /// for comparison with them [mc, multiflux].
-    #[arg(long, value_name = "DEG")]
-    pub cone: Option<f64>,
-    /// Photons per channel [mc].
-    #[arg(long, default_value_t = 1_000_000)]
-    pub samples: u64,
-    /// Seed [mc]; the same seed gives bit-identical results for any thread count.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Worker threads [mc] (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Absorption estimator [mc].
-    #[arg(long, value_enum, default_value_t = km::Estimator::SurvivalBiasing)]
-    pub estimator: km::Estimator,
-    /// Run shard I of N (0-based) and write its partial tally to --out [mc].
-    #[arg(long, value_name = "I/N")]
-    pub shard: Option<String>,
-    /// Multiply every default work and memory budget by this factor: one solve's (Monte Carlo
-    /// photon steps and tally memory, multi-flux work) and a request of many points' (every
-    /// method); see docs/limits.md.
-    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
-    pub budget: f64,
-    /// Solve K times in this process: `seconds` stays the first (cold) call's,
-    /// `seconds_best` and `seconds_median` are over all K calls (1..=10000).
-    #[arg(long, value_name = "K", default_value_t = 1,
-          value_parser = clap::value_parser!(u32).range(1..=10_000))]
-    pub repeat: u32,
-    /// No progress bar on stderr (it is drawn only for a solve expected to last more than
-    /// 2 s, and never when stderr is not a terminal).
-    #[arg(long)]
+    /// The settings given, by name, as text.
+    pub given: Vec<(&'static str, String)>,
+    /// No progress bar.
     pub quiet: bool,
-    /// How F_dr is computed [dipole].
-    #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
-    pub fdr: km::FdrModel,
-    /// Which dipole [dipole].
-    #[arg(long, value_enum, default_value_t = km::DipoleModel::Jensen2001)]
-    pub dipole: km::DipoleModel,
+}
+
+impl clap::FromArgMatches for MethodArgs {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        Ok(MethodArgs { given: km::settings::command_line::given(m), quiet: m.get_flag("quiet") })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for MethodArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        let mut args = km::settings::command_line::args();
+        let quiet = clap::Arg::new("quiet").long("quiet").action(clap::ArgAction::SetTrue).help(
+            "No progress bar on stderr (it is drawn only for a solve expected to last more \
+             than 2 s, and never when stderr is not a terminal)",
+        );
+        // After the settings every method reads, before the dipole's.
+        let at = args.iter().position(|a| a.get_id() == "fdr").unwrap_or(args.len());
+        args.insert(at, quiet);
+        cmd.args(args)
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
 }
 
 /// Output format of `km solve`, `km merge` and `km profile`.
@@ -172,18 +137,12 @@ impl SolveArgs {
 pub fn run(args: &SolveArgs) -> Result<()> {
     let scene = args.input.load()?;
     let inputs = std::slice::from_ref(&args.input.scene);
-    if let Some(shard) = &args.settings.shard {
-        let (i, n) = parse_shard(shard)?;
-        if args.settings.repeat > 1 {
-            bail!("--repeat does not combine with --shard (a shard is written once)");
-        }
-        if args.method != Method::Mc {
-            bail!("--shard applies to --method mc only");
-        }
+    let settings = args.settings.settings(args.method)?;
+    if let Some((i, n)) = settings.shard() {
         let Some(out) = &args.out else {
-            bail!("--shard {shard} needs --out FILE for the partial tally");
+            bail!("--shard {i}/{n} needs --out FILE for the partial tally");
         };
-        let mut opts = args.settings.options(args.method)?;
+        let mut opts = args.settings.options(&settings)?;
         let _bar = args.progress().then(|| km::progress::attach(&scene, &mut opts));
         let part = km::mc_shard(&scene, &opts, i, n)?;
         write_json(out, &serde_json::to_value(&part)?, inputs)?;
@@ -205,7 +164,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
 /// spectra (JSON key `colour`, or lines after the table).
 fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<()> {
     let inputs = std::slice::from_ref(&args.input.scene);
-    if args.settings.shard.is_some() {
+    if args.settings.given.iter().any(|(name, _)| *name == "shard") {
         bail!("--colour does not combine with --shard (a shard prints nothing; `km merge` does)");
     }
     if format == OutputFormat::Csv {
@@ -255,16 +214,20 @@ pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) ->
 /// Solve `scene` with the method and options of `args` (through
 /// [`km::solve_repeated`], `--repeat` times; progress on stderr when it may be shown).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
-    let s = &args.settings;
-    let mut opts = args.settings.options(args.method)?;
+    let settings = args.settings.settings(args.method)?;
+    let mut opts = args.settings.options(&settings)?;
     let _bar = args.progress().then(|| km::progress::attach(scene, &mut opts));
-    km::solve_repeated(scene, &opts, s.repeat).map_err(|e| flag_error(e, args.method, s.tolerance))
+    km::solve_repeated(scene, &opts, settings.repeat()).map_err(|e| flag_error(e, &settings))
 }
 
 /// A library refusal in the words of the flags that caused it
 /// (`km::settings::solve_flag_error`).
-pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow::Error {
-    km::settings::solve_flag_error(e, method, tolerance).into()
+pub fn flag_error(e: KmError, settings: &Settings) -> anyhow::Error {
+    let tolerance = match settings.get("tolerance") {
+        Some(Value::Real(t)) => Some(*t),
+        _ => None,
+    };
+    km::settings::solve_flag_error(e, settings.method(), tolerance).into()
 }
 
 impl SolveArgs {
@@ -275,64 +238,18 @@ impl SolveArgs {
 }
 
 impl MethodArgs {
-    /// The library options of these settings for `method`.
-    pub fn options(&self, method: Method) -> Result<km::Options> {
-        if self.tolerance.is_some() && self.streams.is_some() {
-            bail!("give either --streams or --tolerance, not both");
-        }
-        options(method, self)
+    /// The settings given, for `method` (`km::settings::Settings::from_flags`).
+    pub fn settings(&self, method: Method) -> Result<Settings> {
+        Ok(Settings::from_flags(method, &self.given).map_err(option_flag)?)
     }
-}
 
-/// The library options of the settings `args` for `method`.
-fn options(method: Method, args: &MethodArgs) -> Result<km::Options> {
-    let method = match method {
-        Method::Km => {
-            km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping, model: args.km_model })
+    /// The library options of `settings` (`km::settings::Settings::options`).
+    pub fn options(&self, settings: &Settings) -> Result<km::Options> {
+        if settings.method() == Method::Mc && settings.get("samples") == Some(&Value::Count(0)) {
+            bail!("--samples must be at least 1");
         }
-        Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
-            streams: args.streams,
-            neumann_order: args.order,
-            all_effects: args.all_effects,
-            ..Default::default()
-        }),
-        Method::DirectionSet => {
-            km::MethodOptions::DirectionSet(km::DirectionSetOptions { directions: args.directions })
-        }
-        Method::Mc if args.samples == 0 => bail!("--samples must be at least 1"),
-        Method::Mc => km::MethodOptions::Mc(km::McOptions {
-            samples: args.samples,
-            seed: args.seed,
-            threads: args.threads,
-            estimator: args.estimator,
-            all_effects: args.all_effects,
-            ..Default::default()
-        }),
-        Method::Dipole => {
-            km::MethodOptions::Dipole(km::DipoleOptions { fdr: args.fdr, model: args.dipole })
-        }
-    };
-    let opts = km::Options {
-        method,
-        tolerance: args.tolerance,
-        all_effects: args.all_effects,
-        cone_deg: args.cone,
-        budget: 1.0,
-        cancel: None,
-    };
-    Ok(opts.with_budget(args.budget).map_err(option_flag)?)
-}
-
-/// `I/N` with `0 <= I < N`.
-fn parse_shard(text: &str) -> Result<(u64, u64)> {
-    let (i, n) =
-        text.split_once('/').with_context(|| format!("--shard {text}: expected I/N, e.g. 0/4"))?;
-    let i: u64 = i.trim().parse().with_context(|| format!("--shard {text}: I is not a number"))?;
-    let n: u64 = n.trim().parse().with_context(|| format!("--shard {text}: N is not a number"))?;
-    if n == 0 || i >= n {
-        bail!("--shard {text}: need 0 <= I < N");
+        Ok(settings.options().map_err(option_flag)?)
     }
-    Ok((i, n))
 }
 
 /// `km profile`: Rd(r) by the dipole or Monte Carlo, printed.
