@@ -182,7 +182,7 @@ fn parse_args<T: clap::Args + FromArgMatches>(argv: &[&'static str]) -> T {
 
 fn main() -> ExitCode {
     stdout::init();
-    let matches = Cli::command().get_matches();
+    let matches = Cli::command().mut_subcommand("fit", fit::help_order).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let command = cli.command.unwrap_or_else(|| Command::Reproduce(parse_args(&["reproduce"])));
     let checked = solve::check_flags(&matches).and_then(|()| fit::check_flags(&matches));
