@@ -30,7 +30,7 @@ use std::process::ExitCode;
 use anyhow::bail;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use km::Method;
-use solve::{OutputFormat, SceneArg, method_parser, profile_method_parser};
+use solve::{OutputFormat, SceneArg, method_parser};
 
 /// The scene solved by `km demo`.
 const DEMO_SCENE: &str = include_str!("../../examples/seed-three-layers.toml");
@@ -93,7 +93,7 @@ enum Command {
         #[command(flatten)]
         input: SceneArg,
         /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
-        #[arg(long, short, value_parser = profile_method_parser(), default_value = "dipole")]
+        #[arg(long, short, value_parser = km::settings::command_line::method_parser(&[Method::Dipole, Method::Mc]), default_value = "dipole")]
         method: Method,
         /// Largest radius, in the scene's length unit (default: 10 transport lengths).
         #[arg(long)]

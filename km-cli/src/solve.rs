@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use clap::builder::TypedValueParser;
-use km::settings::{FlagError, Settings, Value, option_flag};
+use km::settings::{FlagError, Settings, option_flag};
 use km::{KmError, Method, Scene, Solution};
 
 use crate::stdout;
@@ -51,49 +51,9 @@ pub struct SolveArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
-    pub settings: MethodArgs,
+    pub settings: km::settings::command_line::SolveFlags,
     #[command(flatten)]
     pub colour: crate::colour::ColourArgs,
-}
-
-// The settings of a solve, one flag each, made from the one table
-// (`km::settings::command_line`; the same flags in `km solve` and `km sweep`),
-// and `--quiet` (no doc comment: it would become the command's about).
-#[derive(Debug, Clone)]
-pub struct MethodArgs {
-    /// The settings given, by name, as text.
-    pub given: Vec<(&'static str, String)>,
-    /// No progress bar.
-    pub quiet: bool,
-}
-
-impl clap::FromArgMatches for MethodArgs {
-    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
-        Ok(MethodArgs { given: km::settings::command_line::given(m), quiet: m.get_flag("quiet") })
-    }
-
-    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
-        *self = Self::from_arg_matches(m)?;
-        Ok(())
-    }
-}
-
-impl clap::Args for MethodArgs {
-    fn augment_args(cmd: clap::Command) -> clap::Command {
-        let mut args = km::settings::command_line::args();
-        let quiet = clap::Arg::new("quiet").long("quiet").action(clap::ArgAction::SetTrue).help(
-            "No progress bar on stderr (it is drawn only for a solve expected to last more \
-             than 2 s, and never when stderr is not a terminal)",
-        );
-        // After the settings every method reads, before the dipole's.
-        let at = args.iter().position(|a| a.get_id() == "fdr").unwrap_or(args.len());
-        args.insert(at, quiet);
-        cmd.args(args)
-    }
-
-    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
-        Self::augment_args(cmd)
-    }
 }
 
 /// Output format of `km solve`, `km merge` and `km profile`.
@@ -116,14 +76,7 @@ impl OutputFormat {
 
 /// The `--method` values: the library's method registry.
 pub fn method_parser() -> impl TypedValueParser<Value = Method> {
-    clap::builder::PossibleValuesParser::new(Method::ALL.map(Method::name))
-        .try_map(|s| s.parse::<Method>())
-}
-
-/// The `km profile --method` values: the methods that give `Rd(r)`.
-pub fn profile_method_parser() -> impl TypedValueParser<Value = Method> {
-    clap::builder::PossibleValuesParser::new([Method::Dipole.name(), Method::Mc.name()])
-        .try_map(|s| s.parse::<Method>())
+    km::settings::command_line::method_parser(&Method::ALL)
 }
 
 impl SolveArgs {
@@ -221,34 +174,15 @@ pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
 }
 
 /// A library refusal in the words of the flags that caused it
-/// (`km::settings::solve_flag_error`).
+/// (`km::settings::command_line::solve_error`).
 pub fn flag_error(e: KmError, settings: &Settings) -> anyhow::Error {
-    let tolerance = match settings.get("tolerance") {
-        Some(Value::Real(t)) => Some(*t),
-        _ => None,
-    };
-    km::settings::solve_flag_error(e, settings.method(), tolerance).into()
+    km::settings::command_line::solve_error(e, settings).into()
 }
 
 impl SolveArgs {
     /// Whether a progress bar may be shown (stderr is a terminal, no `--quiet`).
     fn progress(&self) -> bool {
         km::progress::wanted(self.settings.quiet)
-    }
-}
-
-impl MethodArgs {
-    /// The settings given, for `method` (`km::settings::Settings::from_flags`).
-    pub fn settings(&self, method: Method) -> Result<Settings> {
-        Ok(Settings::from_flags(method, &self.given).map_err(option_flag)?)
-    }
-
-    /// The library options of `settings` (`km::settings::Settings::options`).
-    pub fn options(&self, settings: &Settings) -> Result<km::Options> {
-        if settings.method() == Method::Mc && settings.get("samples") == Some(&Value::Count(0)) {
-            bail!("--samples must be at least 1");
-        }
-        Ok(settings.options().map_err(option_flag)?)
     }
 }
 

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use km::Method;
 
-use crate::solve::{MethodArgs, flag_error, method_parser};
+use crate::solve::{flag_error, method_parser};
 use crate::stdout;
 
 // The flags of `km sweep` (no doc comment: it would become the command's about).
@@ -26,7 +26,7 @@ pub struct SweepArgs {
     #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
     pub format: km::SweepFormat,
     #[command(flatten)]
-    pub settings: MethodArgs,
+    pub settings: km::settings::command_line::SolveFlags,
     #[command(flatten)]
     pub colour: crate::colour::ColourArgs,
 }

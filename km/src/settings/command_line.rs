@@ -1,19 +1,96 @@
 //! The settings as command-line flags (feature `clap`): one [`clap::Arg`]
 //! per setting of [`SETTINGS`], made from the table (`--name` with `_`
-//! written `-`, its help line, default, value name and choices), and the
+//! written `-`, its help line, default, value name and choices), the
 //! settings given on a command line read back as text for
-//! [`Settings::from_flags`](super::Settings::from_flags).
+//! [`Settings::from_flags`], and [`SolveFlags`], the flags of a solve
+//! (`km solve`, `km sweep`) from which its options are built.
 //!
 //! The parser checks each value's type (a whole number, a number, one of
 //! the choices; a shard is text), and the range of a count every method
 //! reads (`repeat`), which no method's options see; the other ranges are
 //! checked by the options of the method that reads the setting, in its words.
 
-use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::parser::ValueSource;
-use clap::{Arg, ArgAction, ArgMatches, ValueEnum};
+use clap::{Arg, ArgAction, ArgMatches, Command, ValueEnum};
 
-use super::{ALL, Kind, SETTINGS, Setting};
+use super::{ALL, FlagError, Kind, SETTINGS, Setting, Settings, Value, option_flag};
+use crate::{KmError, Method, Options};
+
+/// The flags of a solve: every setting of [`SETTINGS`] and `--quiet` (no
+/// progress bar, `crate::progress`); `clap::Args`, flattened into a command.
+#[derive(Debug, Clone, Default)]
+pub struct SolveFlags {
+    /// The settings given, by name, as text.
+    pub given: Vec<(&'static str, String)>,
+    /// No progress bar on stderr.
+    pub quiet: bool,
+}
+
+impl clap::FromArgMatches for SolveFlags {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        Ok(SolveFlags { given: given(m), quiet: m.get_flag("quiet") })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for SolveFlags {
+    fn augment_args(cmd: Command) -> Command {
+        let mut args = args();
+        let quiet = Arg::new("quiet").long("quiet").action(ArgAction::SetTrue).help(
+            "No progress bar on stderr (it is drawn only for a solve expected to last more \
+             than 2 s, and never when stderr is not a terminal)",
+        );
+        // After the settings every method reads, before the dipole's.
+        let at = args.iter().position(|a| a.get_id() == "fdr").unwrap_or(args.len());
+        args.insert(at, quiet);
+        cmd.args(args)
+    }
+
+    fn augment_args_for_update(cmd: Command) -> Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl SolveFlags {
+    /// The settings given, for `method` ([`Settings::from_flags`]).
+    ///
+    /// # Errors
+    /// A shard that is not `I/N` with `0 <= I < N`, in the words of `--shard`.
+    pub fn settings(&self, method: Method) -> Result<Settings, FlagError> {
+        Settings::from_flags(method, &self.given).map_err(option_flag)
+    }
+
+    /// The library options of `settings` ([`Settings::options`]).
+    ///
+    /// # Errors
+    /// No photon (`--samples 0`), and an invalid `--budget`, in the flags' words.
+    pub fn options(&self, settings: &Settings) -> Result<Options, FlagError> {
+        if settings.method() == Method::Mc && settings.get("samples") == Some(&Value::Count(0)) {
+            return Err(FlagError::Option("--samples must be at least 1".into()));
+        }
+        settings.options().map_err(option_flag)
+    }
+}
+
+/// A refusal of a solve with `settings`, in the words of the flags that
+/// caused it ([`super::solve_flag_error`]).
+pub fn solve_error(e: KmError, settings: &Settings) -> FlagError {
+    let tolerance = match settings.get("tolerance") {
+        Some(Value::Real(t)) => Some(*t),
+        _ => None,
+    };
+    super::solve_flag_error(e, settings.method(), tolerance)
+}
+
+/// The values of `--method`: the names of `methods`.
+pub fn method_parser(methods: &[Method]) -> impl TypedValueParser<Value = Method> + use<> {
+    PossibleValuesParser::new(methods.iter().map(|m| m.name())).try_map(|s| s.parse::<Method>())
+}
 
 /// The flag of every setting, in the table's order.
 pub fn args() -> Vec<Arg> {
