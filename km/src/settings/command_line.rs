@@ -61,19 +61,19 @@ impl SolveFlags {
     ///
     /// # Errors
     /// A shard that is not `I/N` with `0 <= I < N`, in the words of `--shard`.
-    pub fn settings(&self, method: Method) -> Result<Settings, FlagError> {
-        Settings::from_flags(method, &self.given).map_err(option_flag)
+    pub fn settings(&self, method: Method) -> Result<Settings, Box<FlagError>> {
+        Settings::from_flags(method, &self.given).map_err(|e| Box::new(option_flag(e)))
     }
 
     /// The library options of `settings` ([`Settings::options`]).
     ///
     /// # Errors
     /// No photon (`--samples 0`), and an invalid `--budget`, in the flags' words.
-    pub fn options(&self, settings: &Settings) -> Result<Options, FlagError> {
+    pub fn options(&self, settings: &Settings) -> Result<Options, Box<FlagError>> {
         if settings.method() == Method::Mc && settings.get("samples") == Some(&Value::Count(0)) {
-            return Err(FlagError::Option("--samples must be at least 1".into()));
+            return Err(Box::new(FlagError::Option("--samples must be at least 1".into())));
         }
-        settings.options().map_err(option_flag)
+        settings.options().map_err(|e| Box::new(option_flag(e)))
     }
 }
 
