@@ -88,11 +88,7 @@ pub fn run(args: &FieldArgs) -> Result<()> {
     }
     let format =
         if args.csv { OutputFormat::Csv } else { OutputFormat::of(args.json, args.format) };
-    match format {
-        OutputFormat::Json => stdout::print_json(&f.to_json()),
-        OutputFormat::Csv => stdout::print(&f.csv()),
-        OutputFormat::Table => stdout::print(&f.table()),
-    }
+    stdout::print(&format.text(|| f.table(), || f.csv(), || f.to_json()))
 }
 
 /// `THETA:PHI` in degrees.

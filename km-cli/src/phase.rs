@@ -55,11 +55,7 @@ pub fn run(args: &PhaseArgs) -> Result<()> {
     if let Some((dir, stem)) = plot {
         km_plot::phase::write_phase_chart(&report, &dir, &stem)?;
     }
-    match args.format {
-        OutputFormat::Json => stdout::print_json(&report.to_json()),
-        OutputFormat::Csv => stdout::print(&csv(&report)),
-        OutputFormat::Table => stdout::print(&table(&report)),
-    }
+    stdout::print(&args.format.text(|| table(&report), || csv(&report), || report.to_json()))
 }
 
 /// The angles of `--angles SPEC` (the syntax of `km bsdf`'s angle lists,

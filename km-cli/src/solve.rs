@@ -5,10 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
 use clap::builder::TypedValueParser;
 use km::settings::{FlagError, Settings, option_flag};
 use km::{KmError, Method, Scene, Solution};
+
+pub use km::text::Format as OutputFormat;
 
 use crate::stdout;
 
@@ -54,24 +55,6 @@ pub struct SolveArgs {
     pub settings: km::settings::command_line::SolveFlags,
     #[command(flatten)]
     pub colour: crate::colour::ColourArgs,
-}
-
-/// Output format of `km solve`, `km merge` and `km profile`.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OutputFormat {
-    /// Text for people.
-    Table,
-    /// The JSON contract of docs/cli.md.
-    Json,
-    /// Comma-separated values with a header.
-    Csv,
-}
-
-impl OutputFormat {
-    /// `--json` or `--format` (table by default).
-    pub fn of(json: bool, format: Option<OutputFormat>) -> OutputFormat {
-        format.unwrap_or(if json { OutputFormat::Json } else { OutputFormat::Table })
-    }
 }
 
 /// The `--method` values: the library's method registry.
@@ -149,11 +132,8 @@ fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<(
 
 /// Print a solution as a table, JSON or CSV.
 pub fn print(sol: &Solution, scene: Option<&Scene>, format: OutputFormat) -> Result<()> {
-    stdout::print(&match format {
-        OutputFormat::Json => return stdout::print_json(&sol.to_json()),
-        OutputFormat::Csv => km::text::csv(sol, scene),
-        OutputFormat::Table => km::text::table(sol, scene),
-    })
+    let (table, csv) = (|| km::text::table(sol, scene), || km::text::csv(sol, scene));
+    stdout::print(&format.text(table, csv, || sol.to_json()))
 }
 
 /// Write `value` to `path` atomically, never over one of `inputs` (docs/limits.md).
@@ -192,11 +172,7 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
         e @ KmError::Option { .. } => option_flag(e),
         e => FlagError::after(format!("--method {}", opts.method.name()), e),
     })?;
-    stdout::print(&match format {
-        OutputFormat::Json => return stdout::print_json(&p.to_json()),
-        OutputFormat::Csv => p.csv(),
-        OutputFormat::Table => p.table(),
-    })
+    stdout::print(&format.text(|| p.table(), || p.csv(), || p.to_json()))
 }
 
 /// Refuse a flag that does not apply to the chosen method or mode (clap cannot
