@@ -92,25 +92,8 @@ enum Command {
     Profile {
         #[command(flatten)]
         input: SceneArg,
-        /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
-        #[arg(long, short, value_parser = km::settings::command_line::method_parser(&[Method::Dipole, Method::Mc]), default_value = "dipole")]
-        method: Method,
-        /// Largest radius, in the scene's length unit (default: 10 transport lengths).
-        #[arg(long)]
-        r_max: Option<f64>,
-        /// Number of radii (dipole) or annuli (mc).
-        #[arg(long, default_value_t = 20)]
-        points: usize,
-        /// Monte Carlo photons [mc].
-        #[arg(long, default_value_t = 1_000_000)]
-        samples: u64,
-        /// Monte Carlo seed [mc].
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Depths at which to give the dipole's fluence phi(r, z) as well [dipole]
-        /// (comma-separated, the layer's length unit).
-        #[arg(long, value_delimiter = ',', num_args = 1..)]
-        depths: Option<Vec<f64>>,
+        #[command(flatten)]
+        options: km::ProfileOptions,
         /// Print JSON instead of a table (the same as `--format json`).
         #[arg(long, conflicts_with = "format")]
         json: bool,
@@ -210,10 +193,8 @@ fn run(command: Command) -> anyhow::Result<()> {
             }
             solve::print(&sol, None, OutputFormat::of(json, format))
         }
-        Command::Profile { input, method, r_max, points, samples, seed, depths, json, format } => {
-            let depths = depths.unwrap_or_default();
-            let opts = km::ProfileOptions { method, r_max, points, samples, seed, depths };
-            solve::profile(&input.load()?, &opts, OutputFormat::of(json, format))
+        Command::Profile { input, options, json, format } => {
+            solve::profile(&input.load()?, &options, OutputFormat::of(json, format))
         }
         Command::Sweep(args) => sweep::run(&args),
         Command::Plan { input, method, json, all_effects } => {
