@@ -73,10 +73,7 @@ pub fn run(args: &FitArgs) -> Result<()> {
 /// the mode (`km_inverse::request::check_options`).
 pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
     let Some(("fit", m)) = matches.subcommand() else { return Ok(()) };
-    let given = |id: &str| {
-        matches!(m.try_get_raw(id), Ok(Some(_)))
-            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
-    };
+    let given = km::settings::command_line::given_flag(m);
     let file = m.try_get_one::<PathBuf>("file").ok().flatten();
     debug_assert!(FIT_OPTIONS.iter().all(|(id, _)| m.try_get_raw(id).is_ok()));
     Ok(check_options(Mode::of(given("km"), file.map(PathBuf::as_path)), given)?)

@@ -78,9 +78,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         let Some(out) = &args.out else {
             bail!("--shard {i}/{n} needs --out FILE for the partial tally");
         };
-        let mut opts = args.settings.options(&settings)?;
-        let _bar = args.progress().then(|| km::progress::attach(&scene, &mut opts));
-        let part = km::mc_shard(&scene, &opts, i, n)?;
+        let part = args.settings.shard(&scene, &settings, (i, n))?;
         write_json(out, &serde_json::to_value(&part)?, inputs)?;
         stdout::eprint(&format!("wrote shard {i}/{n} to {}\n", out.display()))?;
         return Ok(());
@@ -144,26 +142,15 @@ pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) ->
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Solve `scene` with the method and options of `args` (through
-/// [`km::solve_repeated`], `--repeat` times; progress on stderr when it may be shown).
+/// Solve `scene` as the flags of `args` ask (`km::settings::command_line::SolveFlags`).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
-    let settings = args.settings.settings(args.method)?;
-    let mut opts = args.settings.options(&settings)?;
-    let _bar = args.progress().then(|| km::progress::attach(scene, &mut opts));
-    km::solve_repeated(scene, &opts, settings.repeat()).map_err(|e| flag_error(e, &settings))
+    Ok(args.settings.solve(scene, args.method)?)
 }
 
 /// A library refusal in the words of the flags that caused it
 /// (`km::settings::command_line::solve_error`).
 pub fn flag_error(e: KmError, settings: &Settings) -> anyhow::Error {
     km::settings::command_line::solve_error(e, settings).into()
-}
-
-impl SolveArgs {
-    /// Whether a progress bar may be shown (stderr is a terminal, no `--quiet`).
-    fn progress(&self) -> bool {
-        km::progress::wanted(self.settings.quiet)
-    }
 }
 
 /// `km profile`: Rd(r) by the dipole or Monte Carlo, printed.
@@ -179,10 +166,7 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
 /// know the method: checked after parsing; `km::settings::refuse_flags`).
 pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
     let Some((command, m)) = matches.subcommand() else { return Ok(()) };
-    let given = |id: &str| {
-        matches!(m.try_get_raw(id), Ok(Some(_)))
-            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
-    };
+    let given = km::settings::command_line::given_flag(m);
     let method = m.try_get_one::<Method>("method").ok().flatten().copied();
     km::settings::refuse_flags(command, method, given).map_err(anyhow::Error::msg)
 }

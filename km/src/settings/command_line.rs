@@ -77,6 +77,55 @@ impl SolveFlags {
     }
 }
 
+#[cfg(feature = "progress")]
+impl SolveFlags {
+    /// Solve `scene` by `method` as these flags ask: their settings and
+    /// options, `repeat` times ([`crate::solve_repeated`]), with a progress
+    /// bar on stderr when it may be shown ([`crate::progress`]).
+    ///
+    /// # Errors
+    /// The refusals of [`SolveFlags::settings`], [`SolveFlags::options`] and
+    /// of the solve, in the flags' words ([`solve_error`]).
+    pub fn solve(
+        &self,
+        scene: &crate::Scene,
+        method: Method,
+    ) -> Result<crate::Solution, Box<FlagError>> {
+        let settings = self.settings(method)?;
+        let mut opts = self.options(&settings)?;
+        let _bar =
+            crate::progress::wanted(self.quiet).then(|| crate::progress::attach(scene, &mut opts));
+        crate::solve_repeated(scene, &opts, settings.repeat())
+            .map_err(|e| Box::new(solve_error(e, &settings)))
+    }
+
+    /// Shard `i` of `n` of a Monte Carlo run of `scene` as these flags ask
+    /// ([`crate::mc_shard`]), with a progress bar as [`SolveFlags::solve`].
+    ///
+    /// # Errors
+    /// As [`SolveFlags::solve`].
+    pub fn shard(
+        &self,
+        scene: &crate::Scene,
+        settings: &Settings,
+        (i, n): (u64, u64),
+    ) -> Result<crate::Partial, Box<FlagError>> {
+        let mut opts = self.options(settings)?;
+        let _bar =
+            crate::progress::wanted(self.quiet).then(|| crate::progress::attach(scene, &mut opts));
+        crate::mc_shard(scene, &opts, i, n).map_err(|e| Box::new(FlagError::Km(e)))
+    }
+}
+
+/// The flags given on the command line of `m` (not at their defaults), by
+/// id: the `given` of [`super::refuse_flags`] and of `km fit`'s checks.
+pub fn given_flag(m: &ArgMatches) -> impl Fn(&str) -> bool + '_ {
+    |id| {
+        matches!(m.try_get_raw(id), Ok(Some(_)))
+            && m.value_source(id) == Some(ValueSource::CommandLine)
+    }
+}
+
 /// A refusal of a solve with `settings`, in the words of the flags that
 /// caused it ([`super::solve_flag_error`]).
 pub fn solve_error(e: KmError, settings: &Settings) -> FlagError {
