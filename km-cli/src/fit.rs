@@ -31,24 +31,9 @@ pub struct FitArgs {
 /// The `km fit` command with its flags in the order of the help: the
 /// output flags among the request's, `--budget` after `--plot`.
 pub fn help_order(fit: clap::Command) -> clap::Command {
-    let fit = place_after(fit, "streams", "json");
-    let fit = place_after(fit, "r_black_ground", "plot");
-    place_after(fit, "plot", "budget")
-}
-
-/// `cmd` with the argument `id` shown in the help right after `after`.
-fn place_after(cmd: clap::Command, after: &str, id: &str) -> clap::Command {
-    let order = |c: &clap::Command, id: &str| {
-        c.get_arguments().find(|a| a.get_id() == id).map_or(0, clap::Arg::get_display_order)
-    };
-    let at = order(&cmd, after);
-    let ids: Vec<String> = cmd.get_arguments().map(|a| a.get_id().to_string()).collect();
-    let mut cmd = cmd;
-    for other in ids.iter().filter(|o| *o != id) {
-        let o = order(&cmd, other);
-        cmd = cmd.mut_arg(other, |a| a.display_order(if o > at { 2 * o + 2 } else { 2 * o }));
-    }
-    cmd.mut_arg(id, |a| a.display_order(2 * at + 1))
+    let fit = crate::place_after(fit, "streams", "json");
+    let fit = crate::place_after(fit, "r_black_ground", "plot");
+    crate::place_after(fit, "plot", "budget")
 }
 
 /// `km fit`: the answer printed (and with `--km --plot`, the hiding curves drawn).

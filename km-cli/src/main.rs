@@ -163,9 +163,25 @@ fn parse_args<T: clap::Args + FromArgMatches>(argv: &[&'static str]) -> T {
     T::from_arg_matches(&cmd.get_matches_from(argv)).unwrap_or_else(|e| e.exit())
 }
 
+/// `cmd` with the argument `id` shown in the help right after `after`.
+pub(crate) fn place_after(cmd: clap::Command, after: &str, id: &str) -> clap::Command {
+    let order = |c: &clap::Command, id: &str| {
+        c.get_arguments().find(|a| a.get_id() == id).map_or(0, clap::Arg::get_display_order)
+    };
+    let at = order(&cmd, after);
+    let ids: Vec<String> = cmd.get_arguments().map(|a| a.get_id().to_string()).collect();
+    let mut cmd = cmd;
+    for other in ids.iter().filter(|o| *o != id) {
+        let o = order(&cmd, other);
+        cmd = cmd.mut_arg(other, |a| a.display_order(if o > at { 2 * o + 2 } else { 2 * o }));
+    }
+    cmd.mut_arg(id, |a| a.display_order(2 * at + 1))
+}
+
 fn main() -> ExitCode {
     stdout::init();
-    let matches = Cli::command().mut_subcommand("fit", fit::help_order).get_matches();
+    let cli = Cli::command().mut_subcommand("fit", fit::help_order);
+    let matches = cli.mut_subcommand("bsdf", bsdf::help_order).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let command = cli.command.unwrap_or_else(|| Command::Reproduce(parse_args(&["reproduce"])));
     let checked = solve::check_flags(&matches).and_then(|()| fit::check_flags(&matches));
