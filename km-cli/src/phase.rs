@@ -5,8 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
-use km::phase_report::{PhaseOptions, csv, phase_report, table};
+use anyhow::{Context, Result};
+use km::phase_report::{PhaseOptions, csv, parse_angles, phase_report, table};
 
 use crate::solve::{OutputFormat, SceneArg};
 use crate::stdout;
@@ -39,7 +39,8 @@ pub struct PhaseArgs {
 /// Run `km phase`.
 pub fn run(args: &PhaseArgs) -> Result<()> {
     let scene = args.input.load()?;
-    let angles_deg = args.angles.as_deref().map(parse_angles).transpose()?;
+    let angles = |spec: &str| parse_angles(spec).with_context(|| format!("--angles {spec}"));
+    let angles_deg = args.angles.as_deref().map(angles).transpose()?;
     let plot = args.plot.as_deref().map(plot_target).transpose()?;
     let opts = PhaseOptions { angles_deg, moments: args.moments };
     let report = phase_report(&scene, &opts).map_err(|e| {
@@ -56,18 +57,6 @@ pub fn run(args: &PhaseArgs) -> Result<()> {
         km_plot::phase::write_phase_chart(&report, &dir, &stem)?;
     }
     stdout::print(&args.format.text(|| table(&report), || csv(&report), || report.to_json()))
-}
-
-/// The angles of `--angles SPEC` (the syntax of `km bsdf`'s angle lists,
-/// without `gauss:N`, whose nodes lie in one hemisphere).
-fn parse_angles(spec: &str) -> Result<Vec<f64>> {
-    if spec.trim().starts_with("gauss:") {
-        bail!(
-            "--angles {spec}: gauss:N gives angles in [0, 90) only; give a list or a range \
-             START:STOP:STEP over [0, 180]"
-        );
-    }
-    km::bsdf_file::parse_angles(spec).with_context(|| format!("--angles {spec}"))
 }
 
 /// The directory and stem of `--plot FILE.svg` (or `FILE.png`): both files
