@@ -2,12 +2,12 @@
 //! or a Fourier BSDF file for Mitsuba 0.6 / pbrt-v3 (`docs/bsdf.md`),
 //! computed by `km::bsdf_file`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
-use km::bsdf::Bsdf;
-use km::bsdf_file::{BsdfFile, BsdfFormat, BsdfRequest};
+use km::bsdf_file::{BsdfFormat, BsdfLists, BsdfRequest};
+use km_inverse::colour::spectrum_channel_mix;
 
 // The flags of `km bsdf` (no doc comment: it would become the command's about).
 #[derive(Args, Debug)]
@@ -17,36 +17,17 @@ pub struct BsdfArgs {
     /// Output file, written atomically (a temporary file, then a rename).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// File format (default: from the extension of --out: .npz, .csv, .bsdf → fourier; else npz).
-    #[arg(long, value_enum)]
-    pub format: Option<BsdfFormat>,
-    /// Incidence polar angles, degrees in [0, 90): a list `0,30,60`, a range
-    /// `START:STOP:STEP` (STOP excluded) or `gauss:N` (arccosines of N Gauss
-    /// nodes in mu). Default 0 and gauss:32 (npz, csv); for fourier, 48 angles
-    /// uniform in theta from 0 (`0:90:1.875`).
-    #[arg(long, allow_hyphen_values = true)]
-    pub theta_i: Option<String>,
-    /// Exit polar angles, degrees in [0, 90), same syntax; default the --theta-i
-    /// given, else gauss:32 (npz, csv) or as --theta-i (fourier).
-    #[arg(long, allow_hyphen_values = true)]
-    pub theta_o: Option<String>,
-    /// Azimuths, degrees (180 = mirror side), same syntax; default `0:360:5` (72).
-    #[arg(long, allow_hyphen_values = true)]
-    pub phi: Option<String>,
-    /// Light from below (through a transparent substrate) instead of above [npz, csv].
-    #[arg(long)]
-    pub from_below: bool,
-    /// Gauss nodes per hemisphere and Snell segment (default: as `km solve`
-    /// would choose for the most demanding incidence).
-    #[arg(long)]
-    pub streams: Option<usize>,
+    #[command(flatten)]
+    pub lists: BsdfLists,
     /// Write PNG and SVG pictures (in-plane polar plots, heat maps) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Factor on the grid budgets (angle pairs, table values) and on the work
-    /// budget of the operators (docs/limits.md).
-    #[arg(long, default_value_t = 1.0)]
-    pub budget: f64,
+}
+
+/// The `km bsdf` command with its flags in the order of the help (`--plot`
+/// before `--budget`).
+pub fn help_order(bsdf: clap::Command) -> clap::Command {
+    crate::place_after(bsdf, "streams", "plot")
 }
 
 /// `km bsdf`: compute, write (nothing half-written), plot, and print a
@@ -60,17 +41,12 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{}", args.scene.display()))?;
     let scene = km::Scene::from_toml_str_with(&text, &limits)
         .with_context(|| format!("{}", args.scene.display()))?;
-    let format = args.format.unwrap_or_else(|| BsdfFormat::from_path(args.out.as_deref()));
-    let (theta_i, theta_o, phi) =
-        (args.theta_i.as_deref(), args.theta_o.as_deref(), args.phi.as_deref());
-    let mut request =
-        BsdfRequest::from_lists(theta_i, theta_o, phi, args.from_below, args.streams, format)
-            .map_err(|e| anyhow!(e.flag_words()))?;
-    if !(args.budget.is_finite() && args.budget > 0.0) {
-        bail!("--budget must be a finite number > 0, not {}", args.budget);
+    let mut request = BsdfRequest::from_lists(&args.lists, args.out.as_deref())
+        .map_err(|e| anyhow!(e.flag_words()))?;
+    if request.format == BsdfFormat::Fourier {
+        request.channel_mix = spectrum_channel_mix(scene.wavelengths_nm())
+            .map_err(|e| anyhow!("[spectrum] wavelengths_nm: {e}"))?;
     }
-    request.budget = args.budget;
-    request.channel_mix = spectrum_mix(&scene, format)?;
     let name = args.scene.display().to_string();
     let file = km::bsdf_file::bsdf_file(&scene, &name, &text, &request, args.out.is_some())?;
     if let Some(out) = &args.out {
@@ -87,35 +63,9 @@ pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {
     }
     crate::stdout::eprint(&file.summary(args.out.as_deref()))?;
     if let Some(dir) = &args.plot {
-        for f in plots(&file, &scene, dir)? {
+        for f in km_plot::bsdf::write_file_plots(&file, &scene, dir)? {
             crate::stdout::eprint(&format!("wrote {}\n", f.display()))?;
         }
     }
     Ok(())
-}
-
-/// For a Fourier file of a spectral scene (several wavelengths): the linear
-/// sRGB weights of its wavelengths (`km_inverse::colour`), so that the file
-/// holds the spectrum's colour; `None` for other scenes and formats.
-fn spectrum_mix(scene: &km::Scene, format: BsdfFormat) -> anyhow::Result<Option<Vec<[f64; 3]>>> {
-    match scene.wavelengths_nm() {
-        Some(w) if format == BsdfFormat::Fourier && w.len() > 1 => {
-            let weights = km_inverse::colour::linear_srgb_weights(w)
-                .map_err(|e| anyhow!("[spectrum] wavelengths_nm: {e}"))?;
-            Ok(Some(weights))
-        }
-        _ => Ok(None),
-    }
-}
-
-/// The pictures of `km bsdf --plot`: the table's incidence angles nearest
-/// to 0, 30, 60, 75 degrees, recomputed on exit angles every degree so that
-/// the curves are smooth whatever the table's grid.
-fn plots(c: &BsdfFile, scene: &km::Scene, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let picks: Vec<f64> =
-        km_plot::bsdf::chosen_incidences(&c.bsdf).into_iter().map(|i| c.bsdf.theta_i[i]).collect();
-    let dense: Vec<f64> = (0..90).map(f64::from).collect();
-    let b = Bsdf::new(scene, &picks, &dense, &c.options)?;
-    km_plot::bsdf::write_all(&b, dir)
 }

@@ -8,10 +8,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 use km::Solution;
-use km_inverse::colour::report::{ColourStage, SpectrumColour, solution_colours};
+use km_inverse::colour::report::{
+    ColourStage, SpectrumColour, solution_colours, sweep_colour_columns,
+};
 pub use km_inverse::colour::report::{colours_json as json, colours_text as table_lines};
 use km_inverse::colour::{self, Patch};
-use serde_json::{Value, json};
 
 /// The colour flags (shared by `km solve` and `km sweep`; no doc comment:
 /// it would become the command's about).
@@ -44,10 +45,15 @@ pub fn wavelengths(scene: &km::Scene) -> Result<Vec<f64>> {
 /// The colours of a solution's reflectance and (when anything is
 /// transmitted) transmittance spectra, named `reflectance`, `transmittance`.
 pub fn of_solution(wavelengths: &[f64], sol: &Solution) -> Result<Vec<(&'static str, Colour)>> {
-    solution_colours(wavelengths, sol).map_err(|(stage, e)| match stage {
+    solution_colours(wavelengths, sol).map_err(colour_error)
+}
+
+/// A refused colour in the words of `--colour`.
+fn colour_error((stage, e): (ColourStage, km_inverse::colour::ColourError)) -> anyhow::Error {
+    match stage {
         ColourStage::Spectrum => anyhow!("--colour: the spectrum: {e}"),
         ColourStage::Lab => anyhow!("--colour: {e}"),
-    })
+    }
 }
 
 /// Write `patches` as an SVG swatch to `path`, atomically, never over one of `inputs`.
@@ -64,57 +70,23 @@ pub fn patch(label: String, c: &Colour) -> Patch {
 }
 
 /// `km sweep --colour`: one row per point: the swept values, then the
-/// colour of the reflectance spectrum (`R_X`, `R_Y`, `R_Z`, `R_L`, `R_a`,
-/// `R_b`, `R_hex`) and, when some point transmits, the transmittance's
-/// (`T_...`); with the swatch's patches (one per point, reflectance).
+/// colour columns (`km_inverse::colour::report::sweep_colour_columns`);
+/// with the swatch's patches (one per point, reflectance).
 pub fn sweep_text(
     axes: &[km::SweepAxis],
     points: &[km::SweepPoint],
     wavelengths: &[f64],
     format: km::SweepFormat,
 ) -> Result<(String, Vec<Patch>)> {
-    let per_point: Vec<Vec<(&'static str, Colour)>> =
-        points.iter().map(|p| of_solution(wavelengths, &p.solution)).collect::<Result<_>>()?;
-    let transmits = per_point.iter().any(|c| c.len() > 1);
-    let mut header: Vec<String> = axes.iter().map(|a| a.key.clone()).collect();
-    for q in if transmits { &["R", "T"][..] } else { &["R"][..] } {
-        header.extend(["X", "Y", "Z", "L", "a", "b", "hex"].map(|k| format!("{q}_{k}")));
-    }
-    let mut out = String::new();
-    match format {
-        km::SweepFormat::Csv => out.push_str(&(header.join(",") + "\n")),
-        km::SweepFormat::Table => out.push_str(&(column(&header) + "\n")),
-        km::SweepFormat::Jsonl => {}
-    }
-    let mut patches = Vec::new();
-    for (p, colours) in points.iter().zip(&per_point) {
-        let mut cells: Vec<String> = p.values.iter().map(|v| km::text::number(*v)).collect();
-        for (_, c) in colours {
-            cells.extend(c.cells());
-        }
-        if transmits && colours.len() == 1 {
-            cells.extend(std::iter::repeat_n(String::new(), 7));
-        }
+    let (names, columns) = sweep_colour_columns(wavelengths, points.iter().map(|p| &p.solution))
+        .map_err(colour_error)?;
+    let header: Vec<String> = axes.iter().map(|a| a.key.clone()).chain(names).collect();
+    let (mut rows, mut patches) = (Vec::new(), Vec::new());
+    for (p, (cells, colour)) in points.iter().zip(columns) {
         let label: Vec<String> =
             axes.iter().zip(&p.values).map(|(a, v)| format!("{}={v}", a.key)).collect();
-        patches.push(patch(label.join(" "), &colours[0].1));
-        out.push_str(&match format {
-            km::SweepFormat::Csv => cells.join(","),
-            km::SweepFormat::Table => column(&cells),
-            km::SweepFormat::Jsonl => {
-                let mut o = serde_json::Map::new();
-                for (h, c) in header.iter().zip(&cells) {
-                    let v = c.parse::<f64>().map_or_else(|_| json!(c), |x| json!(x));
-                    o.insert(h.clone(), if c.is_empty() { Value::Null } else { v });
-                }
-                Value::Object(o).to_string()
-            }
-        });
-        out.push('\n');
+        patches.push(patch(label.join(" "), &colour));
+        rows.push(p.values.iter().map(|v| km::text::number(*v)).chain(cells).collect());
     }
-    Ok((out, patches))
-}
-
-fn column(cells: &[String]) -> String {
-    cells.iter().map(|c| format!("{c:>14}")).collect::<Vec<_>>().join(" ")
+    Ok((km::sweep::cells_text(&header, &rows, format, 14), patches))
 }

@@ -2,13 +2,13 @@
 //! at the scene's `[output] depths` by one method (docs/cli.md,
 //! docs/field.md), as a table, JSON or CSV, and optionally a chart.
 
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use km::Method;
-use km::field::{Field, FieldMethod, FieldOptions, field};
-use km_plot::chart::{LineChart, Mark, Series, write_chart};
+use km::field::{FieldMethod, FieldOptions, field};
+use km_plot::chart::chart_target;
+use km_plot::field::write_field_chart;
 
 use crate::solve::{OutputFormat, SceneArg, method_parser};
 use crate::stdout;
@@ -70,7 +70,7 @@ pub fn run(args: &FieldArgs) -> Result<()> {
     if args.samples == 0 {
         bail!("--samples 0: need at least one photon");
     }
-    let plot = args.plot.as_deref().map(plot_target).transpose()?;
+    let plot = args.plot.as_deref().map(chart_target).transpose()?;
     let mut opts = FieldOptions {
         method: FieldMethod(args.method),
         dz: args.dz,
@@ -84,20 +84,11 @@ pub fn run(args: &FieldArgs) -> Result<()> {
     opts.dipole = km::DipoleOptions { fdr: args.fdr, model: args.dipole };
     let f = field(&scene, args.depths.as_deref(), &opts)?;
     if let Some((dir, stem)) = plot {
-        write_plot(&f, &dir, &stem)?;
+        write_field_chart(&f, &dir, &stem)?;
     }
     let format =
         if args.csv { OutputFormat::Csv } else { OutputFormat::of(args.json, args.format) };
-    match format {
-        OutputFormat::Json => stdout::print_json(&f.to_json()),
-        OutputFormat::Csv => stdout::print(&join(csv(&f), f.inside_csv())),
-        OutputFormat::Table => stdout::print(&join(table(&f), f.inside_table())),
-    }
-}
-
-/// The depth table and, when asked, the radiance's after a blank line.
-fn join(a: String, b: String) -> String {
-    if b.is_empty() { a } else { format!("{a}\n{b}") }
+    stdout::print(&format.text(|| f.table(), || f.csv(), || f.to_json()))
 }
 
 /// `THETA:PHI` in degrees.
@@ -105,115 +96,4 @@ fn direction_parser(s: &str) -> std::result::Result<[f64; 2], String> {
     let (t, p) = s.split_once(':').ok_or_else(|| format!("{s}: expected THETA:PHI in degrees"))?;
     let num = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{s}: {e}"));
     Ok([num(t)?, num(p)?])
-}
-
-/// The directory and stem of `--plot FILE.svg` (the file must end in `.svg`).
-pub(crate) fn plot_target(path: &Path) -> Result<(PathBuf, String)> {
-    let is_svg = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg"));
-    let stem = path.file_stem().and_then(|s| s.to_str()).filter(|s| !s.is_empty());
-    let (Some(stem), true) = (stem, is_svg) else {
-        bail!("--plot {}: the chart is an SVG file, give a name ending in .svg", path.display());
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        bail!("--plot {}: directory {} does not exist", path.display(), dir.display());
-    }
-    // Never replace a file that is not a chart.
-    for (ext, magic) in [("svg", &b"<svg"[..]), ("png", &b"\x89PNG"[..])] {
-        let p = dir.join(format!("{stem}.{ext}"));
-        if p.exists() && !looks_like(&p, magic) {
-            bail!("--plot: {} exists and is not an {ext} chart; not replaced", p.display());
-        }
-    }
-    Ok((dir, stem.to_string()))
-}
-
-/// Whether the file at `p` is a regular file whose first bytes hold `magic`
-/// (an SVG may open with an XML declaration: its first 256 bytes are searched).
-fn looks_like(p: &Path, magic: &[u8]) -> bool {
-    use std::io::Read;
-    let Ok(file) = std::fs::File::open(p) else { return false };
-    let mut head = Vec::new();
-    if file.take(256).read_to_end(&mut head).is_err() || !p.is_file() {
-        return false;
-    }
-    head.windows(magic.len()).any(|w| w == magic)
-}
-
-fn table(f: &Field) -> String {
-    let mut s = format!("method: {}\n", f.method);
-    for (c, label) in f.labels.iter().enumerate() {
-        if f.labels.len() > 1 {
-            let _ = writeln!(s, "channel {label}");
-        }
-        let _ = writeln!(s, "{:>12} {:>14} {:>14} {:>14}", "z", "phi", "A", "F");
-        for (i, z) in f.depths.iter().enumerate() {
-            let se = |v: &Vec<Vec<f64>>| format!(" ± {:.2e}", v[c][i]);
-            let (ps, as_, ns) =
-                f.stderr.as_ref().map_or((String::new(), String::new(), String::new()), |e| {
-                    (se(&e.fluence), se(&e.absorbed), se(&e.net_flux))
-                });
-            let _ = writeln!(
-                s,
-                "{z:>12.6} {:>14.6e}{ps} {:>14.6e}{as_} {:>14.6e}{ns}",
-                f.fluence[c][i], f.absorbed[c][i], f.net_flux[c][i]
-            );
-        }
-        let layers: Vec<String> =
-            f.absorptance_layers[c].iter().map(|a| format!("{a:.6}")).collect();
-        let _ = writeln!(s, "absorptance per layer: {}", layers.join(", "));
-    }
-    s
-}
-
-fn csv(f: &Field) -> String {
-    let mut s = String::from("channel,z,fluence,absorbed,net_flux");
-    if f.stderr.is_some() {
-        s += ",fluence_se,absorbed_se,net_flux_se";
-    }
-    s += "\n";
-    for (c, label) in f.labels.iter().enumerate() {
-        for (i, z) in f.depths.iter().enumerate() {
-            let _ = write!(
-                s,
-                "{label},{z},{},{},{}",
-                f.fluence[c][i], f.absorbed[c][i], f.net_flux[c][i]
-            );
-            if let Some(e) = &f.stderr {
-                let _ = write!(s, ",{},{},{}", e.fluence[c][i], e.absorbed[c][i], e.net_flux[c][i]);
-            }
-            s += "\n";
-        }
-    }
-    s
-}
-
-/// phi(z) and A(z) of every channel against depth (Monte Carlo with error bars).
-fn write_plot(f: &Field, dir: &Path, stem: &str) -> Result<()> {
-    let mut series = Vec::new();
-    for (c, label) in f.labels.iter().enumerate() {
-        let ch = if f.labels.len() > 1 { format!(" ({label})") } else { String::new() };
-        let pts = |v: &Vec<Vec<f64>>| f.depths.iter().copied().zip(v[c].iter().copied()).collect();
-        let mark = if f.stderr.is_some() { Mark::LinePoints } else { Mark::Line };
-        let mut phi = Series::new(format!("phi(z){ch}"), pts(&f.fluence), mark, 2 * c);
-        let mut a = Series::new(format!("A(z){ch}"), pts(&f.absorbed), Mark::Dashed, 2 * c + 1);
-        if let Some(e) = &f.stderr {
-            phi = phi.with_y_err(e.fluence[c].clone());
-            a = a.with_y_err(e.absorbed[c].clone());
-        }
-        series.extend([phi, a]);
-    }
-    let chart = LineChart {
-        title: format!("km field, {}: fluence rate and absorbed power density", f.method),
-        x_label: "depth z".into(),
-        y_label: "phi (per unit irradiance), A (per unit depth)".into(),
-        series,
-        ..Default::default()
-    };
-    write_chart(dir, stem, &chart)
-        .with_context(|| format!("drawing {}/{stem}.svg", dir.display()))?;
-    Ok(())
 }

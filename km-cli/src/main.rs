@@ -18,7 +18,6 @@ mod field;
 mod fit;
 mod mc;
 mod phase;
-mod progress;
 #[cfg(test)]
 mod settings_parity;
 mod solve;
@@ -31,7 +30,7 @@ use std::process::ExitCode;
 use anyhow::bail;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use km::Method;
-use solve::{OutputFormat, SceneArg, method_parser, profile_method_parser};
+use solve::{OutputFormat, SceneArg, method_parser};
 
 /// The scene solved by `km demo`.
 const DEMO_SCENE: &str = include_str!("../../examples/seed-three-layers.toml");
@@ -93,25 +92,8 @@ enum Command {
     Profile {
         #[command(flatten)]
         input: SceneArg,
-        /// `dipole` (closed form) or `mc` (Monte Carlo annuli).
-        #[arg(long, short, value_parser = profile_method_parser(), default_value = "dipole")]
-        method: Method,
-        /// Largest radius, in the scene's length unit (default: 10 transport lengths).
-        #[arg(long)]
-        r_max: Option<f64>,
-        /// Number of radii (dipole) or annuli (mc).
-        #[arg(long, default_value_t = 20)]
-        points: usize,
-        /// Monte Carlo photons [mc].
-        #[arg(long, default_value_t = 1_000_000)]
-        samples: u64,
-        /// Monte Carlo seed [mc].
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Depths at which to give the dipole's fluence phi(r, z) as well [dipole]
-        /// (comma-separated, the layer's length unit).
-        #[arg(long, value_delimiter = ',', num_args = 1..)]
-        depths: Option<Vec<f64>>,
+        #[command(flatten)]
+        options: km::ProfileOptions,
         /// Print JSON instead of a table (the same as `--format json`).
         #[arg(long, conflicts_with = "format")]
         json: bool,
@@ -181,9 +163,25 @@ fn parse_args<T: clap::Args + FromArgMatches>(argv: &[&'static str]) -> T {
     T::from_arg_matches(&cmd.get_matches_from(argv)).unwrap_or_else(|e| e.exit())
 }
 
+/// `cmd` with the argument `id` shown in the help right after `after`.
+pub(crate) fn place_after(cmd: clap::Command, after: &str, id: &str) -> clap::Command {
+    let order = |c: &clap::Command, id: &str| {
+        c.get_arguments().find(|a| a.get_id() == id).map_or(0, clap::Arg::get_display_order)
+    };
+    let at = order(&cmd, after);
+    let ids: Vec<String> = cmd.get_arguments().map(|a| a.get_id().to_string()).collect();
+    let mut cmd = cmd;
+    for other in ids.iter().filter(|o| *o != id) {
+        let o = order(&cmd, other);
+        cmd = cmd.mut_arg(other, |a| a.display_order(if o > at { 2 * o + 2 } else { 2 * o }));
+    }
+    cmd.mut_arg(id, |a| a.display_order(2 * at + 1))
+}
+
 fn main() -> ExitCode {
     stdout::init();
-    let matches = Cli::command().get_matches();
+    let cli = Cli::command().mut_subcommand("fit", fit::help_order);
+    let matches = cli.mut_subcommand("bsdf", bsdf::help_order).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let command = cli.command.unwrap_or_else(|| Command::Reproduce(parse_args(&["reproduce"])));
     let checked = solve::check_flags(&matches).and_then(|()| fit::check_flags(&matches));
@@ -211,10 +209,8 @@ fn run(command: Command) -> anyhow::Result<()> {
             }
             solve::print(&sol, None, OutputFormat::of(json, format))
         }
-        Command::Profile { input, method, r_max, points, samples, seed, depths, json, format } => {
-            let depths = depths.unwrap_or_default();
-            let opts = km::ProfileOptions { method, r_max, points, samples, seed, depths };
-            solve::profile(&input.load()?, &opts, OutputFormat::of(json, format))
+        Command::Profile { input, options, json, format } => {
+            solve::profile(&input.load()?, &options, OutputFormat::of(json, format))
         }
         Command::Sweep(args) => sweep::run(&args),
         Command::Plan { input, method, json, all_effects } => {

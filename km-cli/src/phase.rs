@@ -5,8 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
-use km::phase_report::{PhaseOptions, csv, phase_report, table};
+use anyhow::{Context, Result};
+use km::phase_report::{PhaseOptions, csv, parse_angles, phase_report, table};
 
 use crate::solve::{OutputFormat, SceneArg};
 use crate::stdout;
@@ -39,7 +39,8 @@ pub struct PhaseArgs {
 /// Run `km phase`.
 pub fn run(args: &PhaseArgs) -> Result<()> {
     let scene = args.input.load()?;
-    let angles_deg = args.angles.as_deref().map(parse_angles).transpose()?;
+    let angles = |spec: &str| parse_angles(spec).with_context(|| format!("--angles {spec}"));
+    let angles_deg = args.angles.as_deref().map(angles).transpose()?;
     let plot = args.plot.as_deref().map(plot_target).transpose()?;
     let opts = PhaseOptions { angles_deg, moments: args.moments };
     let report = phase_report(&scene, &opts).map_err(|e| {
@@ -55,23 +56,7 @@ pub fn run(args: &PhaseArgs) -> Result<()> {
     if let Some((dir, stem)) = plot {
         km_plot::phase::write_phase_chart(&report, &dir, &stem)?;
     }
-    match args.format {
-        OutputFormat::Json => stdout::print_json(&report.to_json()),
-        OutputFormat::Csv => stdout::print(&csv(&report)),
-        OutputFormat::Table => stdout::print(&table(&report)),
-    }
-}
-
-/// The angles of `--angles SPEC` (the syntax of `km bsdf`'s angle lists,
-/// without `gauss:N`, whose nodes lie in one hemisphere).
-fn parse_angles(spec: &str) -> Result<Vec<f64>> {
-    if spec.trim().starts_with("gauss:") {
-        bail!(
-            "--angles {spec}: gauss:N gives angles in [0, 90) only; give a list or a range \
-             START:STOP:STEP over [0, 180]"
-        );
-    }
-    km::bsdf_file::parse_angles(spec).with_context(|| format!("--angles {spec}"))
+    stdout::print(&args.format.text(|| table(&report), || csv(&report), || report.to_json()))
 }
 
 /// The directory and stem of `--plot FILE.svg` (or `FILE.png`): both files
@@ -79,5 +64,5 @@ fn parse_angles(spec: &str) -> Result<Vec<f64>> {
 fn plot_target(path: &Path) -> Result<(PathBuf, String)> {
     let png = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
     let svg = if png { path.with_extension("svg") } else { path.to_path_buf() };
-    crate::field::plot_target(&svg)
+    km_plot::chart::chart_target(&svg)
 }

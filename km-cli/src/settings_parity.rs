@@ -51,3 +51,37 @@ fn every_setting_is_a_flag_with_its_default_and_choices() {
         );
     }
 }
+
+/// The options of a `km solve` command line are those the same settings
+/// give through `Settings::set_text` (the path of Python's keyword
+/// arguments): the flags and the keyword arguments reach the library alike.
+#[test]
+fn flags_give_the_options_of_the_same_settings() {
+    use clap::FromArgMatches;
+    use km::settings::Settings;
+    let cases: &[(&str, &[(&str, &str)])] = &[
+        ("mc", &[("samples", "5000"), ("seed", "7"), ("threads", "2"), ("estimator", "analog")]),
+        ("mc", &[("cone", "10"), ("all_effects", "true"), ("budget", "2")]),
+        ("multiflux", &[("streams", "8"), ("order", "3")]),
+        ("multiflux", &[("tolerance", "0.001"), ("cone", "5")]),
+        ("km", &[("km_mapping", "seed"), ("km_model", "two-flux")]),
+        ("direction-set", &[("directions", "50")]),
+        ("dipole", &[("fdr", "egan-hilgeman"), ("dipole", "better")]),
+    ];
+    for (method, sets) in cases {
+        let mut argv = vec!["solve".to_string(), "-".into(), "--method".into(), method.to_string()];
+        for (name, value) in *sets {
+            argv.push(format!("--{}", name.replace('_', "-")));
+            if *name != "all_effects" {
+                argv.push(value.to_string());
+            }
+        }
+        let m = SolveArgs::augment_args(Command::new("solve")).get_matches_from(&argv);
+        let args = SolveArgs::from_arg_matches(&m).unwrap();
+        let flags = args.settings.options(&args.settings.settings(args.method).unwrap()).unwrap();
+        let mut text = Settings::new(args.method);
+        sets.iter().for_each(|(n, v)| text.set_text(n, v).unwrap());
+        let text = text.options().unwrap();
+        assert_eq!(format!("{flags:?}"), format!("{text:?}"), "{argv:?}");
+    }
+}

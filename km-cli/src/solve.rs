@@ -5,10 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
 use clap::builder::TypedValueParser;
-use km::settings::{FlagError, option_flag};
+use km::settings::{FlagError, Settings, option_flag};
 use km::{KmError, Method, Scene, Solution};
+
+pub use km::text::Format as OutputFormat;
 
 use crate::stdout;
 
@@ -51,114 +52,14 @@ pub struct SolveArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
-    pub settings: MethodArgs,
+    pub settings: km::settings::command_line::SolveFlags,
     #[command(flatten)]
     pub colour: crate::colour::ColourArgs,
 }
 
-// The settings of a solve, one flag each (km::settings::SETTINGS; the same
-// flags in `km solve` and `km sweep`; no doc comment: it would become the
-// command's about).
-#[derive(clap::Args, Debug, Clone)]
-pub struct MethodArgs {
-    /// Accuracy target: every number asked for (R, T, their delta parts, each BRDF/BTDF value)
-    /// within TOL * max(1, |x|); chooses streams or samples, reports `error_estimate` and
-    /// `tolerance.limited_by`, fails when unreachable [multiflux, mc].
-    #[arg(long)]
-    pub tolerance: Option<f64>,
-    /// Compute every effect (planner off), for comparison.
-    #[arg(long)]
-    pub all_effects: bool,
-    /// Two-flux coefficients K, S from the scene [km] (default gate1974, the least error
-    /// against multi-flux on the grid of docs/two-flux.md §13; seed: the paper's K = sigma_a,
-    /// S = sigma_s).
-    #[arg(long, value_enum, default_value_t = km::KmMapping::Gate1974)]
-    pub km_mapping: km::KmMapping,
-    /// Two-flux model [km]: four-flux carries a collimated beam as a beam (refracted,
-    /// Beer–Lambert on its path, Fresnel at its own angle); two-flux is the seed's diffuse
-    /// model (default four-flux; the same for diffuse light).
-    #[arg(long, value_enum, default_value_t = km::KmModel::FourFlux)]
-    pub km_model: km::KmModel,
-    /// Gauss nodes per hemisphere [multiflux] (default 16).
-    #[arg(long)]
-    pub streams: Option<usize>,
-    /// Truncate adding after this Neumann order (seed eq. 21) [multiflux]; default exact.
-    #[arg(long)]
-    pub order: Option<usize>,
-    /// Directions on the sphere, both hemispheres, in the medium of lowest index (4..=2000)
-    /// [direction-set] (the default is the seed's 303).
-    #[arg(long, value_name = "N", default_value_t = km::direction_set::DEFAULT_DIRECTIONS)]
-    pub directions: usize,
-    /// BRDF/BTDF values as means over cones of this half-angle, degrees, in (0, 45]: the
-    /// Monte Carlo bins (default 5), or the multi-flux values averaged over the same cones
-    /// for comparison with them [mc, multiflux].
-    #[arg(long, value_name = "DEG")]
-    pub cone: Option<f64>,
-    /// Photons per channel [mc].
-    #[arg(long, default_value_t = 1_000_000)]
-    pub samples: u64,
-    /// Seed [mc]; the same seed gives bit-identical results for any thread count.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Worker threads [mc] (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Absorption estimator [mc].
-    #[arg(long, value_enum, default_value_t = km::Estimator::SurvivalBiasing)]
-    pub estimator: km::Estimator,
-    /// Run shard I of N (0-based) and write its partial tally to --out [mc].
-    #[arg(long, value_name = "I/N")]
-    pub shard: Option<String>,
-    /// Multiply every default work and memory budget by this factor: one solve's (Monte Carlo
-    /// photon steps and tally memory, multi-flux work) and a request of many points' (every
-    /// method); see docs/limits.md.
-    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
-    pub budget: f64,
-    /// Solve K times in this process: `seconds` stays the first (cold) call's,
-    /// `seconds_best` and `seconds_median` are over all K calls (1..=10000).
-    #[arg(long, value_name = "K", default_value_t = 1,
-          value_parser = clap::value_parser!(u32).range(1..=10_000))]
-    pub repeat: u32,
-    /// No progress bar on stderr (it is drawn only for a solve expected to last more than
-    /// 2 s, and never when stderr is not a terminal).
-    #[arg(long)]
-    pub quiet: bool,
-    /// How F_dr is computed [dipole].
-    #[arg(long, value_enum, default_value_t = km::FdrModel::Exact)]
-    pub fdr: km::FdrModel,
-    /// Which dipole [dipole].
-    #[arg(long, value_enum, default_value_t = km::DipoleModel::Jensen2001)]
-    pub dipole: km::DipoleModel,
-}
-
-/// Output format of `km solve`, `km merge` and `km profile`.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OutputFormat {
-    /// Text for people.
-    Table,
-    /// The JSON contract of docs/cli.md.
-    Json,
-    /// Comma-separated values with a header.
-    Csv,
-}
-
-impl OutputFormat {
-    /// `--json` or `--format` (table by default).
-    pub fn of(json: bool, format: Option<OutputFormat>) -> OutputFormat {
-        format.unwrap_or(if json { OutputFormat::Json } else { OutputFormat::Table })
-    }
-}
-
 /// The `--method` values: the library's method registry.
 pub fn method_parser() -> impl TypedValueParser<Value = Method> {
-    clap::builder::PossibleValuesParser::new(Method::ALL.map(Method::name))
-        .try_map(|s| s.parse::<Method>())
-}
-
-/// The `km profile --method` values: the methods that give `Rd(r)`.
-pub fn profile_method_parser() -> impl TypedValueParser<Value = Method> {
-    clap::builder::PossibleValuesParser::new([Method::Dipole.name(), Method::Mc.name()])
-        .try_map(|s| s.parse::<Method>())
+    km::settings::command_line::method_parser(&Method::ALL)
 }
 
 impl SolveArgs {
@@ -172,18 +73,12 @@ impl SolveArgs {
 pub fn run(args: &SolveArgs) -> Result<()> {
     let scene = args.input.load()?;
     let inputs = std::slice::from_ref(&args.input.scene);
-    if let Some(shard) = &args.settings.shard {
-        let (i, n) = parse_shard(shard)?;
-        if args.settings.repeat > 1 {
-            bail!("--repeat does not combine with --shard (a shard is written once)");
-        }
-        if args.method != Method::Mc {
-            bail!("--shard applies to --method mc only");
-        }
+    let settings = args.settings.settings(args.method)?;
+    if let Some((i, n)) = settings.shard() {
         let Some(out) = &args.out else {
-            bail!("--shard {shard} needs --out FILE for the partial tally");
+            bail!("--shard {i}/{n} needs --out FILE for the partial tally");
         };
-        let part = km::mc_shard(&scene, &args.options()?, i, n)?;
+        let part = args.settings.shard(&scene, &settings, (i, n))?;
         write_json(out, &serde_json::to_value(&part)?, inputs)?;
         stdout::eprint(&format!("wrote shard {i}/{n} to {}\n", out.display()))?;
         return Ok(());
@@ -203,7 +98,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
 /// spectra (JSON key `colour`, or lines after the table).
 fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<()> {
     let inputs = std::slice::from_ref(&args.input.scene);
-    if args.settings.shard.is_some() {
+    if args.settings.given.iter().any(|(name, _)| *name == "shard") {
         bail!("--colour does not combine with --shard (a shard prints nothing; `km merge` does)");
     }
     if format == OutputFormat::Csv {
@@ -235,11 +130,8 @@ fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<(
 
 /// Print a solution as a table, JSON or CSV.
 pub fn print(sol: &Solution, scene: Option<&Scene>, format: OutputFormat) -> Result<()> {
-    stdout::print(&match format {
-        OutputFormat::Json => return stdout::print_json(&sol.to_json()),
-        OutputFormat::Csv => km::text::csv(sol, scene),
-        OutputFormat::Table => km::text::table(sol, scene),
-    })
+    let (table, csv) = (|| km::text::table(sol, scene), || km::text::csv(sol, scene));
+    stdout::print(&format.text(table, csv, || sol.to_json()))
 }
 
 /// Write `value` to `path` atomically, never over one of `inputs` (docs/limits.md).
@@ -250,99 +142,15 @@ pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) ->
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Solve `scene` with the method and options of `args` (through
-/// [`km::solve_repeated`], `--repeat` times).
+/// Solve `scene` as the flags of `args` ask (`km::settings::command_line::SolveFlags`).
 pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
-    let s = &args.settings;
-    let opts = args.options()?;
-    let _bar = match &opts.method {
-        km::MethodOptions::Multiflux(o) if args.progress() => {
-            crate::progress::Ticker::multiflux(scene, o, s.tolerance.is_some())
-        }
-        _ => None,
-    };
-    km::solve_repeated(scene, &opts, s.repeat).map_err(|e| flag_error(e, args.method, s.tolerance))
+    Ok(args.settings.solve(scene, args.method)?)
 }
 
 /// A library refusal in the words of the flags that caused it
-/// (`km::settings::solve_flag_error`).
-pub fn flag_error(e: KmError, method: Method, tolerance: Option<f64>) -> anyhow::Error {
-    km::settings::solve_flag_error(e, method, tolerance).into()
-}
-
-impl SolveArgs {
-    /// Whether a progress bar may be shown (stderr is a terminal, no `--quiet`).
-    fn progress(&self) -> bool {
-        crate::progress::wanted(self.settings.quiet)
-    }
-
-    /// The library options of the flags (a progress bar when it may be shown).
-    fn options(&self) -> Result<km::Options> {
-        self.settings.options(self.method, self.progress())
-    }
-}
-
-impl MethodArgs {
-    /// The library options of these settings for `method`, with a progress
-    /// bar for Monte Carlo when `progress`.
-    pub fn options(&self, method: Method, progress: bool) -> Result<km::Options> {
-        if self.tolerance.is_some() && self.streams.is_some() {
-            bail!("give either --streams or --tolerance, not both");
-        }
-        options(method, self, progress)
-    }
-}
-
-/// The library options of the settings `args` for `method`.
-fn options(method: Method, args: &MethodArgs, progress: bool) -> Result<km::Options> {
-    let method = match method {
-        Method::Km => {
-            km::MethodOptions::Km(km::KmOptions { mapping: args.km_mapping, model: args.km_model })
-        }
-        Method::Multiflux => km::MethodOptions::Multiflux(km::MultifluxOptions {
-            streams: args.streams,
-            neumann_order: args.order,
-            all_effects: args.all_effects,
-            ..Default::default()
-        }),
-        Method::DirectionSet => {
-            km::MethodOptions::DirectionSet(km::DirectionSetOptions { directions: args.directions })
-        }
-        Method::Mc if args.samples == 0 => bail!("--samples must be at least 1"),
-        Method::Mc => km::MethodOptions::Mc(km::McOptions {
-            samples: args.samples,
-            seed: args.seed,
-            threads: args.threads,
-            estimator: args.estimator,
-            progress: progress.then(crate::progress::photons),
-            all_effects: args.all_effects,
-            ..Default::default()
-        }),
-        Method::Dipole => {
-            km::MethodOptions::Dipole(km::DipoleOptions { fdr: args.fdr, model: args.dipole })
-        }
-    };
-    let opts = km::Options {
-        method,
-        tolerance: args.tolerance,
-        all_effects: args.all_effects,
-        cone_deg: args.cone,
-        budget: 1.0,
-        cancel: None,
-    };
-    Ok(opts.with_budget(args.budget).map_err(option_flag)?)
-}
-
-/// `I/N` with `0 <= I < N`.
-fn parse_shard(text: &str) -> Result<(u64, u64)> {
-    let (i, n) =
-        text.split_once('/').with_context(|| format!("--shard {text}: expected I/N, e.g. 0/4"))?;
-    let i: u64 = i.trim().parse().with_context(|| format!("--shard {text}: I is not a number"))?;
-    let n: u64 = n.trim().parse().with_context(|| format!("--shard {text}: N is not a number"))?;
-    if n == 0 || i >= n {
-        bail!("--shard {text}: need 0 <= I < N");
-    }
-    Ok((i, n))
+/// (`km::settings::command_line::solve_error`).
+pub fn flag_error(e: KmError, settings: &Settings) -> anyhow::Error {
+    km::settings::command_line::solve_error(e, settings).into()
 }
 
 /// `km profile`: Rd(r) by the dipole or Monte Carlo, printed.
@@ -351,21 +159,14 @@ pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -
         e @ KmError::Option { .. } => option_flag(e),
         e => FlagError::after(format!("--method {}", opts.method.name()), e),
     })?;
-    stdout::print(&match format {
-        OutputFormat::Json => return stdout::print_json(&p.to_json()),
-        OutputFormat::Csv => p.csv(),
-        OutputFormat::Table => p.table(),
-    })
+    stdout::print(&format.text(|| p.table(), || p.csv(), || p.to_json()))
 }
 
 /// Refuse a flag that does not apply to the chosen method or mode (clap cannot
 /// know the method: checked after parsing; `km::settings::refuse_flags`).
 pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
     let Some((command, m)) = matches.subcommand() else { return Ok(()) };
-    let given = |id: &str| {
-        matches!(m.try_get_raw(id), Ok(Some(_)))
-            && m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
-    };
+    let given = km::settings::command_line::given_flag(m);
     let method = m.try_get_one::<Method>("method").ok().flatten().copied();
     km::settings::refuse_flags(command, method, given).map_err(anyhow::Error::msg)
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use km::Method;
 
-use crate::solve::{MethodArgs, flag_error, method_parser};
+use crate::solve::{flag_error, method_parser};
 use crate::stdout;
 
 // The flags of `km sweep` (no doc comment: it would become the command's about).
@@ -26,7 +26,7 @@ pub struct SweepArgs {
     #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
     pub format: km::SweepFormat,
     #[command(flatten)]
-    pub settings: MethodArgs,
+    pub settings: km::settings::command_line::SolveFlags,
     #[command(flatten)]
     pub colour: crate::colour::ColourArgs,
 }
@@ -41,9 +41,11 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     if axes.is_empty() {
         bail!("km sweep needs at least one --set KEY=START:STOP:N");
     }
-    let s = &args.settings;
-    if !(s.budget.is_finite() && s.budget > 0.0) {
-        bail!("--budget must be a finite factor > 0, not {}", s.budget);
+    let settings = args.settings.settings(args.method)?;
+    if let Some(km::settings::Value::Real(b)) = settings.get("budget")
+        && !(b.is_finite() && *b > 0.0)
+    {
+        bail!("--budget must be a finite factor > 0, not {b}");
     }
     // The colour needs the scene's wavelengths: checked before any point is solved.
     let wavelengths = if args.colour.colour {
@@ -60,9 +62,8 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         None
     };
     // The points run in parallel: no progress bar.
-    let opts = s.options(args.method, false)?;
-    let points = km::sweep(&text, &edits, &axes, &opts)
-        .map_err(|e| flag_error(e, args.method, s.tolerance))?;
+    let opts = args.settings.options(&settings)?;
+    let points = km::sweep(&text, &edits, &axes, &opts).map_err(|e| flag_error(e, &settings))?;
     let Some(w) = wavelengths else {
         return stdout::print(&km::sweep_text(&axes, &points, args.format));
     };

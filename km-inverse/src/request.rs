@@ -193,65 +193,102 @@ pub fn check_options(mode: Mode, given: impl Fn(&str) -> bool) -> Result<(), Req
     Ok(())
 }
 
-/// A fit asked for with plain options (`km fit`'s flags, one field each;
+/// A fit asked for with plain options (`km fit`'s flags, one field each,
+/// with their help: `clap::Args` with the feature `clap`;
 /// [`FitRequest::default`] is every option absent or at its default).
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct FitRequest {
-    /// A measurement file (`.rxt` or `.csv`).
+    /// Spectrum file: iad's `.rxt` (sample and spheres from its header) or a
+    /// `.csv` with columns wavelength_nm, m_r, m_t[, m_u, sigma_r, sigma_t, sigma_u, g].
     pub file: Option<PathBuf>,
-    /// Measured total reflectance `M_R`.
+    /// Measured total reflectance M_R (normal collimated light).
+    #[cfg_attr(feature = "clap", arg(long = "m-r"))]
     pub m_r: Option<f64>,
-    /// Measured total transmittance `M_T`.
+    /// Measured total transmittance M_T.
+    #[cfg_attr(feature = "clap", arg(long = "m-t"))]
     pub m_t: Option<f64>,
-    /// Measured unscattered transmittance `M_U`.
+    /// Measured unscattered (collimated) transmittance M_U; g is then fitted unless --g is given.
+    #[cfg_attr(feature = "clap", arg(long = "m-u"))]
     pub m_u: Option<f64>,
-    /// Standard uncertainty of `M_R`.
+    /// Standard uncertainty of M_R (default 1e-4, iad's tolerance).
+    #[cfg_attr(feature = "clap", arg(long = "sigma-r"))]
     pub sigma_r: Option<f64>,
-    /// Standard uncertainty of `M_T`.
+    /// Standard uncertainty of M_T (default 1e-4).
+    #[cfg_attr(feature = "clap", arg(long = "sigma-t"))]
     pub sigma_t: Option<f64>,
-    /// Standard uncertainty of `M_U`.
+    /// Standard uncertainty of M_U (default 1e-4).
+    #[cfg_attr(feature = "clap", arg(long = "sigma-u"))]
     pub sigma_u: Option<f64>,
-    /// Sample (or film) thickness.
+    /// Sample thickness (mu_a, mu_s, mu_s' come out in its inverse unit).
+    #[cfg_attr(feature = "clap", arg(long))]
     pub thickness: Option<f64>,
-    /// Refractive index of the sample (of the binder for `km`).
+    /// Refractive index of the sample (default 1).
+    #[cfg_attr(feature = "clap", arg(long = "n-sample"))]
     pub n_sample: Option<f64>,
-    /// Refractive index of glass slides on both faces.
+    /// Refractive index of clear glass slides on both faces (default: none).
+    #[cfg_attr(feature = "clap", arg(long = "n-slide"))]
     pub n_slide: Option<f64>,
-    /// Fixed anisotropy.
+    /// Fixed anisotropy g (default 0 without M_U; fitted with M_U).
+    #[cfg_attr(feature = "clap", arg(long))]
     pub g: Option<f64>,
-    /// Fraction of the specular reflection included in `M_R`.
+    /// Fraction of the specular reflection included in M_R (iad -c; default 1).
+    #[cfg_attr(feature = "clap", arg(long = "specular-in-m-r", default_value_t = 1.0))]
     pub specular_in_m_r: f64,
-    /// Fraction of the unscattered beam included in `M_T`.
+    /// Fraction of the unscattered beam included in M_T (iad -C; default 1).
+    #[cfg_attr(feature = "clap", arg(long = "unscattered-in-m-t", default_value_t = 1.0))]
     pub unscattered_in_m_t: f64,
-    /// `M_R` excludes the specular reflection (the fraction is then 0).
+    /// M_R excludes the specular reflection (same as --specular-in-m-r 0).
+    #[cfg_attr(feature = "clap", arg(long = "exclude-specular"))]
     pub exclude_specular: bool,
-    /// `M_T` excludes the unscattered beam (the fraction is then 0).
+    /// M_T excludes the unscattered beam (same as --unscattered-in-m-t 0).
+    #[cfg_attr(feature = "clap", arg(long = "exclude-unscattered"))]
     pub exclude_unscattered: bool,
-    /// Polar angle of the incident beam, degrees.
+    /// Polar angle of the incident beam in degrees (default 0).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0))]
     pub incidence: f64,
-    /// Integrating spheres used at a time (0, 1 or 2).
+    /// Integrating spheres used at a time (iad -S): 0 (the totals themselves, the default),
+    /// 1 (substitution) or 2 (double sphere); 1 and 2 need --r-sphere.
+    #[cfg_attr(feature = "clap", arg(long, value_parser = clap::value_parser!(u8).range(0..=2)))]
     pub spheres: Option<u8>,
-    /// The reflection sphere: sphere, sample, entrance and detector port
-    /// diameters, wall reflectance.
+    /// The reflection sphere (iad -1): sphere, sample port, entrance port and detector port
+    /// diameters (one length unit), and the wall reflectance.
+    #[cfg_attr(feature = "clap", arg(long = "r-sphere", num_args = 5, allow_negative_numbers = true, value_names = ["D_SPHERE", "D_SAMPLE", "D_ENTRANCE", "D_DETECTOR", "R_WALL"]))]
     pub r_sphere: Option<Vec<f64>>,
-    /// The transmission sphere, as `r_sphere` (default: the same).
+    /// The transmission sphere (iad -2): sphere, sample port, exit port and detector port
+    /// diameters, and the wall reflectance (default: the same as --r-sphere).
+    #[cfg_attr(feature = "clap", arg(long = "t-sphere", num_args = 5, allow_negative_numbers = true, value_names = ["D_SPHERE", "D_SAMPLE", "D_EXIT", "D_DETECTOR", "R_WALL"]))]
     pub t_sphere: Option<Vec<f64>>,
-    /// Reflectance of the reflection standard with spheres (default 1).
+    /// Reflectance of the reflection standard with spheres (the .rxt header's; default 1).
+    #[cfg_attr(feature = "clap", arg(long = "r-std"))]
     pub r_std: Option<f64>,
-    /// Reflectance only: the fixed scattering coefficient.
+    /// Reflectance only (--m-r without --m-t, or the rows of an .rxt file that give M_R
+    /// alone): the scattering coefficient is fixed (1/length) and mu_a is fitted. A number,
+    /// or as iad's -F a power law of the rows' wavelengths: 'P L0 MU_S0 EXP' for
+    /// mu_s = MU_S0 (lambda/L0)^EXP, 'R L0 MU_SP0 EXP' for mu_s' = mu_s (1 - g) the same.
+    #[cfg_attr(feature = "clap", arg(long = "fix-mu-s", value_name = "MU_S", value_parser = RowFixed::parse_mu_s, allow_hyphen_values = true))]
     pub fix_mu_s: Option<RowFixed>,
-    /// Reflectance only: the fixed absorption coefficient.
+    /// Reflectance only (--m-r alone, or .rxt rows with M_R alone): the absorption
+    /// coefficient is fixed at this value (1/length) and mu_s is fitted.
+    #[cfg_attr(feature = "clap", arg(long = "fix-mu-a", value_name = "MU_A"))]
     pub fix_mu_a: Option<f64>,
-    /// Reflectance only: a semi-infinite sample.
+    /// Reflectance only: the sample is semi-infinite (nothing returns from its far face) and
+    /// the albedo is fitted.
+    #[cfg_attr(feature = "clap", arg(long = "semi-infinite"))]
     pub semi_infinite: bool,
-    /// Fixed stream count of the forward model.
+    /// Fixed stream count of the forward model (default: the rule of docs/inverse.md eq. I7).
+    #[cfg_attr(feature = "clap", arg(long))]
     pub streams: Option<usize>,
-    /// The Kubelka–Munk inverse of drawdowns instead of the slab inverse.
+    /// Kubelka–Munk inverse of paint drawdowns instead of the slab inverse.
+    #[cfg_attr(feature = "clap", arg(long))]
     pub km: bool,
-    /// Factor on a measurement file's row budget.
+    /// A measurement file: multiply its row budget (10^4 rows, about 0.5 ms of fitting a row)
+    /// by this factor; see docs/limits.md.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "FACTOR", default_value_t = 1.0))]
     pub budget: f64,
     /// The readings of the Kubelka–Munk inverse (`thickness`, `n` unused:
     /// those of this request serve).
+    #[cfg_attr(feature = "clap", command(flatten))]
     pub drawdown: DrawdownInputs,
 }
 

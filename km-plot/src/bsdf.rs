@@ -5,6 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context;
+
 use km::bsdf::Bsdf;
 
 use crate::chart::{HeatMap, PolarChart, PolarCurve, PolarSpike, plane_angle, write_chart};
@@ -185,4 +187,24 @@ pub fn channel_names(b: &Bsdf) -> Vec<String> {
             }
         })
         .collect()
+}
+
+/// The pictures of a computed BSDF file (`km bsdf --plot`) into `dir`
+/// (created if absent): the table's incidence angles nearest to 0, 30, 60,
+/// 75 degrees ([`chosen_incidences`]), recomputed on exit angles every
+/// degree so that the curves are smooth whatever the table's grid, drawn by
+/// [`write_all`]. Returns the paths written.
+///
+/// # Errors
+/// The directory, the BSDF's computation, drawing or file errors.
+pub fn write_file_plots(
+    file: &km::bsdf_file::BsdfFile,
+    scene: &km::Scene,
+    dir: &Path,
+) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let picks: Vec<f64> =
+        chosen_incidences(&file.bsdf).into_iter().map(|i| file.bsdf.theta_i[i]).collect();
+    let dense: Vec<f64> = (0..90).map(f64::from).collect();
+    write_all(&Bsdf::new(scene, &picks, &dense, &file.options)?, dir)
 }

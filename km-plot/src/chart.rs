@@ -157,6 +157,51 @@ fn pe<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plotting: {e:?}")
 }
 
+/// The directory and stem of the chart `--plot FILE.svg` (the name must end
+/// in `.svg`; the PNG goes next to it), refused before anything is computed:
+/// a directory that does not exist, or an SVG or PNG of that stem that is not
+/// a chart (never replaced).
+///
+/// # Errors
+/// Each refusal, naming `--plot` and the file.
+pub fn chart_target(path: &Path) -> anyhow::Result<(PathBuf, String)> {
+    let is_svg = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    let stem = path.file_stem().and_then(|s| s.to_str()).filter(|s| !s.is_empty());
+    let (Some(stem), true) = (stem, is_svg) else {
+        anyhow::bail!(
+            "--plot {}: the chart is an SVG file, give a name ending in .svg",
+            path.display()
+        );
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        anyhow::bail!("--plot {}: directory {} does not exist", path.display(), dir.display());
+    }
+    // Never replace a file that is not a chart.
+    for (ext, magic) in [("svg", &b"<svg"[..]), ("png", &b"\x89PNG"[..])] {
+        let p = dir.join(format!("{stem}.{ext}"));
+        if p.exists() && !looks_like(&p, magic) {
+            anyhow::bail!("--plot: {} exists and is not an {ext} chart; not replaced", p.display());
+        }
+    }
+    Ok((dir, stem.to_string()))
+}
+
+/// Whether the file at `p` is a regular file whose first bytes hold `magic`
+/// (an SVG may open with an XML declaration: its first 256 bytes are searched).
+fn looks_like(p: &Path, magic: &[u8]) -> bool {
+    use std::io::Read;
+    let Ok(file) = std::fs::File::open(p) else { return false };
+    let mut head = Vec::new();
+    if file.take(256).read_to_end(&mut head).is_err() || !p.is_file() {
+        return false;
+    }
+    head.windows(magic.len()).any(|w| w == magic)
+}
+
 /// Draw `chart` into `dir/stem.svg` and `dir/stem.png`; returns both paths.
 ///
 /// # Errors

@@ -14,6 +14,7 @@
 //! * [`check`]: the defects a drawn chart must not have (tick labels,
 //!   legend over data, missing error bars, staircase lines), read from its
 //!   layout and pixels; tests of every crate that draws charts use it.
+//! * [`field`]: the fluence rate and absorbed power density against depth.
 //! * [`fit`]: the hiding curves of a Kubelka–Munk drawdown fit.
 //! * [`font`]: the embedded font.
 //! * [`phase`]: the phase functions of a scene's layers.
@@ -22,6 +23,7 @@
 pub mod bsdf;
 pub mod chart;
 pub mod check;
+pub mod field;
 pub mod fit;
 pub mod font;
 pub mod phase;

@@ -235,6 +235,55 @@ pub fn check_grid(
     Ok(())
 }
 
+/// A BSDF file asked for in words (with the feature `clap`, `km bsdf`'s
+/// flags): the angle lists as text ([`parse_angles`]), the side, the
+/// streams, the format and the budget; [`BsdfRequest::from_lists`] reads it.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct BsdfLists {
+    /// File format (default: from the extension of --out: .npz, .csv, .bsdf → fourier; else npz).
+    #[cfg_attr(feature = "clap", arg(long, value_enum))]
+    pub format: Option<BsdfFormat>,
+    /// Incidence polar angles, degrees in [0, 90): a list `0,30,60`, a range
+    /// `START:STOP:STEP` (STOP excluded) or `gauss:N` (arccosines of N Gauss
+    /// nodes in mu). Default 0 and gauss:32 (npz, csv); for fourier, 48 angles
+    /// uniform in theta from 0 (`0:90:1.875`).
+    #[cfg_attr(feature = "clap", arg(long, allow_hyphen_values = true))]
+    pub theta_i: Option<String>,
+    /// Exit polar angles, degrees in [0, 90), same syntax; default the --theta-i
+    /// given, else gauss:32 (npz, csv) or as --theta-i (fourier).
+    #[cfg_attr(feature = "clap", arg(long, allow_hyphen_values = true))]
+    pub theta_o: Option<String>,
+    /// Azimuths, degrees (180 = mirror side), same syntax; default `0:360:5` (72).
+    #[cfg_attr(feature = "clap", arg(long, allow_hyphen_values = true))]
+    pub phi: Option<String>,
+    /// Light from below (through a transparent substrate) instead of above [npz, csv].
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub from_below: bool,
+    /// Gauss nodes per hemisphere and Snell segment (default: as `km solve`
+    /// would choose for the most demanding incidence).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub streams: Option<usize>,
+    /// Factor on the grid budgets (angle pairs, table values) and on the work
+    /// budget of the operators (docs/limits.md).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.0))]
+    pub budget: f64,
+}
+
+impl Default for BsdfLists {
+    fn default() -> Self {
+        BsdfLists {
+            format: None,
+            theta_i: None,
+            theta_o: None,
+            phi: None,
+            from_below: false,
+            streams: None,
+            budget: 1.0,
+        }
+    }
+}
+
 /// What a BSDF file is asked for.
 #[derive(Debug, Clone)]
 pub struct BsdfRequest {
@@ -271,7 +320,7 @@ pub enum AngleList {
 }
 
 /// A request that [`BsdfRequest::from_lists`] refuses.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RequestError {
     /// An angle list that [`parse_angles`] refuses.
     #[error("{list:?}: {source}")]
@@ -284,15 +333,25 @@ pub enum RequestError {
     /// Light from below asked of a Fourier file, which holds both sides.
     #[error("light from below does not apply to the Fourier file (the file holds both sides)")]
     FromBelowInFourier,
+    /// A budget factor that is not a finite number > 0.
+    #[error("budget {0}: must be a finite factor > 0")]
+    Budget(f64),
 }
 
 impl RequestError {
     /// The refusal in the words of `km bsdf`'s flags (`--theta-i`,
-    /// `--theta-o`, `--phi`, `--from-below`).
+    /// `--theta-o`, `--phi`, `--from-below`, `--budget`).
     pub fn flag_words(&self) -> String {
-        let RequestError::Angles { list, source } = self else {
-            return "--from-below does not apply to --format fourier (the file holds both sides)"
-                .into();
+        let (list, source) = match self {
+            RequestError::Angles { list, source } => (list, source),
+            RequestError::Budget(b) => {
+                return format!("--budget must be a finite number > 0, not {b}");
+            }
+            RequestError::FromBelowInFourier => {
+                return "--from-below does not apply to --format fourier (the file holds both \
+                        sides)"
+                    .into();
+            }
         };
         let flag = match list {
             AngleList::ThetaI => "--theta-i",
@@ -310,50 +369,49 @@ impl BsdfRequest {
     /// A request from angle lists as text ([`parse_angles`]); a list not
     /// given takes its default: `theta_i` the format's
     /// ([`BsdfFormat::default_theta_i`]), `theta_o` the `theta_i` when
-    /// given, else [`BsdfFormat::default_theta`], `phi` [`default_phi`].
+    /// given, else [`BsdfFormat::default_theta`], `phi` [`default_phi`]; the
+    /// format not given is that of the name of the file `out`
+    /// ([`BsdfFormat::from_path`]).
     ///
     /// # Errors
     /// A list [`parse_angles`] refuses, naming the list; light from below
-    /// for a Fourier file.
+    /// for a Fourier file; a budget that is not a finite number > 0.
     ///
     /// ```
-    /// use km::bsdf_file::{BsdfFormat, BsdfRequest};
-    /// let r = BsdfRequest::from_lists(Some("0,30"), None, None, false, None, BsdfFormat::Csv);
-    /// let r = r.unwrap();
+    /// use km::bsdf_file::{BsdfLists, BsdfRequest};
+    /// let lists = BsdfLists { theta_i: Some("0,30".into()), ..Default::default() };
+    /// let r = BsdfRequest::from_lists(&lists, Some("b.csv".as_ref())).unwrap();
     /// assert_eq!((r.theta_o.len(), r.phi.len()), (2, 72));
     /// ```
-    pub fn from_lists(
-        theta_i: Option<&str>,
-        theta_o: Option<&str>,
-        phi: Option<&str>,
-        from_below: bool,
-        streams: Option<usize>,
-        format: BsdfFormat,
-    ) -> Result<BsdfRequest, RequestError> {
+    pub fn from_lists(lists: &BsdfLists, out: Option<&Path>) -> Result<BsdfRequest, RequestError> {
+        let format = lists.format.unwrap_or_else(|| BsdfFormat::from_path(out));
         let parse = |list: AngleList, text: &str| {
             parse_angles(text).map_err(|source| RequestError::Angles { list, source })
         };
-        let given_i = theta_i.map(|t| parse(AngleList::ThetaI, t)).transpose()?;
-        let theta_o = match theta_o {
+        let given_i = lists.theta_i.as_deref().map(|t| parse(AngleList::ThetaI, t)).transpose()?;
+        let theta_o = match &lists.theta_o {
             Some(t) => parse(AngleList::ThetaO, t)?,
             None => given_i.clone().unwrap_or_else(|| format.default_theta()),
         };
         let theta_i = given_i.unwrap_or_else(|| format.default_theta_i());
-        let phi = match phi {
+        let phi = match &lists.phi {
             Some(t) => parse(AngleList::Phi, t)?,
             None => default_phi(),
         };
-        if format == BsdfFormat::Fourier && from_below {
+        if format == BsdfFormat::Fourier && lists.from_below {
             return Err(RequestError::FromBelowInFourier);
+        }
+        if !(lists.budget.is_finite() && lists.budget > 0.0) {
+            return Err(RequestError::Budget(lists.budget));
         }
         Ok(BsdfRequest {
             theta_i,
             theta_o,
             phi,
-            from_below,
-            streams,
+            from_below: lists.from_below,
+            streams: lists.streams,
             format,
-            budget: 1.0,
+            budget: lists.budget,
             channel_mix: None,
         })
     }

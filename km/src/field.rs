@@ -21,6 +21,7 @@
 //! cone averages with standard errors, from the run of the profiles
 //! ([`crate::mc_field::mc_depths_inside`]).
 
+use std::fmt::Write as _;
 use std::time::Instant;
 
 use km_core::solution::DepthOutput;
@@ -312,6 +313,18 @@ impl Field {
         out
     }
 
+    /// `km field`'s table: the depth table and, when asked, the radiance
+    /// inside after a blank line ([`Field::inside_table`]).
+    pub fn table(&self) -> String {
+        join(depth_table(self), self.inside_table())
+    }
+
+    /// `km field --csv`: the depth rows and, when asked, the radiance inside
+    /// after a blank line ([`Field::inside_csv`]).
+    pub fn csv(&self) -> String {
+        join(depth_csv(self), self.inside_csv())
+    }
+
     /// The radiance inside as a text table (`km field`'s table; empty
     /// without one): per channel, a row per depth and direction.
     pub fn inside_table(&self) -> String {
@@ -380,6 +393,63 @@ impl Field {
         }
         s
     }
+}
+
+/// Two tables, the second (when there is one) after a blank line.
+fn join(a: String, b: String) -> String {
+    if b.is_empty() { a } else { format!("{a}\n{b}") }
+}
+
+/// The depth table of `km field` (per channel, a row per depth, and the
+/// absorptance per layer).
+fn depth_table(f: &Field) -> String {
+    let mut s = format!("method: {}\n", f.method);
+    for (c, label) in f.labels.iter().enumerate() {
+        if f.labels.len() > 1 {
+            let _ = writeln!(s, "channel {label}");
+        }
+        let _ = writeln!(s, "{:>12} {:>14} {:>14} {:>14}", "z", "phi", "A", "F");
+        for (i, z) in f.depths.iter().enumerate() {
+            let se = |v: &Vec<Vec<f64>>| format!(" ± {:.2e}", v[c][i]);
+            let (ps, as_, ns) =
+                f.stderr.as_ref().map_or((String::new(), String::new(), String::new()), |e| {
+                    (se(&e.fluence), se(&e.absorbed), se(&e.net_flux))
+                });
+            let _ = writeln!(
+                s,
+                "{z:>12.6} {:>14.6e}{ps} {:>14.6e}{as_} {:>14.6e}{ns}",
+                f.fluence[c][i], f.absorbed[c][i], f.net_flux[c][i]
+            );
+        }
+        let layers: Vec<String> =
+            f.absorptance_layers[c].iter().map(|a| format!("{a:.6}")).collect();
+        let _ = writeln!(s, "absorptance per layer: {}", layers.join(", "));
+    }
+    s
+}
+
+/// The depth rows of `km field --csv`: `channel,z,fluence,absorbed,net_flux`
+/// and the standard errors (Monte Carlo).
+fn depth_csv(f: &Field) -> String {
+    let mut s = String::from("channel,z,fluence,absorbed,net_flux");
+    if f.stderr.is_some() {
+        s += ",fluence_se,absorbed_se,net_flux_se";
+    }
+    s += "\n";
+    for (c, label) in f.labels.iter().enumerate() {
+        for (i, z) in f.depths.iter().enumerate() {
+            let _ = write!(
+                s,
+                "{label},{z},{},{},{}",
+                f.fluence[c][i], f.absorbed[c][i], f.net_flux[c][i]
+            );
+            if let Some(e) = &f.stderr {
+                let _ = write!(s, ",{},{},{}", e.fluence[c][i], e.absorbed[c][i], e.net_flux[c][i]);
+            }
+            s += "\n";
+        }
+    }
+    s
 }
 
 impl From<Field> for DepthOutput {

@@ -27,6 +27,7 @@
 //! * [`phase_report`]: each layer's phase function, moments and Mie
 //!   efficiencies as numbers, and as text; one sphere by Mie theory.
 //! * [`mcml_files`]: where an MCML run's files go, and its `.npz`.
+//! * `progress` (feature `progress`): a progress bar of a solve on stderr.
 //!
 //! The crates below: `km-core` (scene, layers, Fresnel, planner, two-flux,
 //! [`Solution`]), `km-multiflux`, `km-montecarlo`, `km-dipole`; see
@@ -56,6 +57,8 @@ mod method;
 pub mod model_error;
 pub mod phase_report;
 mod profile;
+#[cfg(feature = "progress")]
+pub mod progress;
 pub mod request_budget;
 mod run;
 pub mod settings;

@@ -28,18 +28,37 @@ impl McFileError {
     }
 }
 
-/// How to run an MCML input file.
+/// How to run an MCML input file (with the feature `clap`, `km mc`'s flags).
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct McFileOptions {
     /// Photons per run instead of each run's count (at least 1).
+    #[cfg_attr(feature = "clap", arg(long, help = "Photons per run, instead of each run's count"))]
     pub samples: Option<u64>,
     /// Seed of the runs (run k uses seed + k).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, default_value_t = 1, help = "Seed of the runs (run k uses seed + k)")
+    )]
     pub seed: u64,
     /// Worker threads (`None`: all cores); never changes the result.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, help = "Worker threads (default: all cores); never changes the result")
+    )]
     pub threads: Option<usize>,
     /// Directory of the output files.
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long,
+            default_value = ".",
+            help = "Directory of the output files (default: the current directory, as MCML)"
+        )
+    )]
     pub out_dir: PathBuf,
     /// Write the `.npz` beside each `.mco`.
+    #[cfg_attr(feature = "clap", arg(long = "no-npz", action = clap::ArgAction::SetFalse, help = "Write only the `.mco` files, no `.npz`"))]
     pub npz: bool,
 }
 

@@ -44,6 +44,23 @@ pub const MAX_SERIES_WORK: f64 = 1e9;
 pub const NORMALISATION: &str = "p in 1/sr with integral p dOmega = 1 (eq. P1); DISORT's phase \
                                  function, of mean 1 over the sphere, is 4 pi p";
 
+/// Scattering angles in degrees from a list or a range `START:STOP:STEP`
+/// over `[0, 180]` ([`crate::bsdf_file::parse_angles`]'s syntax without
+/// `gauss:N`, whose nodes lie in one hemisphere).
+///
+/// # Errors
+/// A `gauss:N`, and the refusals of [`crate::bsdf_file::parse_angles`].
+pub fn parse_angles(spec: &str) -> Result<Vec<f64>, crate::bsdf_file::AngleListError> {
+    if spec.trim().starts_with("gauss:") {
+        return Err(crate::bsdf_file::AngleListError::List {
+            reason: "gauss:N gives angles in [0, 90) only; give a list or a range \
+                     START:STOP:STEP over [0, 180]"
+                .into(),
+        });
+    }
+    crate::bsdf_file::parse_angles(spec)
+}
+
 /// The default angles, degrees: every 0.05 below 1, every 0.25 from 1 to
 /// 10, every degree from 10 to 180 (227 angles, fine near 0 for forward
 /// peaks).
@@ -651,6 +668,16 @@ pub fn mie_sphere(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Scattering angles span [0, 180]: lists and ranges are read as the
+    /// BSDF's angle lists, Gauss nodes (one hemisphere) are refused.
+    #[test]
+    fn phase_angles_are_lists_and_ranges() {
+        assert_eq!(parse_angles("0,90,180").unwrap(), vec![0.0, 90.0, 180.0]);
+        assert_eq!(parse_angles("0:180:60").unwrap(), vec![0.0, 60.0, 120.0]);
+        assert!(parse_angles("gauss:4").unwrap_err().to_string().contains("[0, 90) only"));
+        assert_eq!(parse_angles("0,x").is_err(), crate::bsdf_file::parse_angles("0,x").is_err());
+    }
 
     /// The default grid is increasing, within [0, 180] and within the bound.
     #[test]

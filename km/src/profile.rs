@@ -15,22 +15,41 @@ use crate::{KmError, Method, Reason, Unsupported};
 /// (depths x radii).
 pub const MAX_FLUENCE_VALUES: usize = 10_000_000;
 
-/// Settings of [`profile()`].
+/// Settings of [`profile()`] (with the feature `clap`, `km profile`'s flags).
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct ProfileOptions {
     /// `Dipole` or `Mc`.
+    #[cfg_attr(feature = "clap", arg(long, short, value_parser = crate::settings::command_line::method_parser(&[Method::Dipole, Method::Mc]), default_value = "dipole", help = "`dipole` (closed form) or `mc` (Monte Carlo annuli)"))]
     pub method: Method,
     /// Largest radius, in the scene's length unit; `None`: 10 transport mean
     /// free paths `1 / (sigma_a + sigma_s (1 - g))` of the first channel's layer.
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long,
+            help = "Largest radius, in the scene's length unit (default: 10 transport lengths)"
+        )
+    )]
     pub r_max: Option<f64>,
     /// Number of radii (dipole) or annuli (Monte Carlo), at least 1.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, default_value_t = 20, help = "Number of radii (dipole) or annuli (mc)")
+    )]
     pub points: usize,
     /// Monte Carlo photons.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, default_value_t = 1_000_000, help = "Monte Carlo photons [mc]")
+    )]
     pub samples: u64,
     /// Monte Carlo seed.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1, help = "Monte Carlo seed [mc]"))]
     pub seed: u64,
     /// Depths at which the dipole also gives the fluence `phi(r, z)` at the
     /// same radii (empty: none; the dipole only).
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', num_args = 1.., help = "Depths at which to give the dipole's fluence phi(r, z) as well [dipole] (comma-separated, the layer's length unit)"))]
     pub depths: Vec<f64>,
 }
 

@@ -21,6 +21,8 @@
 
 use crate::{DirectionSetOptions, KmError, Method, MethodOptions, Options};
 
+#[cfg(feature = "clap")]
+pub mod command_line;
 mod flags;
 pub use flags::{FlagError, option_flag, refuse_flags, solve_flag_error};
 
@@ -62,8 +64,11 @@ pub struct Setting {
     pub default: Option<&'static str>,
     /// The settings it excludes.
     pub conflicts: &'static [&'static str],
-    /// One line of help.
+    /// One line of help (the `km solve --help` line: the methods that read
+    /// the setting in brackets, unless every method does).
     pub help: &'static str,
+    /// The name of its value in the help (`None`: the setting's name in capitals).
+    pub value_name: Option<&'static str>,
     /// What it sets, in the words of a refusal: "`--NAME` does not apply to
     /// method M: it sets SETS".
     pub sets: &'static str,
@@ -92,8 +97,10 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Real { min: 0.0, max: 1.0 },
         default: None,
         conflicts: &["streams", "samples", "shard"],
-        help: "accuracy target: every number asked for within TOL * max(1, |x|); chooses the \
-               streams or photons and reports error_estimate",
+        help: "Accuracy target: every number asked for (R, T, their delta parts, each BRDF/BTDF \
+              value) within TOL * max(1, |x|); chooses streams or samples, reports \
+              `error_estimate` and `tolerance.limited_by`, fails when unreachable [multiflux, mc]",
+        value_name: None,
         sets: "an accuracy target, met by choosing streams or photons; km and dipole are \
                closed forms with no accuracy setting",
     },
@@ -103,7 +110,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Flag,
         default: Some("false"),
         conflicts: &[],
-        help: "compute every effect (the planner off), for comparison",
+        help: "Compute every effect (planner off), for comparison",
+        value_name: None,
         sets: "the planner off",
     },
     Setting {
@@ -112,9 +120,10 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Choice(MAPPINGS),
         default: Some("gate1974"),
         conflicts: &[],
-        help: "how two-flux K, S come from the scene (gate1974: K = 2 sigma_a, S = 3/4 sigma_s \
-               (1 - g), the least error on the grid of docs/two-flux.md §13; seed: K = sigma_a, \
-               S = sigma_s)",
+        help: "Two-flux coefficients K, S from the scene [km] (default gate1974, the least error \
+              against multi-flux on the grid of docs/two-flux.md §13; seed: the paper's K = \
+              sigma_a, S = sigma_s)",
+        value_name: None,
         sets: "how two-flux K, S come from the scene",
     },
     Setting {
@@ -123,20 +132,11 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Choice(KM_MODELS),
         default: Some("four-flux"),
         conflicts: &[],
-        help: "the two-flux model: four-flux carries a collimated beam as a beam \
-               (docs/two-flux.md §12); two-flux is the seed's diffuse model",
+        help: "Two-flux model [km]: four-flux carries a collimated beam as a beam (refracted, \
+              Beer–Lambert on its path, Fresnel at its own angle); two-flux is the seed's diffuse \
+              model (default four-flux; the same for diffuse light)",
+        value_name: None,
         sets: "the four-flux or the two-flux model",
-    },
-    Setting {
-        name: "cone",
-        methods: &[Mf, Mc],
-        kind: Kind::Real { min: 0.0, max: crate::cone::MAX_CONE_DEG },
-        default: None,
-        conflicts: &[],
-        help: "half-angle in degrees of the cones the BRDF/BTDF values are means over: Monte \
-               Carlo's bins (default 5), or the multi-flux values averaged alike",
-        sets: "the cones the BRDF/BTDF values are means over (Monte Carlo bins; multi-flux \
-               averaged alike)",
     },
     Setting {
         name: "streams",
@@ -144,8 +144,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 1, max: 512 },
         default: None,
         conflicts: &["tolerance"],
-        help: "Gauss nodes per hemisphere and Snell segment (default: the scene's rule, 16 for \
-               most scenes)",
+        help: "Gauss nodes per hemisphere [multiflux] (default 16)",
+        value_name: None,
         sets: "the Gauss nodes per hemisphere of multi-flux",
     },
     Setting {
@@ -154,7 +154,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 0, max: 100_000 },
         default: None,
         conflicts: &[],
-        help: "truncate the adding after this many round trips (seed eq. 21; default exact)",
+        help: "Truncate adding after this Neumann order (seed eq. 21) [multiflux]; default exact",
+        value_name: None,
         sets: "the Neumann order of multi-flux adding",
     },
     Setting {
@@ -163,8 +164,23 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 4, max: 2000 },
         default: Some("303"),
         conflicts: &[],
-        help: "directions on the sphere in the medium of lowest index (the seed's 303)",
+        help: "Directions on the sphere, both hemispheres, in the medium of lowest index \
+              (4..=2000) [direction-set] (the default is the seed's 303)",
+        value_name: Some("N"),
         sets: "the size of the direction set on the sphere",
+    },
+    Setting {
+        name: "cone",
+        methods: &[Mf, Mc],
+        kind: Kind::Real { min: 0.0, max: crate::cone::MAX_CONE_DEG },
+        default: None,
+        conflicts: &[],
+        help: "BRDF/BTDF values as means over cones of this half-angle, degrees, in (0, 45]: the \
+              Monte Carlo bins (default 5), or the multi-flux values averaged over the same cones \
+              for comparison with them [mc, multiflux]",
+        value_name: Some("DEG"),
+        sets: "the cones the BRDF/BTDF values are means over (Monte Carlo bins; multi-flux \
+               averaged alike)",
     },
     Setting {
         name: "samples",
@@ -172,7 +188,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 1, max: u64::MAX },
         default: Some("1000000"),
         conflicts: &["tolerance"],
-        help: "photons per channel",
+        help: "Photons per channel [mc]",
+        value_name: None,
         sets: "the photon count of Monte Carlo",
     },
     Setting {
@@ -181,7 +198,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 0, max: u64::MAX },
         default: Some("1"),
         conflicts: &[],
-        help: "random seed; the same seed gives bit-identical results for any thread count",
+        help: "Seed [mc]; the same seed gives bit-identical results for any thread count",
+        value_name: None,
         sets: "the random seed of Monte Carlo",
     },
     Setting {
@@ -190,7 +208,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 1, max: 4096 },
         default: None,
         conflicts: &[],
-        help: "worker threads (default: all cores); never changes the result",
+        help: "Worker threads [mc] (default: all cores)",
+        value_name: None,
         sets: "the worker threads of Monte Carlo",
     },
     Setting {
@@ -199,7 +218,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Choice(ESTIMATORS),
         default: Some("survival"),
         conflicts: &[],
-        help: "absorption estimator: survival biasing with Russian roulette (as MCML) or analog",
+        help: "Absorption estimator [mc]",
+        value_name: None,
         sets: "the absorption estimator of Monte Carlo",
     },
     Setting {
@@ -208,7 +228,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Shard,
         default: None,
         conflicts: &["tolerance", "repeat"],
-        help: "run shard I of N (0-based) of a Monte Carlo run; merge the shards with km merge",
+        help: "Run shard I of N (0-based) and write its partial tally to --out [mc]",
+        value_name: Some("I/N"),
         sets: "a share of a Monte Carlo run",
     },
     Setting {
@@ -217,9 +238,10 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Real { min: 0.0, max: 1e12 },
         default: Some("1"),
         conflicts: &[],
-        help: "multiply every default work and memory budget by this factor: one solve's \
-               (multi-flux, Monte Carlo) and a request of many points' (every method; \
-               docs/limits.md)",
+        help: "Multiply every default work and memory budget by this factor: one solve's (Monte \
+              Carlo photon steps and tally memory, multi-flux work) and a request of many points' \
+              (every method); see docs/limits.md",
+        value_name: Some("FACTOR"),
         sets: "the work and memory budgets",
     },
     Setting {
@@ -228,8 +250,9 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Count { min: 1, max: 10_000 },
         default: Some("1"),
         conflicts: &["shard"],
-        help: "solve K times: seconds stays the first call's, seconds_best and seconds_median \
-               are over all K",
+        help: "Solve K times in this process: `seconds` stays the first (cold) call's, \
+              `seconds_best` and `seconds_median` are over all K calls (1..=10000)",
+        value_name: Some("K"),
         sets: "how many times the solve is timed",
     },
     Setting {
@@ -238,7 +261,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Choice(FDR),
         default: Some("exact"),
         conflicts: &[],
-        help: "how the dipole computes F_dr: the exact integral or Egan & Hilgeman's fit",
+        help: "How F_dr is computed [dipole]",
+        value_name: None,
         sets: "how the dipole computes F_dr",
     },
     Setting {
@@ -247,7 +271,8 @@ pub const SETTINGS: &[Setting] = &[
         kind: Kind::Choice(DIPOLES),
         default: Some("jensen2001"),
         conflicts: &[],
-        help: "which dipole: Jensen et al. 2001 or d'Eon 2012's better dipole",
+        help: "Which dipole [dipole]",
+        value_name: None,
         sets: "which dipole",
     },
 ];
@@ -296,6 +321,14 @@ impl Setting {
     /// # Errors
     /// [`KmError::Setting`] naming the setting, the text and the rule.
     pub fn parse(&self, text: &str) -> Result<Value, KmError> {
+        let value = self.read(text)?;
+        self.check(&value)?;
+        Ok(value)
+    }
+
+    /// `text` read as this setting's value, its range not checked (a shard
+    /// is checked: `0 <= I < N`).
+    fn read(&self, text: &str) -> Result<Value, KmError> {
         let t = text.trim();
         let bad = |why: &str| refuse(self.name, text, why);
         let value = match self.kind {
@@ -322,12 +355,16 @@ impl Setting {
             },
             Kind::Shard => {
                 let (i, n) = t.split_once('/').ok_or_else(|| bad("expected I/N, e.g. 0/4"))?;
-                let i: u64 = i.trim().parse().map_err(|_| bad("I is not a whole number"))?;
-                let n: u64 = n.trim().parse().map_err(|_| bad("N is not a whole number"))?;
-                Value::Shard(i, n)
+                let num = |x: &str, what: &str| {
+                    x.trim()
+                        .parse::<u64>()
+                        .map_err(|e| bad(&format!("{what} is not a number: {e}")))
+                };
+                let shard = Value::Shard(num(i, "I")?, num(n, "N")?);
+                self.check(&shard)?;
+                shard
             }
         };
-        self.check(&value)?;
         Ok(value)
     }
 
@@ -376,6 +413,23 @@ impl Settings {
     /// No setting given yet for `method`.
     pub fn new(method: Method) -> Settings {
         Settings { method, given: Vec::new() }
+    }
+
+    /// The settings given on a command line for `method`, as text by name,
+    /// once [`refuse_flags`] has accepted the flags (the method reads each,
+    /// none excludes another) and the parser their types: each is read as
+    /// its setting's value, its range left to the method's options (their
+    /// words); a shard `I/N` is checked here.
+    ///
+    /// # Errors
+    /// An unknown name, or a text that is not a value of its setting.
+    pub fn from_flags(method: Method, given: &[(&str, String)]) -> Result<Settings, KmError> {
+        let mut s = Settings::new(method);
+        for (name, text) in given {
+            let setting = s.known(name)?;
+            s.given.push((setting, setting.read(text)?));
+        }
+        Ok(s)
     }
 
     /// The method.
@@ -623,5 +677,57 @@ mod tests {
             assert!(e.contains(words), "{sets:?}: {e}");
             assert!(e.contains(sets.last().unwrap().0), "{sets:?}: {e}");
         }
+    }
+
+    /// A help line names the methods that read its setting in brackets
+    /// (`[multiflux, mc]`), exactly those, in any order; a setting every
+    /// method reads names none.
+    #[test]
+    fn help_lines_name_the_methods() {
+        let names: Vec<&str> = ALL.iter().map(|m| m.name()).collect();
+        for s in SETTINGS {
+            let tags: Vec<Vec<&str>> = s
+                .help
+                .split('[')
+                .skip(1)
+                .filter_map(|t| t.split_once(']'))
+                .map(|(t, _)| t.split(", ").collect::<Vec<_>>())
+                .filter(|t| t.iter().all(|n| names.contains(n)))
+                .collect();
+            if s.methods == ALL {
+                assert!(tags.is_empty(), "{}: {tags:?}", s.name);
+                continue;
+            }
+            assert_eq!(tags.len(), 1, "{}: {}", s.name, s.help);
+            let mut got = tags[0].clone();
+            let mut want: Vec<&str> = s.methods.iter().map(|m| m.name()).collect();
+            got.sort();
+            want.sort();
+            assert_eq!(got, want, "{}", s.name);
+        }
+    }
+
+    /// The settings of a command line are read as the same values as
+    /// [`Settings::set_text`] reads them, with the range left to the
+    /// method's options; a shard is checked where it is read.
+    #[test]
+    fn command_line_settings_read_as_set_text() {
+        let given = [("samples", "2000".to_string()), ("estimator", "analog".into())];
+        let flags = Settings::from_flags(Mc, &given).unwrap();
+        let mut text = Settings::new(Mc);
+        given.iter().for_each(|(n, v)| text.set_text(n, v).unwrap());
+        let debug = |s: &Settings| format!("{:?}", s.options().unwrap());
+        assert_eq!(debug(&flags), debug(&text));
+        // Out of range: refused by set_text, left to the options by from_flags.
+        let zero = [("samples", "0".to_string())];
+        assert!(Settings::new(Mc).set_text("samples", "0").is_err());
+        assert_eq!(Settings::from_flags(Mc, &zero).unwrap().get("samples"), Some(&Value::Count(0)));
+        for (shard, words) in
+            [("3/2", "need 0 <= I < N"), ("1/2x", "N is not a number"), ("1", "I/N")]
+        {
+            let e = Settings::from_flags(Mc, &[("shard", shard.into())]).unwrap_err().to_string();
+            assert!(e.contains(words), "{shard}: {e}");
+        }
+        assert!(Settings::from_flags(Mc, &[("bogus", "1".into())]).is_err());
     }
 }

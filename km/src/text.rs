@@ -7,6 +7,41 @@ use km_montecarlo::EXACT_RELATIVE_STDERR;
 
 use crate::{ChannelResult, Light, Method, MethodDiagnostics, Plan, Scene, Solution, Substrate};
 
+/// How a result is printed (`km solve`, `km merge`, `km profile`, `km field`,
+/// `km phase`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Format {
+    /// Text for people.
+    Table,
+    /// The JSON contract of docs/cli.md.
+    Json,
+    /// Comma-separated values with a header.
+    Csv,
+}
+
+impl Format {
+    /// `--json` or `--format` (table by default).
+    pub fn of(json: bool, format: Option<Format>) -> Format {
+        format.unwrap_or(if json { Format::Json } else { Format::Table })
+    }
+
+    /// A result in this format: its `table`, its `csv`, or its `json`
+    /// (indented, with a final newline).
+    pub fn text(
+        self,
+        table: impl FnOnce() -> String,
+        csv: impl FnOnce() -> String,
+        json: impl FnOnce() -> serde_json::Value,
+    ) -> String {
+        match self {
+            Format::Table => table(),
+            Format::Csv => csv(),
+            Format::Json => format!("{:#}\n", json()),
+        }
+    }
+}
+
 /// Reads one number of a channel's result.
 type Getter = fn(&ChannelResult) -> f64;
 

@@ -144,3 +144,39 @@ pub fn solution_colours(
     }
     Ok(out)
 }
+
+/// The colour columns of a sweep's points (`km sweep --colour`): their
+/// names, `R_X`, `R_Y`, `R_Z`, `R_L`, `R_a`, `R_b`, `R_hex` and, when some
+/// point transmits, the same `T_...`; and per point its cells (empty
+/// `T_...` cells for a point that transmits nothing) and the colour of its
+/// reflectance. Every point's colours are computed before any is returned.
+///
+/// # Errors
+/// Those of [`solution_colours`], of the first point that has one.
+pub fn sweep_colour_columns<'a>(
+    wavelengths_nm: &[f64],
+    solutions: impl Iterator<Item = &'a km_core::Solution>,
+) -> Result<SweepColumns, (ColourStage, ColourError)> {
+    let per_point: Vec<Vec<(&str, SpectrumColour)>> =
+        solutions.map(|s| solution_colours(wavelengths_nm, s)).collect::<Result<_, _>>()?;
+    let transmits = per_point.iter().any(|c| c.len() > 1);
+    let mut names = Vec::new();
+    for q in if transmits { &["R", "T"][..] } else { &["R"][..] } {
+        names.extend(["X", "Y", "Z", "L", "a", "b", "hex"].map(|k| format!("{q}_{k}")));
+    }
+    let rows = per_point
+        .iter()
+        .map(|colours| {
+            let mut cells: Vec<String> = colours.iter().flat_map(|(_, c)| c.cells()).collect();
+            if transmits && colours.len() == 1 {
+                cells.extend(std::iter::repeat_n(String::new(), 7));
+            }
+            (cells, colours[0].1)
+        })
+        .collect();
+    Ok((names, rows))
+}
+
+/// The column names and, per point, the cells and the reflectance's colour
+/// ([`sweep_colour_columns`]).
+pub type SweepColumns = (Vec<String>, Vec<(Vec<String>, SpectrumColour)>);

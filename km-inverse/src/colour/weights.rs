@@ -33,8 +33,34 @@ pub fn linear_srgb_weights(wavelengths_nm: &[f64]) -> Result<Vec<[f64; 3]>, Colo
         .collect()
 }
 
+/// The channel mix of a Fourier BSDF file of a spectrum: the
+/// [`linear_srgb_weights`] of its wavelengths when there are several, so
+/// that the file holds the spectrum's colour; `None` for one wavelength or
+/// none (channels with labels).
+///
+/// # Errors
+/// Those of [`linear_srgb_weights`].
+pub fn spectrum_channel_mix(
+    wavelengths_nm: Option<&[f64]>,
+) -> Result<Option<Vec<[f64; 3]>>, ColourError> {
+    match wavelengths_nm {
+        Some(w) if w.len() > 1 => linear_srgb_weights(w).map(Some),
+        _ => Ok(None),
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    /// A Fourier file of a spectrum mixes its channels by the weights of
+    /// its wavelengths; one wavelength or labels leave the channels as they are.
+    #[test]
+    fn channel_mix_of_a_spectrum_only() {
+        let w = [450.0, 550.0, 650.0];
+        assert_eq!(spectrum_channel_mix(Some(&w)).unwrap(), Some(linear_srgb_weights(&w).unwrap()));
+        assert_eq!(spectrum_channel_mix(Some(&[550.0])).unwrap(), None);
+        assert_eq!(spectrum_channel_mix(None).unwrap(), None);
+    }
+
     use super::*;
 
     /// The weights give the colour of any spectrum (linearity), to rounding.

@@ -101,26 +101,60 @@ impl Input {
 /// The inputs of a drawdown fit, each optional (which are required depends
 /// on which readings are given: see the module documentation).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct DrawdownInputs {
     /// Reflectance of the film over the dark ground.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "r-black", help = "--km: reflectance of the film over the black ground")
+    )]
     pub r_black: Option<f64>,
     /// Reflectance of the film over the light ground.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "r-white", help = "--km: reflectance of the film over the white ground")
+    )]
     pub r_white: Option<f64>,
     /// Reflectance of the light ground itself.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "r-white-ground", help = "--km: reflectance of the white ground itself")
+    )]
     pub r_white_ground: Option<f64>,
     /// Reflectance of the dark ground itself (default 0: ideal black).
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long = "r-black-ground",
+            help = "--km: reflectance of the black ground itself (default 0: ideal black)"
+        )
+    )]
     pub r_black_ground: Option<f64>,
     /// Reflectance of the opaque film.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "r-inf", help = "--km: reflectance of an opaque (infinitely thick) film")
+    )]
     pub r_inf: Option<f64>,
     /// Reflectance of the film over an ideal black ground.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "r-zero", help = "--km: reflectance of the film over a black ground (R_0)")
+    )]
     pub r_zero: Option<f64>,
     /// Film thickness (any unit; `K`, `S` come out in its inverse).
+    #[cfg_attr(feature = "clap", arg(skip))]
     pub thickness: Option<f64>,
     /// Refractive index of the binder: the readings are instrument readings
     /// and get Saunderson's correction.
+    #[cfg_attr(feature = "clap", arg(skip))]
     pub n: Option<f64>,
     /// Saunderson's `k2` (needs `n`; default: the hemispherical Fresnel
     /// reflectance from inside).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, help = "--km: Saunderson k2 (internal diffuse reflectance of the surface)")
+    )]
     pub k2: Option<f64>,
 }
 

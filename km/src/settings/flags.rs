@@ -77,6 +77,12 @@ fn refuse_solve_flags(
             "give either --samples or --tolerance: the target chooses the photon count".into()
         );
     }
+    if given("tolerance") && given("streams") {
+        return Err("give either --streams or --tolerance, not both".into());
+    }
+    if given("repeat") && given("shard") {
+        return Err("--repeat does not combine with --shard (a shard is written once)".into());
+    }
     if given("tolerance") && given("shard") {
         return Err("--tolerance does not combine with --shard (every shard would choose its own \
                     photon count): run a pilot `km solve SCENE --method mc --tolerance T --json`, \
@@ -114,11 +120,15 @@ impl FlagError {
     }
 }
 
-/// An invalid option ([`KmError::Option`]) in the words of its flag:
+/// An invalid option or setting ([`KmError::Option`], [`KmError::Setting`])
+/// in the words of its flag:
 /// `--NAME VALUE: REASON`; any other refusal unchanged.
 pub fn option_flag(e: KmError) -> FlagError {
     match e {
         KmError::Option { name, value, reason } => {
+            FlagError::Option(format!("--{} {value}: {reason}", name.replace('_', "-")))
+        }
+        KmError::Setting { name, value, reason } => {
             FlagError::Option(format!("--{} {value}: {reason}", name.replace('_', "-")))
         }
         e => FlagError::Km(e),

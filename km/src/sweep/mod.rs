@@ -17,7 +17,7 @@ use km_core::{Scene, Solution};
 use rayon::prelude::*;
 
 pub use quantity::{LayerField, Quantity, apply, quantities, solve_points};
-pub use rows::{SweepFormat, sweep_text};
+pub use rows::{SweepFormat, cells_text, sweep_text};
 
 use crate::{KmError, Options};
 

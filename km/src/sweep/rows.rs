@@ -162,3 +162,39 @@ pub fn sweep_text(axes: &[SweepAxis], points: &[SweepPoint], format: SweepFormat
     }
     out
 }
+
+/// Rows of text cells under a header, laid out as [`sweep_text`] lays out
+/// its own: columns of `width` characters, CSV, or JSON lines (a cell that
+/// reads as a number is one, an empty cell is null); one row per line
+/// (`km sweep --colour`).
+pub fn cells_text(
+    header: &[String],
+    rows: &[Vec<String>],
+    format: SweepFormat,
+    width: usize,
+) -> String {
+    let column = |cells: &[String]| {
+        cells.iter().map(|c| format!("{c:>width$}")).collect::<Vec<_>>().join(" ")
+    };
+    let mut out = match format {
+        SweepFormat::Csv => header.join(",") + "\n",
+        SweepFormat::Table => column(header) + "\n",
+        SweepFormat::Jsonl => String::new(),
+    };
+    for cells in rows {
+        out.push_str(&match format {
+            SweepFormat::Csv => cells.join(","),
+            SweepFormat::Table => column(cells),
+            SweepFormat::Jsonl => {
+                let mut o = serde_json::Map::new();
+                for (h, c) in header.iter().zip(cells) {
+                    let v = c.parse::<f64>().map_or_else(|_| c.as_str().into(), |x| x.into());
+                    o.insert(h.clone(), if c.is_empty() { serde_json::Value::Null } else { v });
+                }
+                serde_json::Value::Object(o).to_string()
+            }
+        });
+        out.push('\n');
+    }
+    out
+}

@@ -1,4 +1,5 @@
-//! Progress on stderr for `km solve` (docs/cli.md): a bar for a solve
+//! Progress on stderr of a solve (feature `progress`; `km solve`,
+//! docs/cli.md): a bar for a solve
 //! expected to last more than [`SHOW_ABOVE_S`] seconds, drawn only when
 //! stderr is a terminal and `--quiet` is not given, so that nothing is
 //! written to a pipe, a file or a log.
@@ -9,6 +10,10 @@
 //! [`SECONDS_PER_UNIT`]); a stream search to a `--tolerance` (whose length
 //! depends on where the target is met) shows a spinner with the elapsed time
 //! once it has lasted [`SHOW_ABOVE_S`].
+//!
+//! A library's job rather than the command's: when to show progress and
+//! against what depends on the solvers (the tracer's callback, the
+//! multi-flux work estimate and its calibration), which live here.
 
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -38,11 +43,11 @@ fn style(template: &str) -> ProgressStyle {
 /// The Monte Carlo callback: photons done of the run's, drawn once the run
 /// has lasted half a second and its projection (elapsed over the fraction
 /// done) exceeds [`SHOW_ABOVE_S`].
-pub fn photons() -> km::Progress {
+pub fn photons() -> crate::Progress {
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
     let start = Instant::now();
     let shown = Mutex::new(false);
-    km::Progress::new(move |done, total| {
+    crate::Progress::new(move |done, total| {
         let mut shown = shown.lock().unwrap_or_else(|e| e.into_inner());
         let elapsed = start.elapsed().as_secs_f64();
         let projected = elapsed * total as f64 / done.max(1) as f64;
@@ -59,6 +64,21 @@ pub fn photons() -> km::Progress {
     })
 }
 
+/// Progress of a solve of `scene` with `options`, on stderr: Monte Carlo's
+/// callback set in `options`, or a multi-flux bar returned (drawn until
+/// dropped). Call only when progress is [`wanted`].
+pub fn attach(scene: &crate::Scene, options: &mut crate::Options) -> Option<Ticker> {
+    let tolerance = options.tolerance.is_some();
+    match &mut options.method {
+        crate::MethodOptions::Mc(o) => {
+            o.progress = Some(photons());
+            None
+        }
+        crate::MethodOptions::Multiflux(o) => Ticker::multiflux(scene, o, tolerance),
+        _ => None,
+    }
+}
+
 /// A bar (or spinner) drawn by its own thread until dropped.
 pub struct Ticker {
     stop: Arc<AtomicBool>,
@@ -71,14 +91,14 @@ impl Ticker {
     /// or with a `tolerance` a spinner shown once the search has lasted
     /// [`SHOW_ABOVE_S`].
     pub fn multiflux(
-        scene: &km::Scene,
-        opts: &km::MultifluxOptions,
+        scene: &crate::Scene,
+        opts: &crate::MultifluxOptions,
         tolerance: bool,
     ) -> Option<Ticker> {
         if tolerance {
             return Some(Ticker::start(None));
         }
-        let expected = km::multiflux_budget::estimate(scene, opts).units * SECONDS_PER_UNIT;
+        let expected = crate::multiflux_budget::estimate(scene, opts).units * SECONDS_PER_UNIT;
         (expected > SHOW_ABOVE_S).then(|| Ticker::start(Some(expected)))
     }
 
