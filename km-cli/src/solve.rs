@@ -75,6 +75,11 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     let inputs = std::slice::from_ref(&args.input.scene);
     let settings = args.settings.settings(args.method)?;
     if let Some((i, n)) = settings.shard() {
+        if args.colour.colour {
+            bail!(
+                "--colour does not combine with --shard (a shard prints nothing; `km merge` does)"
+            );
+        }
         let Some(out) = &args.out else {
             bail!("--shard {i}/{n} needs --out FILE for the partial tally");
         };
@@ -98,9 +103,6 @@ pub fn run(args: &SolveArgs) -> Result<()> {
 /// spectra (JSON key `colour`, or lines after the table).
 fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<()> {
     let inputs = std::slice::from_ref(&args.input.scene);
-    if args.settings.given.iter().any(|(name, _)| *name == "shard") {
-        bail!("--colour does not combine with --shard (a shard prints nothing; `km merge` does)");
-    }
     if format == OutputFormat::Csv {
         bail!(
             "--colour is the colour of the whole spectrum, not a value per wavelength: use \

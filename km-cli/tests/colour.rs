@@ -101,9 +101,26 @@ fn swatch_is_written_and_refusals_name_the_flag() {
     ok(&["solve", s(&scene), "--method", "km", "--colour", "--swatch", s(&svg)]);
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") && text.contains("#bcbcbc"), "{text}");
-    // Never over the scene file; --swatch needs --colour; RGB scenes and CSV refused.
-    let cases: [(&[&str], &str); 4] = [
+    // Never over the scene file; --swatch needs --colour; RGB scenes, CSV
+    // and a Monte Carlo shard (which prints nothing) refused; the shard's
+    // file is not written.
+    let part = d.join("part.json");
+    let cases: [(&[&str], &str); 5] = [
         (&["solve", s(&scene), "--colour", "--swatch", s(&scene)], "--swatch"),
+        (
+            &[
+                "solve",
+                s(&scene),
+                "--method",
+                "mc",
+                "--shard",
+                "0/2",
+                "--out",
+                s(&part),
+                "--colour",
+            ],
+            "--shard",
+        ),
         (&["solve", s(&scene), "--swatch", s(&svg)], "--colour"),
         (&["solve", s(&scene), "--colour", "--format", "csv"], "whole spectrum"),
         (
@@ -125,6 +142,7 @@ fn swatch_is_written_and_refusals_name_the_flag() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(words), "{args:?}: {err}");
     }
+    assert!(!part.exists(), "no shard written under --colour");
     assert!(std::fs::read_to_string(&scene).unwrap().contains("[spectrum]"), "scene intact");
     let rgb = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/paint-over-primer.toml");
     let out = km(&["solve", s(&rgb), "--colour"]);
