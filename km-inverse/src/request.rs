@@ -233,10 +233,10 @@ pub struct FitRequest {
     #[cfg_attr(feature = "clap", arg(long))]
     pub g: Option<f64>,
     /// Fraction of the specular reflection included in M_R (iad -c; default 1).
-    #[cfg_attr(feature = "clap", arg(long = "specular-in-m-r", default_value_t = 1.0))]
+    #[cfg_attr(feature = "clap", arg(long = "specular-in-m-r", default_value_t = FitRequest::default().specular_in_m_r))]
     pub specular_in_m_r: f64,
     /// Fraction of the unscattered beam included in M_T (iad -C; default 1).
-    #[cfg_attr(feature = "clap", arg(long = "unscattered-in-m-t", default_value_t = 1.0))]
+    #[cfg_attr(feature = "clap", arg(long = "unscattered-in-m-t", default_value_t = FitRequest::default().unscattered_in_m_t))]
     pub unscattered_in_m_t: f64,
     /// M_R excludes the specular reflection (same as --specular-in-m-r 0).
     #[cfg_attr(feature = "clap", arg(long = "exclude-specular"))]
@@ -245,7 +245,7 @@ pub struct FitRequest {
     #[cfg_attr(feature = "clap", arg(long = "exclude-unscattered"))]
     pub exclude_unscattered: bool,
     /// Polar angle of the incident beam in degrees (default 0).
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = FitRequest::default().incidence))]
     pub incidence: f64,
     /// Integrating spheres used at a time (iad -S): 0 (the totals themselves, the default),
     /// 1 (substitution) or 2 (double sphere); 1 and 2 need --r-sphere.
@@ -284,7 +284,7 @@ pub struct FitRequest {
     pub km: bool,
     /// A measurement file: multiply its row budget (10^4 rows, about 0.5 ms of fitting a row)
     /// by this factor; see docs/limits.md.
-    #[cfg_attr(feature = "clap", arg(long, value_name = "FACTOR", default_value_t = 1.0))]
+    #[cfg_attr(feature = "clap", arg(long, value_name = "FACTOR", default_value_t = FitRequest::default().budget))]
     pub budget: f64,
     /// The readings of the Kubelka–Munk inverse (`thickness`, `n` unused:
     /// those of this request serve).

@@ -55,17 +55,6 @@ const MAX_TRIES: usize = 64;
 /// uniform, which keeps the loop bounded and the result uniform.
 #[inline]
 pub(crate) fn azimuth<R: Rng>(rng: &mut R) -> (f64, f64) {
-    let (c, s, r2) = azimuth_unscaled(rng);
-    let inv = 1.0 / r2;
-    (c * inv, s * inv)
-}
-
-/// The azimuth of [`azimuth`] before its division: `(r^2 cos psi,
-/// r^2 sin psi, r^2)` with `r^2` in `(0, 1]` (eq. S1 without `/ r^2`), so
-/// that a caller can fold the division into one of its own (the scattering
-/// rotation, eq. M3').
-#[inline]
-pub(crate) fn azimuth_unscaled<R: Rng>(rng: &mut R) -> (f64, f64, f64) {
     let mut bits = 0u64;
     for _ in 0..MAX_TRIES {
         bits = rng.next_u64();
@@ -74,12 +63,13 @@ pub(crate) fn azimuth_unscaled<R: Rng>(rng: &mut R) -> (f64, f64, f64) {
         let y = (((bits >> 32) as u32 as i32) as f64 + 0.5) * HALF_SCALE;
         let r2 = x * x + y * y;
         if r2 <= 1.0 {
-            return (x * x - y * y, 2.0 * x * y, r2);
+            let inv = 1.0 / r2;
+            return ((x * x - y * y) * inv, (2.0 * x * y) * inv);
         }
     }
     let psi = 2.0 * std::f64::consts::PI * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64));
     let (s, c) = psi.sin_cos();
-    (c, s, 1.0)
+    (c, s)
 }
 
 /// Table entries of [`AzimuthTable`]: `2^8`, 4 KiB of `(cos, sin)` pairs.

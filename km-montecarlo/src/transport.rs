@@ -549,7 +549,7 @@ impl Tracer {
                     None => slab.phase.sample_cos(u),
                 };
                 let (c, s) = self.azimuth.sample(rng);
-                (p.ux, p.uy, p.uz) = spin_unscaled(p.ux, p.uy, p.uz, cos_t, c, s, 1.0);
+                (p.ux, p.uy, p.uz) = rotate(p.ux, p.uy, p.uz, cos_t, c, s);
                 if steps.is_multiple_of(RENORMALISE_EVERY) {
                     renormalise(&mut p);
                 }
@@ -936,37 +936,32 @@ pub(crate) fn spin(
     (nx * inv, ny * inv, nz * inv)
 }
 
-/// [`spin`] with the azimuth given unscaled, `(c, s) = r2 (cos psi, sin
-/// psi)` ([`crate::sampling::azimuth_unscaled`]), arranged for a short
-/// dependency chain from the old direction to the new one (eq. M3'):
-/// `a = sin(theta) / r2` depends on the random numbers only, and
-/// `sin(theta) / sqrt(1 - uz^2) / r2 = (a / (1 - uz^2)) sqrt(1 - uz^2)` takes
-/// a square root and a division side by side instead of one after the
-/// other. No renormalisation here (MCML has none): the rotation keeps the
-/// norm to rounding, with a drift measured at about 6e-17 per rotation;
-/// the tracer renormalises every [`RENORMALISE_EVERY`] steps and at every
-/// boundary ([`Tracer::cross`]).
+/// [`spin`] arranged for a short dependency chain from the old direction
+/// to the new one (eq. M3'): `sin(theta) / sqrt(1 - uz^2) = (sin(theta) /
+/// (1 - uz^2)) sqrt(1 - uz^2)` takes a square root and a division side by
+/// side instead of one after the other. No renormalisation here (MCML has
+/// none): the rotation keeps the norm to rounding, with a drift measured at
+/// about 6e-17 per rotation; the tracer renormalises every
+/// [`RENORMALISE_EVERY`] steps and at every boundary ([`Tracer::cross`]).
 #[inline]
-pub(crate) fn spin_unscaled(
+pub(crate) fn rotate(
     ux: f64,
     uy: f64,
     uz: f64,
     cos_t: f64,
-    c: f64,
-    s: f64,
-    r2: f64,
+    cos_p: f64,
+    sin_p: f64,
 ) -> (f64, f64, f64) {
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let a = sin_t / r2;
     if uz.abs() > 0.99999 {
-        return (a * c, a * s, cos_t * uz.signum());
+        return (sin_t * cos_p, sin_t * sin_p, cos_t * uz.signum());
     }
     let tmp2 = 1.0 - uz * uz;
     let tmp = tmp2.sqrt();
-    let k = (a / tmp2) * tmp;
-    let nx = k * (ux * uz * c - uy * s) + ux * cos_t;
-    let ny = k * (uy * uz * c + ux * s) + uy * cos_t;
-    let nz = -(a * c) * tmp + uz * cos_t;
+    let k = (sin_t / tmp2) * tmp;
+    let nx = k * (ux * uz * cos_p - uy * sin_p) + ux * cos_t;
+    let ny = k * (uy * uz * cos_p + ux * sin_p) + uy * cos_t;
+    let nz = -(sin_t * cos_p) * tmp + uz * cos_t;
     (nx, ny, nz)
 }
 
@@ -975,7 +970,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn unscaled_spin_is_spin() {
+    fn rotate_is_spin() {
         // Both forms of eq. M3 agree to rounding. Without renormalisation
         // the norm drifts by rounding (measured ~6e-17 per rotation, 1e-12
         // after ~1.7e4); renormalised every RENORMALISE_EVERY rotations, as
@@ -983,14 +978,10 @@ mod tests {
         // wrong rotation would lose or gain norm at every step).
         let mut u = (0.3, -0.4, (1.0f64 - 0.25).sqrt());
         for k in 0..100_000u64 {
-            let (r2, psi, cos_t) = (
-                0.3 + 0.5 * ((k % 7) as f64 / 7.0),
-                k as f64 * 0.37,
-                ((k % 13) as f64 / 6.5) - 1.0,
-            );
+            let (psi, cos_t) = (k as f64 * 0.37, ((k % 13) as f64 / 6.5) - 1.0);
             let (sp, cp) = psi.sin_cos();
             let a = spin(u.0, u.1, u.2, cos_t, cp, sp);
-            let b = spin_unscaled(u.0, u.1, u.2, cos_t, r2 * cp, r2 * sp, r2);
+            let b = rotate(u.0, u.1, u.2, cos_t, cp, sp);
             assert!(
                 (a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() < 1e-12,
                 "{a:?} {b:?}"

@@ -266,7 +266,7 @@ pub struct BsdfLists {
     pub streams: Option<usize>,
     /// Factor on the grid budgets (angle pairs, table values) and on the work
     /// budget of the operators (docs/limits.md).
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.0))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = BsdfLists::default().budget))]
     pub budget: f64,
 }
 

@@ -20,7 +20,7 @@ pub const MAX_FLUENCE_VALUES: usize = 10_000_000;
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct ProfileOptions {
     /// `Dipole` or `Mc`.
-    #[cfg_attr(feature = "clap", arg(long, short, value_parser = crate::settings::command_line::method_parser(&[Method::Dipole, Method::Mc]), default_value = "dipole", help = "`dipole` (closed form) or `mc` (Monte Carlo annuli)"))]
+    #[cfg_attr(feature = "clap", arg(long, short, value_parser = crate::settings::command_line::method_parser(&[Method::Dipole, Method::Mc]), default_value = ProfileOptions::default().method.name(), help = "`dipole` (closed form) or `mc` (Monte Carlo annuli)"))]
     pub method: Method,
     /// Largest radius, in the scene's length unit; `None`: 10 transport mean
     /// free paths `1 / (sigma_a + sigma_s (1 - g))` of the first channel's layer.
@@ -35,17 +35,17 @@ pub struct ProfileOptions {
     /// Number of radii (dipole) or annuli (Monte Carlo), at least 1.
     #[cfg_attr(
         feature = "clap",
-        arg(long, default_value_t = 20, help = "Number of radii (dipole) or annuli (mc)")
+        arg(long, default_value_t = ProfileOptions::default().points, help = "Number of radii (dipole) or annuli (mc)")
     )]
     pub points: usize,
     /// Monte Carlo photons.
     #[cfg_attr(
         feature = "clap",
-        arg(long, default_value_t = 1_000_000, help = "Monte Carlo photons [mc]")
+        arg(long, default_value_t = ProfileOptions::default().samples, help = "Monte Carlo photons [mc]")
     )]
     pub samples: u64,
     /// Monte Carlo seed.
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1, help = "Monte Carlo seed [mc]"))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = ProfileOptions::default().seed, help = "Monte Carlo seed [mc]"))]
     pub seed: u64,
     /// Depths at which the dipole also gives the fluence `phi(r, z)` at the
     /// same radii (empty: none; the dipole only).
