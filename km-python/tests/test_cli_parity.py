@@ -106,3 +106,27 @@ def test_model_error_estimate_and_the_new_options():
         km.solve(plate, "km", km_model="six-flux")
     with pytest.raises(km.KmError):
         km.solve(plate, "mc", samples=100, cone=50.0)
+
+
+def test_profile_defaults_are_the_commands(km_cli):
+    """`km.profile`'s keyword defaults (written in its signature) are those
+    of `km profile` (read from the library's `ProfileOptions::default()`):
+    a default changed on one side only fails here."""
+    import inspect
+    import re
+
+    help_text = subprocess.run(
+        [str(km_cli), "profile", "--help"], capture_output=True, text=True, check=True
+    ).stdout
+    # One block per flag: from its `--name` line to the next flag's.
+    blocks = re.split(r"\n(?=\s+(?:-\w, )?--[a-z])", help_text)
+    flags = {}
+    for b in blocks:
+        name = re.match(r"\s+(?:-\w, )?--([a-z-]+)", b)
+        default = re.search(r"\[default: ([^\]]+)\]", b)
+        if name and default:
+            flags[name.group(1)] = default.group(1)
+    sig = inspect.signature(km.profile).parameters
+    for name in ["method", "points", "samples", "seed"]:
+        assert name in flags, (name, flags)
+        assert str(sig[name].default) == flags[name], (name, sig[name].default, flags[name])
