@@ -28,6 +28,6 @@ pub mod scenes;
 pub mod seed;
 
 pub use reproduce::{
-    Progress, ReproduceOptions, Size, Summary, SummaryRow, recipe_names, reproduce,
-    reproduce_with_progress,
+    Progress, ReproduceOptions, ReproduceRequest, Size, Summary, SummaryRow, recipe_names,
+    reproduce, reproduce_with_progress,
 };

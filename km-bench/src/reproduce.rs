@@ -13,6 +13,64 @@ use crate::recipes;
 use crate::report::{Report, Section, Table};
 use km_plot::chart::ChartLayout;
 
+/// `km reproduce`'s request (with the feature `clap`, its flags; also what
+/// `km` alone runs): [`ReproduceRequest::options`] makes the
+/// [`ReproduceOptions`] of it.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct ReproduceRequest {
+    /// Output directory.
+    #[cfg_attr(feature = "clap", arg(long, default_value = "out", help = "Output directory"))]
+    pub out: PathBuf,
+    /// The quick run (the default).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, conflicts_with = "full", help = "Quick run (under two minutes; the default)")
+    )]
+    pub quick: bool,
+    /// The paper-scale run.
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long,
+            help = "Paper-scale run (10^5 Monte Carlo samples per direction, all directions)"
+        )
+    )]
+    pub full: bool,
+    /// Seed of the Monte Carlo runs.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, default_value_t = 1, help = "Seed of the Monte Carlo runs")
+    )]
+    pub seed: u64,
+    /// No progress on stderr.
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, help = "No progress on stderr (it is also off when stderr is not a terminal)")
+    )]
+    pub quiet: bool,
+    /// One recipe only ([`recipe_names`]).
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long,
+            value_name = "NAME",
+            help = "Regenerate one figure or study only (fig3, fig4, fig5, fig6, fig7, fig9, fig10, speedup, dipole, diffusion-limits, pareto, stability, savings, paint, rough-lobes); its section goes to DIR/report-NAME.md"
+        )
+    )]
+    pub only: Option<String>,
+}
+
+impl ReproduceRequest {
+    /// The options of [`reproduce`] for this request.
+    pub fn options(&self) -> ReproduceOptions {
+        let out = self.out.clone();
+        let base =
+            if self.full { ReproduceOptions::full(out) } else { ReproduceOptions::quick(out) };
+        ReproduceOptions { seed: self.seed, quiet: self.quiet, only: self.only.clone(), ..base }
+    }
+}
+
 /// Options of [`reproduce`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReproduceOptions {
@@ -98,6 +156,17 @@ impl Summary {
     /// Number of failed recipes.
     pub fn failures(&self) -> usize {
         self.rows.iter().filter(|r| r.status == "failed").count()
+    }
+
+    /// `Ok` when no recipe failed.
+    ///
+    /// # Errors
+    /// The number of failed recipes (their reasons are in the report).
+    pub fn check(&self) -> anyhow::Result<()> {
+        match self.failures() {
+            0 => Ok(()),
+            n => anyhow::bail!("{n} item(s) of the reproduction failed (see the report)"),
+        }
     }
 }
 

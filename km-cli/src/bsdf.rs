@@ -24,12 +24,6 @@ pub struct BsdfArgs {
     pub plot: Option<PathBuf>,
 }
 
-/// The `km bsdf` command with its flags in the order of the help (`--plot`
-/// before `--budget`).
-pub fn help_order(bsdf: clap::Command) -> clap::Command {
-    crate::place_after(bsdf, "streams", "plot")
-}
-
 /// `km bsdf`: compute, write (nothing half-written), plot, and print a
 /// summary on stderr.
 pub fn run(args: &BsdfArgs) -> anyhow::Result<()> {

@@ -1,16 +1,14 @@
 //! `--colour` and `--swatch` of `km solve` and `km sweep`: the colour of a
 //! spectral scene's reflectance and transmittance spectra (CIE XYZ and
-//! CIELAB under D65 with the CIE 1931 2° observer, sRGB), computed by
-//! `km_inverse::colour` (docs/colour.md; its `report` writes them), and a
-//! swatch of them as SVG.
+//! CIELAB under D65 with the CIE 1931 2° observer, sRGB), computed and
+//! written by `km_inverse::colour::report` (docs/colour.md), and a swatch
+//! of them as SVG.
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, anyhow};
 use km::Solution;
-use km_inverse::colour::report::{
-    ColourStage, SpectrumColour, solution_colours, sweep_colour_columns,
-};
+use km_inverse::colour::report::{SpectrumColour, solution_colours, sweep_colour_columns};
 pub use km_inverse::colour::report::{colours_json as json, colours_text as table_lines};
 use km_inverse::colour::{self, Patch};
 
@@ -27,33 +25,15 @@ pub struct ColourArgs {
     pub swatch: Option<PathBuf>,
 }
 
-/// The colour of one spectrum.
-pub type Colour = SpectrumColour;
-
 /// The wavelengths of a spectral scene, or the refusal of `--colour`.
 pub fn wavelengths(scene: &km::Scene) -> Result<Vec<f64>> {
-    match scene.wavelengths_nm() {
-        Some(w) if w.len() == scene.channels().len() => Ok(w.to_vec()),
-        _ => bail!(
-            "--colour needs a spectral scene ([spectrum] wavelengths_nm): the colour is that of \
-             a spectrum, and this scene's {} channel(s) have labels, not wavelengths",
-            scene.channels().len()
-        ),
-    }
+    colour::report::spectral_wavelengths(scene).map_err(|e| anyhow!("--colour {e}"))
 }
 
 /// The colours of a solution's reflectance and (when anything is
 /// transmitted) transmittance spectra, named `reflectance`, `transmittance`.
-pub fn of_solution(wavelengths: &[f64], sol: &Solution) -> Result<Vec<(&'static str, Colour)>> {
-    solution_colours(wavelengths, sol).map_err(colour_error)
-}
-
-/// A refused colour in the words of `--colour`.
-fn colour_error((stage, e): (ColourStage, km_inverse::colour::ColourError)) -> anyhow::Error {
-    match stage {
-        ColourStage::Spectrum => anyhow!("--colour: the spectrum: {e}"),
-        ColourStage::Lab => anyhow!("--colour: {e}"),
-    }
+pub fn of_solution(w: &[f64], sol: &Solution) -> Result<Vec<(&'static str, SpectrumColour)>> {
+    solution_colours(w, sol).map_err(|e| anyhow!("--colour: {e}"))
 }
 
 /// Write `patches` as an SVG swatch to `path`, atomically, never over one of `inputs`.
@@ -62,11 +42,6 @@ pub fn write_swatch(path: &Path, patches: &[Patch], inputs: &[PathBuf]) -> Resul
     let opts = km::atomic_file::WriteOptions { inputs: inputs.to_vec(), ..Default::default() };
     km::atomic_file::write_atomic_with(path, svg.as_bytes(), &opts)
         .with_context(|| format!("--swatch: cannot write {}", path.display()))
-}
-
-/// A swatch patch of a colour.
-pub fn patch(label: String, c: &Colour) -> Patch {
-    Patch { label, srgb: c.srgb }
 }
 
 /// `km sweep --colour`: one row per point: the swept values, then the
@@ -79,13 +54,13 @@ pub fn sweep_text(
     format: km::SweepFormat,
 ) -> Result<(String, Vec<Patch>)> {
     let (names, columns) = sweep_colour_columns(wavelengths, points.iter().map(|p| &p.solution))
-        .map_err(colour_error)?;
+        .map_err(|e| anyhow!("--colour: {e}"))?;
     let header: Vec<String> = axes.iter().map(|a| a.key.clone()).chain(names).collect();
     let (mut rows, mut patches) = (Vec::new(), Vec::new());
     for (p, (cells, colour)) in points.iter().zip(columns) {
         let label: Vec<String> =
             axes.iter().zip(&p.values).map(|(a, v)| format!("{}={v}", a.key)).collect();
-        patches.push(patch(label.join(" "), &colour));
+        patches.push(colour.patch(label.join(" ")));
         rows.push(p.values.iter().map(|v| km::text::number(*v)).chain(cells).collect());
     }
     Ok((km::sweep::cells_text(&header, &rows, format, 14), patches))

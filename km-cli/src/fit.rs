@@ -31,9 +31,9 @@ pub struct FitArgs {
 /// The `km fit` command with its flags in the order of the help: the
 /// output flags among the request's, `--budget` after `--plot`.
 pub fn help_order(fit: clap::Command) -> clap::Command {
-    let fit = crate::place_after(fit, "streams", "json");
-    let fit = crate::place_after(fit, "r_black_ground", "plot");
-    crate::place_after(fit, "plot", "budget")
+    let fit = km::settings::command_line::place_after(fit, "streams", "json");
+    let fit = km::settings::command_line::place_after(fit, "r_black_ground", "plot");
+    km::settings::command_line::place_after(fit, "plot", "budget")
 }
 
 /// `km fit`: the answer printed (and with `--km --plot`, the hiding curves drawn).

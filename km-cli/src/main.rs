@@ -27,10 +27,10 @@ mod sweep;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::bail;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use km::Method;
-use solve::{OutputFormat, SceneArg, method_parser};
+use km::settings::command_line::method_parser;
+use solve::{OutputFormat, SceneArg};
 
 /// The scene solved by `km demo`.
 const DEMO_SCENE: &str = include_str!("../../examples/seed-three-layers.toml");
@@ -110,7 +110,7 @@ enum Command {
         #[command(flatten)]
         input: SceneArg,
         /// Method whose decisions to show.
-        #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+        #[arg(long, short, value_parser = method_parser(&Method::ALL), default_value = "multiflux")]
         method: Method,
         /// Print JSON instead of words.
         #[arg(long)]
@@ -128,32 +128,7 @@ enum Command {
     Demo,
     /// Regenerate the seed paper's figures and the accuracy/time study into DIR/report.md.
     #[command(after_help = help!("reproduce"))]
-    Reproduce(ReproduceArgs),
-}
-
-// The flags of `km reproduce` (also what `km` alone runs).
-#[derive(clap::Args)]
-struct ReproduceArgs {
-    /// Output directory.
-    #[arg(long, default_value = "out")]
-    out: PathBuf,
-    /// Quick run (under two minutes; the default).
-    #[arg(long, conflicts_with = "full")]
-    quick: bool,
-    /// Paper-scale run (10^5 Monte Carlo samples per direction, all directions).
-    #[arg(long)]
-    full: bool,
-    /// Seed of the Monte Carlo runs.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// No progress on stderr (it is also off when stderr is not a terminal).
-    #[arg(long)]
-    quiet: bool,
-    /// Regenerate one figure or study only (fig3, fig4, fig5, fig6, fig7, fig9, fig10,
-    /// speedup, dipole, diffusion-limits, pareto, stability, savings, paint, rough-lobes); its
-    /// section goes to DIR/report-NAME.md.
-    #[arg(long, value_name = "NAME")]
-    only: Option<String>,
+    Reproduce(km_bench::ReproduceRequest),
 }
 
 /// The arguments `T` of the command line `argv`, every flag not in it at
@@ -163,28 +138,17 @@ fn parse_args<T: clap::Args + FromArgMatches>(argv: &[&'static str]) -> T {
     T::from_arg_matches(&cmd.get_matches_from(argv)).unwrap_or_else(|e| e.exit())
 }
 
-/// `cmd` with the argument `id` shown in the help right after `after`.
-pub(crate) fn place_after(cmd: clap::Command, after: &str, id: &str) -> clap::Command {
-    let order = |c: &clap::Command, id: &str| {
-        c.get_arguments().find(|a| a.get_id() == id).map_or(0, clap::Arg::get_display_order)
-    };
-    let at = order(&cmd, after);
-    let ids: Vec<String> = cmd.get_arguments().map(|a| a.get_id().to_string()).collect();
-    let mut cmd = cmd;
-    for other in ids.iter().filter(|o| *o != id) {
-        let o = order(&cmd, other);
-        cmd = cmd.mut_arg(other, |a| a.display_order(if o > at { 2 * o + 2 } else { 2 * o }));
-    }
-    cmd.mut_arg(id, |a| a.display_order(2 * at + 1))
-}
-
 fn main() -> ExitCode {
     stdout::init();
     let cli = Cli::command().mut_subcommand("fit", fit::help_order);
-    let matches = cli.mut_subcommand("bsdf", bsdf::help_order).get_matches();
+    // `km bsdf`'s help lists --plot before --budget.
+    let bsdf = |c| km::settings::command_line::place_after(c, "streams", "plot");
+    let matches = cli.mut_subcommand("bsdf", bsdf).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let command = cli.command.unwrap_or_else(|| Command::Reproduce(parse_args(&["reproduce"])));
-    let checked = solve::check_flags(&matches).and_then(|()| fit::check_flags(&matches));
+    let checked =
+        km::settings::command_line::refuse_given_flags(&matches).map_err(anyhow::Error::msg);
+    let checked = checked.and_then(|()| fit::check_flags(&matches));
     match checked.and_then(|()| run(command)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -216,22 +180,19 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Plan { input, method, json, all_effects } => {
             // The same check as `km solve`: a refused scene has no plan.
             let options = km::Options::new(method).with_all_effects(all_effects);
-            let plan = km::check(&input.load()?, &options).map_err(|e| {
-                anyhow::Error::new(e).context(format!("--method {}", method.name()))
-            })?;
-            if !json {
-                return stdout::print(&km::text::plan_words(&plan, method));
+            let plan = km::check(&input.load()?, &options)
+                .map_err(|e| km::settings::method_flag_error(e, method))?;
+            if json {
+                return stdout::print_json(&km::text::plan_json(&plan, method));
             }
-            let mut v = plan.to_json();
-            v["method"] = serde_json::json!(method.name());
-            stdout::print_json(&v)
+            stdout::print(&km::text::plan_words(&plan, method))
         }
         Command::Check(input) => stdout::print(&km::text::describe(&input.load()?)),
         Command::Demo => {
             let scene = km::Scene::from_toml_str(DEMO_SCENE)?;
             stdout::print("km: built-in example (examples/seed-three-layers.toml)\n\n")?;
             for method in [Method::Km, Method::Multiflux, Method::Mc] {
-                let sol = solve::solve(&scene, &solve::SolveArgs::defaults(method))?;
+                let sol = km::solve(&scene, &km::Options::new(method))?;
                 stdout::print(&format!("{}\n", km::text::table(&sol, Some(&scene))))?;
             }
             if let Err(e) = km::solve(&scene, &km::Options::new(Method::Dipole)) {
@@ -239,16 +200,10 @@ fn run(command: Command) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Reproduce(ReproduceArgs { out, quick: _, full, seed, quiet, only }) => {
-            use km_bench::ReproduceOptions as R;
-            let base = if full { R::full(out) } else { R::quick(out) };
-            let opts = R { seed, quiet, only, ..base };
-            let summary = km_bench::reproduce(&opts)?;
+        Command::Reproduce(request) => {
+            let summary = km_bench::reproduce(&request.options())?;
             stdout::print(&summary.to_string())?;
-            if summary.failures() > 0 {
-                bail!("{} item(s) of the reproduction failed (see the report)", summary.failures());
-            }
-            Ok(())
+            Ok(summary.check()?)
         }
     }
 }

@@ -3,7 +3,7 @@
 //! (`km::phase_report`, docs/phase.md §6), as a table, JSON or CSV, and
 //! optionally a chart of `p(theta)` (`km_plot::phase`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use km::phase_report::{PhaseOptions, csv, parse_angles, phase_report, table};
@@ -41,7 +41,7 @@ pub fn run(args: &PhaseArgs) -> Result<()> {
     let scene = args.input.load()?;
     let angles = |spec: &str| parse_angles(spec).with_context(|| format!("--angles {spec}"));
     let angles_deg = args.angles.as_deref().map(angles).transpose()?;
-    let plot = args.plot.as_deref().map(plot_target).transpose()?;
+    let plot = args.plot.as_deref().map(km_plot::chart::chart_target).transpose()?;
     let opts = PhaseOptions { angles_deg, moments: args.moments };
     let report = phase_report(&scene, &opts).map_err(|e| {
         let flag = match &e {
@@ -57,12 +57,4 @@ pub fn run(args: &PhaseArgs) -> Result<()> {
         km_plot::phase::write_phase_chart(&report, &dir, &stem)?;
     }
     stdout::print(&args.format.text(|| table(&report), || csv(&report), || report.to_json()))
-}
-
-/// The directory and stem of `--plot FILE.svg` (or `FILE.png`): both files
-/// are drawn.
-fn plot_target(path: &Path) -> Result<(PathBuf, String)> {
-    let png = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    let svg = if png { path.with_extension("svg") } else { path.to_path_buf() };
-    km_plot::chart::chart_target(&svg)
 }

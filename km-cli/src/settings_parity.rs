@@ -85,3 +85,19 @@ fn flags_give_the_options_of_the_same_settings() {
         assert_eq!(format!("{flags:?}"), format!("{text:?}"), "{argv:?}");
     }
 }
+
+/// `km reproduce --only`'s help names every recipe of the bench, and no
+/// other: fails when a recipe is added to (or removed from) the bench and
+/// not the help.
+#[test]
+fn reproduce_only_names_every_recipe() {
+    let cmd = km_bench::ReproduceRequest::augment_args(Command::new("reproduce"));
+    let only = cmd.get_arguments().find(|a| a.get_id() == "only").expect("--only");
+    let help = only.get_help().expect("help of --only").to_string();
+    let listed = help.split_once('(').and_then(|(_, r)| r.split_once(')')).expect("a list").0;
+    let mut listed: Vec<&str> = listed.split(',').map(str::trim).collect();
+    let mut names = km_bench::recipe_names();
+    listed.sort_unstable();
+    names.sort_unstable();
+    assert_eq!(listed, names);
+}

@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::builder::TypedValueParser;
-use km::settings::{FlagError, Settings, option_flag};
-use km::{KmError, Method, Scene, Solution};
+use km::settings::command_line::method_parser;
+use km::settings::method_flag_error;
+use km::{Method, Scene, Solution};
 
 pub use km::text::Format as OutputFormat;
 
@@ -38,7 +38,7 @@ pub struct SolveArgs {
     #[command(flatten)]
     pub input: SceneArg,
     /// Method.
-    #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+    #[arg(long, short, value_parser = method_parser(&Method::ALL), default_value = "multiflux")]
     pub method: Method,
     /// Print one JSON object (the contract of docs/cli.md) instead of a table
     /// (the same as --format json).
@@ -55,18 +55,6 @@ pub struct SolveArgs {
     pub settings: km::settings::command_line::SolveFlags,
     #[command(flatten)]
     pub colour: crate::colour::ColourArgs,
-}
-
-/// The `--method` values: the library's method registry.
-pub fn method_parser() -> impl TypedValueParser<Value = Method> {
-    km::settings::command_line::method_parser(&Method::ALL)
-}
-
-impl SolveArgs {
-    /// `km solve - --method METHOD`, every other flag at its default (`km demo`, `km sweep`).
-    pub fn defaults(method: Method) -> SolveArgs {
-        crate::parse_args(&["solve", "-", "--method", method.name()])
-    }
 }
 
 /// `km solve`: one run, or one shard of a Monte Carlo run written to `--out`.
@@ -92,7 +80,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     if args.colour.colour {
         return run_colour(args, &scene, format);
     }
-    let sol = solve(&scene, args)?;
+    let sol = args.settings.solve(&scene, args.method)?;
     if let Some(out) = &args.out {
         write_json(out, &sol.to_json(), inputs)?;
     }
@@ -110,13 +98,12 @@ fn run_colour(args: &SolveArgs, scene: &Scene, format: OutputFormat) -> Result<(
         );
     }
     let wavelengths = crate::colour::wavelengths(scene)?;
-    let sol = solve(scene, args)?;
+    let sol = args.settings.solve(scene, args.method)?;
     let colours = crate::colour::of_solution(&wavelengths, &sol)?;
     let mut v = sol.to_json();
     v["colour"] = crate::colour::json(&colours);
     if let Some(path) = &args.colour.swatch {
-        let patches: Vec<_> =
-            colours.iter().map(|(n, c)| crate::colour::patch((*n).into(), c)).collect();
+        let patches: Vec<_> = colours.iter().map(|(n, c)| c.patch((*n).into())).collect();
         crate::colour::write_swatch(path, &patches, inputs)?;
     }
     if let Some(out) = &args.out {
@@ -144,31 +131,8 @@ pub fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) ->
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Solve `scene` as the flags of `args` ask (`km::settings::command_line::SolveFlags`).
-pub fn solve(scene: &Scene, args: &SolveArgs) -> Result<Solution> {
-    Ok(args.settings.solve(scene, args.method)?)
-}
-
-/// A library refusal in the words of the flags that caused it
-/// (`km::settings::command_line::solve_error`).
-pub fn flag_error(e: KmError, settings: &Settings) -> anyhow::Error {
-    km::settings::command_line::solve_error(e, settings).into()
-}
-
 /// `km profile`: Rd(r) by the dipole or Monte Carlo, printed.
 pub fn profile(scene: &Scene, opts: &km::ProfileOptions, format: OutputFormat) -> Result<()> {
-    let p = km::profile(scene, opts).map_err(|e| match e {
-        e @ KmError::Option { .. } => option_flag(e),
-        e => FlagError::after(format!("--method {}", opts.method.name()), e),
-    })?;
+    let p = km::profile(scene, opts).map_err(|e| method_flag_error(e, opts.method))?;
     stdout::print(&format.text(|| p.table(), || p.csv(), || p.to_json()))
-}
-
-/// Refuse a flag that does not apply to the chosen method or mode (clap cannot
-/// know the method: checked after parsing; `km::settings::refuse_flags`).
-pub fn check_flags(matches: &clap::ArgMatches) -> Result<()> {
-    let Some((command, m)) = matches.subcommand() else { return Ok(()) };
-    let given = km::settings::command_line::given_flag(m);
-    let method = m.try_get_one::<Method>("method").ok().flatten().copied();
-    km::settings::refuse_flags(command, method, given).map_err(anyhow::Error::msg)
 }

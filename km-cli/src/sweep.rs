@@ -6,9 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use km::Method;
+use km_inverse::colour::MAX_PATCHES;
 
-use crate::solve::{flag_error, method_parser};
 use crate::stdout;
+use km::settings::command_line::{method_parser, solve_error};
 
 // The flags of `km sweep` (no doc comment: it would become the command's about).
 #[derive(clap::Args, Debug)]
@@ -20,7 +21,7 @@ pub struct SweepArgs {
     #[arg(long = "set", value_name = "KEY=START:STOP:N", required = true)]
     pub set: Vec<String>,
     /// Method.
-    #[arg(long, short, value_parser = method_parser(), default_value = "multiflux")]
+    #[arg(long, short, value_parser = method_parser(&Method::ALL), default_value = "multiflux")]
     pub method: Method,
     /// Output format.
     #[arg(long, value_enum, default_value_t = km::SweepFormat::Table)]
@@ -52,9 +53,9 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         let scene = km::Scene::from_toml_str_edited(&text, &edits)
             .with_context(|| format!("{}", args.scene.display()))?;
         let points: usize = axes.iter().map(|a| a.n).product();
-        if args.colour.swatch.is_some() && points > MAX_SWATCH {
+        if args.colour.swatch.is_some() && points > MAX_PATCHES {
             bail!(
-                "--swatch draws one patch per point, at most {MAX_SWATCH}; the sweep has {points}"
+                "--swatch draws one patch per point, at most {MAX_PATCHES}; the sweep has {points}"
             );
         }
         Some(crate::colour::wavelengths(&scene)?)
@@ -63,7 +64,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     };
     // The points run in parallel: no progress bar.
     let opts = args.settings.options(&settings)?;
-    let points = km::sweep(&text, &edits, &axes, &opts).map_err(|e| flag_error(e, &settings))?;
+    let points = km::sweep(&text, &edits, &axes, &opts).map_err(|e| solve_error(e, &settings))?;
     let Some(w) = wavelengths else {
         return stdout::print(&km::sweep_text(&axes, &points, args.format));
     };
@@ -73,6 +74,3 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     }
     stdout::print(&rows)
 }
-
-/// The most patches of a swatch (`km_inverse::colour::swatch_svg`).
-const MAX_SWATCH: usize = 64;

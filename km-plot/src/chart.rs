@@ -157,19 +157,20 @@ fn pe<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plotting: {e:?}")
 }
 
-/// The directory and stem of the chart `--plot FILE.svg` (the name must end
-/// in `.svg`; the PNG goes next to it), refused before anything is computed:
+/// The directory and stem of the chart `--plot FILE.svg` or `--plot
+/// FILE.png` (both are drawn, side by side), refused before anything is computed:
 /// a directory that does not exist, or an SVG or PNG of that stem that is not
 /// a chart (never replaced).
 ///
 /// # Errors
 /// Each refusal, naming `--plot` and the file.
 pub fn chart_target(path: &Path) -> anyhow::Result<(PathBuf, String)> {
-    let is_svg = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let is_chart = matches!(ext.as_deref(), Some("svg" | "png"));
     let stem = path.file_stem().and_then(|s| s.to_str()).filter(|s| !s.is_empty());
-    let (Some(stem), true) = (stem, is_svg) else {
+    let (Some(stem), true) = (stem, is_chart) else {
         anyhow::bail!(
-            "--plot {}: the chart is an SVG file, give a name ending in .svg",
+            "--plot {}: the chart is an SVG and a PNG file, give a name ending in .svg or .png",
             path.display()
         );
     };
@@ -817,5 +818,20 @@ mod tests {
         assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
         assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
         assert_eq!(viridis(f64::NAN), RGBColor(68, 1, 84));
+    }
+
+    /// `--plot` takes either name of the pair (`.svg`, `.png`, any case) to
+    /// the same directory and stem, and refuses any other ending.
+    #[test]
+    fn chart_target_takes_either_name_of_the_pair() {
+        let dir = std::env::temp_dir();
+        for name in ["curve.svg", "curve.png", "curve.PNG"] {
+            let (d, stem) = chart_target(&dir.join(name)).unwrap();
+            assert_eq!((d, stem.as_str()), (dir.clone(), "curve"));
+        }
+        for name in ["curve.txt", "curve", ".svg"] {
+            let e = chart_target(&dir.join(name)).unwrap_err().to_string();
+            assert!(e.contains(".svg or .png"), "{name}: {e}");
+        }
     }
 }

@@ -37,6 +37,9 @@ pub use crate::inside::InsideField;
 use crate::mc_field::{check_depths, mc_depths, mc_depths_inside};
 use crate::{Method, MethodOptions, Solver};
 
+mod request;
+pub use request::{FieldRequest, parse_direction};
+
 /// The settings of [`field`]: the method and its options.
 #[derive(Debug, Clone, Default)]
 pub struct FieldOptions {

@@ -24,7 +24,7 @@ use crate::{DirectionSetOptions, KmError, Method, MethodOptions, Options};
 #[cfg(feature = "clap")]
 pub mod command_line;
 mod flags;
-pub use flags::{FlagError, option_flag, refuse_flags, solve_flag_error};
+pub use flags::{FlagError, method_flag_error, option_flag, refuse_flags, solve_flag_error};
 
 /// What values a setting takes.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -475,6 +475,13 @@ pub fn describe(scene: &Scene) -> String {
     s
 }
 
+/// A plan as JSON with the method it is for (`km plan --json`).
+pub fn plan_json(plan: &Plan, method: Method) -> serde_json::Value {
+    let mut v = plan.to_json();
+    v["method"] = serde_json::json!(method.name());
+    v
+}
+
 /// A plan in plain words (`km plan`).
 pub fn plan_words(plan: &Plan, method: Method) -> String {
     let mut s = String::new();

@@ -43,7 +43,7 @@ mod weights;
 pub use adaptation::{SRGB_WHITE, bradford, srgb_adapted};
 pub use ciede2000::{De2000Weights, ciede2000, ciede2000_weighted};
 pub use srgb::{srgb, srgb_linear, xyz_from_srgb};
-pub use swatch::{Patch, srgb_u8, swatch_svg};
+pub use swatch::{MAX_PATCHES, Patch, srgb_u8, swatch_svg};
 pub use weights::{linear_srgb_weights, spectrum_channel_mix};
 
 /// An error of the colour pipeline, naming the offending value.

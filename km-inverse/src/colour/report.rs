@@ -6,7 +6,8 @@
 use serde_json::{Value, json};
 
 use super::{
-    ColourError, Illuminant, Lab, Observer, Spectrum, Xyz, lab, srgb, srgb_u8, white_point, xyz,
+    ColourError, Illuminant, Lab, Observer, Patch, Spectrum, Xyz, lab, srgb, srgb_u8, white_point,
+    xyz,
 };
 
 /// The observer of a [`SpectrumColour`].
@@ -34,21 +35,57 @@ pub enum ColourStage {
     Lab,
 }
 
+/// A colour that could not be computed: the stage and the error
+/// (`the spectrum: ...` for the spectrum, the error alone for CIELAB).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColourRefusal(pub ColourStage, pub ColourError);
+
+impl std::fmt::Display for ColourRefusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            ColourStage::Spectrum => write!(f, "the spectrum: {}", self.1),
+            ColourStage::Lab => write!(f, "{}", self.1),
+        }
+    }
+}
+
+impl std::error::Error for ColourRefusal {}
+
+/// The wavelengths of a spectral scene (one per channel), the spectrum
+/// whose colour a front end reports.
+///
+/// # Errors
+/// A scene whose channels are not wavelengths, in words that follow the
+/// name of the request (`--colour needs a spectral scene ...`).
+pub fn spectral_wavelengths(scene: &km_core::Scene) -> Result<Vec<f64>, String> {
+    match scene.wavelengths_nm() {
+        Some(w) if w.len() == scene.channels().len() => Ok(w.to_vec()),
+        _ => Err(format!(
+            "needs a spectral scene ([spectrum] wavelengths_nm): the colour is that of a \
+             spectrum, and this scene's {} channel(s) have labels, not wavelengths",
+            scene.channels().len()
+        )),
+    }
+}
+
 impl SpectrumColour {
     /// The colour of `values` at `wavelengths_nm`.
     ///
     /// # Errors
     /// An invalid spectrum, or XYZ without a CIELAB value, with the stage
     /// that failed.
-    pub fn of(
-        wavelengths_nm: &[f64],
-        values: Vec<f64>,
-    ) -> Result<SpectrumColour, (ColourStage, ColourError)> {
+    pub fn of(wavelengths_nm: &[f64], values: Vec<f64>) -> Result<SpectrumColour, ColourRefusal> {
         let spectrum = Spectrum::new(wavelengths_nm.to_vec(), values)
-            .map_err(|e| (ColourStage::Spectrum, e))?;
+            .map_err(|e| ColourRefusal(ColourStage::Spectrum, e))?;
         let xyz = xyz(&spectrum, OBSERVER, ILLUMINANT);
-        let lab = lab(xyz, white_point(OBSERVER, ILLUMINANT)).map_err(|e| (ColourStage::Lab, e))?;
+        let lab = lab(xyz, white_point(OBSERVER, ILLUMINANT))
+            .map_err(|e| ColourRefusal(ColourStage::Lab, e))?;
         Ok(SpectrumColour { xyz, lab, srgb: srgb(xyz) })
+    }
+
+    /// A swatch patch of this colour.
+    pub fn patch(&self, label: String) -> Patch {
+        Patch { label, srgb: self.srgb }
     }
 
     /// `#rrggbb`: 8-bit sRGB, clipped to the gamut.
@@ -135,7 +172,7 @@ pub fn colours_text(colours: &[(&str, SpectrumColour)]) -> String {
 pub fn solution_colours(
     wavelengths_nm: &[f64],
     sol: &km_core::Solution,
-) -> Result<Vec<(&'static str, SpectrumColour)>, (ColourStage, ColourError)> {
+) -> Result<Vec<(&'static str, SpectrumColour)>, ColourRefusal> {
     let r = sol.channels.iter().map(|c| c.reflectance).collect();
     let mut out = vec![("reflectance", SpectrumColour::of(wavelengths_nm, r)?)];
     if sol.channels.iter().any(|c| c.transmittance > 0.0) {
@@ -156,7 +193,7 @@ pub fn solution_colours(
 pub fn sweep_colour_columns<'a>(
     wavelengths_nm: &[f64],
     solutions: impl Iterator<Item = &'a km_core::Solution>,
-) -> Result<SweepColumns, (ColourStage, ColourError)> {
+) -> Result<SweepColumns, ColourRefusal> {
     let per_point: Vec<Vec<(&str, SpectrumColour)>> =
         solutions.map(|s| solution_colours(wavelengths_nm, s)).collect::<Result<_, _>>()?;
     let transmits = per_point.iter().any(|c| c.len() > 1);

@@ -32,6 +32,9 @@ fn escape_xml(s: &str) -> String {
     out
 }
 
+/// The most patches of a swatch ([`swatch_svg`]).
+pub const MAX_PATCHES: usize = 64;
+
 /// A small SVG image: one 96 x 96 px square per patch in a row, its label
 /// and its 8-bit hex colour underneath. A patch outside the sRGB gamut is
 /// clipped and marked `(clipped)`.
@@ -47,7 +50,7 @@ fn escape_xml(s: &str) -> String {
 pub fn swatch_svg(patches: &[Patch]) -> Result<String, ColourError> {
     const SIZE: usize = 96;
     const GAP: usize = 8;
-    if patches.is_empty() || patches.len() > 64 {
+    if patches.is_empty() || patches.len() > MAX_PATCHES {
         return Err(invalid("patches", patches.len() as f64, "a swatch has 1 to 64 patches"));
     }
     let width = patches.len() * (SIZE + GAP) + GAP;

@@ -1,7 +1,7 @@
 //! `km.field`: the depth-resolved field of a scene (`km::field`,
 //! docs/field.md) as numpy arrays, channels x depths.
 
-use km::field::{FieldMethod, FieldOptions, field as km_field};
+use km::field::{FieldOptions, FieldRequest, field as km_field};
 use numpy::{IntoPyArray, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -38,12 +38,17 @@ pub(crate) fn field<'py>(
     mc_cone: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = crate::engine::method(method).map_err(|e| py_err(py, e))?;
-    let mut opts = FieldOptions {
-        method: FieldMethod(method),
+    let defaults = FieldRequest::default();
+    let mut request = FieldRequest {
+        method,
+        depths: None,
+        streams,
+        samples: samples.unwrap_or(defaults.samples),
+        seed: seed.unwrap_or(defaults.seed),
         dz,
         directions,
-        mc_cone_deg: mc_cone,
-        ..Default::default()
+        mc_cone: mc_cone.unwrap_or(defaults.mc_cone),
+        ..defaults
     };
     // The dipole's model and F_dr through the one table of settings (its
     // choices, defaults and the refusal of either for another method), as
@@ -56,15 +61,15 @@ pub(crate) fn field<'py>(
         let o = crate::engine::Options { method, settings: text, ..Default::default() };
         let lib = o.library().map_err(|e| py_err(py, e))?;
         if let km::MethodOptions::Dipole(d) = lib.method {
-            opts.dipole = d;
+            (request.fdr, request.dipole) = (d.fdr, d.model);
         }
     }
-    opts.multiflux.streams = streams;
-    opts.mc.samples = samples.unwrap_or(100_000);
-    if opts.mc.samples == 0 {
-        return Err(py_err(py, Error::option("samples", "0: need at least one photon")));
-    }
-    opts.mc.seed = seed.unwrap_or(1);
+    let opts = request.options().map_err(|e| match e {
+        km::KmError::Option { name, value, reason } => {
+            py_err(py, Error::option(name, format!("{value}: {reason}")))
+        }
+        e => py_err(py, Error::from(e)),
+    })?;
     let scene = &scene.get().scene;
     // Monte Carlo is stoppable by Ctrl-C; the other methods are bounded by
     // their work budget.

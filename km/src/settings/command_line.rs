@@ -126,6 +126,33 @@ pub fn given_flag(m: &ArgMatches) -> impl Fn(&str) -> bool + '_ {
     }
 }
 
+/// Refuse a flag given to a subcommand of `matches` that does not apply to
+/// the chosen method or mode (clap cannot know the method: checked after
+/// parsing, by [`super::refuse_flags`]).
+///
+/// # Errors
+/// The refusal's words, naming the flag and the method.
+pub fn refuse_given_flags(matches: &ArgMatches) -> Result<(), String> {
+    let Some((command, m)) = matches.subcommand() else { return Ok(()) };
+    let method = m.try_get_one::<Method>("method").ok().flatten().copied();
+    super::refuse_flags(command, method, given_flag(m))
+}
+
+/// `cmd` with its argument `id` shown in the help right after `after`.
+pub fn place_after(cmd: Command, after: &str, id: &str) -> Command {
+    let order = |c: &Command, id: &str| {
+        c.get_arguments().find(|a| a.get_id() == id).map_or(0, Arg::get_display_order)
+    };
+    let at = order(&cmd, after);
+    let ids: Vec<String> = cmd.get_arguments().map(|a| a.get_id().to_string()).collect();
+    let mut cmd = cmd;
+    for other in ids.iter().filter(|o| *o != id) {
+        let o = order(&cmd, other);
+        cmd = cmd.mut_arg(other, |a| a.display_order(if o > at { 2 * o + 2 } else { 2 * o }));
+    }
+    cmd.mut_arg(id, |a| a.display_order(2 * at + 1))
+}
+
 /// A refusal of a solve with `settings`, in the words of the flags that
 /// caused it ([`super::solve_flag_error`]).
 pub fn solve_error(e: KmError, settings: &Settings) -> FlagError {

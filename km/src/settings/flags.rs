@@ -135,6 +135,16 @@ pub fn option_flag(e: KmError) -> FlagError {
     }
 }
 
+/// A refusal by `method` in the words of the flags: an invalid option as
+/// [`option_flag`] words it, any other refusal after `--method M` (`km
+/// profile`, `km plan`).
+pub fn method_flag_error(e: KmError, method: Method) -> FlagError {
+    match e {
+        e @ (KmError::Option { .. } | KmError::Setting { .. }) => option_flag(e),
+        e => FlagError::after(format!("--method {}", method.name()), e),
+    }
+}
+
 /// A refusal of a solve in the words of the flags that caused it
 /// (`--tolerance` when `tolerance` was given, `--directions`, `--cone`,
 /// `--method`).
