@@ -177,19 +177,25 @@ fn the_request_and_its_refusals() {
     let o = FieldOptions { method: FieldMethod(Method::Km), ..Default::default() };
     let e = field(&s, None, &o).unwrap_err().to_string();
     assert!(e.contains("multiflux and mc"), "{e}");
-    // `km solve` does not answer the directions: its answer and field are
-    // those of the scene without them, by every method.
+    // `km solve` answers the directions where `km field` does (multi-flux)
+    // and notes them ignored where it refuses them (two-flux); its totals
+    // and depth field are those of the scene without them, by every method
+    // (docs/field.md §6; the radiance's own numbers: tests/solve_radiance.rs).
     let methods = [
-        km::Options::from(MultifluxOptions::default()),
-        km::Options::from(km_core::two_flux::KmOptions::default()),
+        (km::Options::from(MultifluxOptions::default()), true),
+        (km::Options::from(km_core::two_flux::KmOptions::default()), false),
     ];
-    for m in &methods {
+    for (m, gives) in &methods {
         let a = km::solve(&s, m).unwrap();
         let b = km::solve(&plain_with_depths(), m).unwrap();
-        assert_eq!(a.field.as_ref().map(|f| f.fluence.clone()), b.field.map(|f| f.fluence));
-        // ... and says so in a note, which the scene without them has not.
+        assert_eq!(a.channels, b.channels);
+        let fa = a.field.as_ref().unwrap();
+        assert_eq!(Some(&fa.fluence), b.field.as_ref().map(|f| &f.fluence));
+        assert_eq!(fa.radiance.is_some(), *gives);
+        // ... and the one without says so in a note, which the scene
+        // without directions has not.
         let named = |n: &Vec<String>| n.iter().any(|t| t.contains("inside_directions_deg"));
-        assert!(named(&a.notes) && !named(&b.notes), "{:?}", a.notes);
+        assert!(named(&a.notes) != *gives && !named(&b.notes), "{:?}", a.notes);
     }
     // A bad direction in the scene file names the key.
     let e = Scene::from_toml_str(
