@@ -241,8 +241,9 @@ pub struct InsideField {
     /// Their standard errors (Monte Carlo).
     pub stderr: Option<Vec<Vec<Vec<f64>>>>,
     /// Per channel and depth, the down-going and up-going collimated beams'
-    /// irradiance on a horizontal plane (multi-flux; delta-M scaled, the
-    /// truncated forward peak with them).
+    /// irradiance on a horizontal plane (multi-flux): the light not yet
+    /// scattered where the single-scattering correction puts the forward
+    /// peak into `radiance`, else delta-M scaled (docs/field.md §2a).
     pub beams: Option<[Vec<Vec<f64>>; 2]>,
     /// The Monte Carlo cone half-angle of each direction, degrees (its
     /// resolution: the values are cone averages).
