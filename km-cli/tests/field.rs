@@ -50,3 +50,54 @@ fn field_json_csv_plot_and_refusals() {
     assert!(!ok && err.contains("depths = 1.5"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `km solve --json` on a scene with `[output] depths` and
+/// `inside_directions_deg` carries `km field --json`'s `radiance` object,
+/// key for key and number for number (multi-flux at the same streams;
+/// Monte Carlo at the same photons and seed, whose solve tallies it in the
+/// run that gives the answer, as `km field` does), and the table shows it
+/// under the depth table; without the directions the key is absent.
+#[test]
+fn solve_json_carries_the_radiance_of_km_field() {
+    let dir = std::env::temp_dir().join(format!("km-solve-radiance-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("s.toml");
+    let text = format!(
+        "[light]\ntheta_deg = 30.0\n{SCENE}inside_directions_deg = [[20.0, 180.0], [150.0, 0.0]]\n"
+    );
+    std::fs::write(&path, &text).unwrap();
+    let p = path.to_str().unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let (ok, out, err) = km(args);
+        assert!(ok, "{args:?}: {err}");
+        serde_json::from_str(&out).unwrap()
+    };
+    for extra in [
+        &["--method", "multiflux", "--streams", "12"][..],
+        &["--method", "mc", "--samples", "5000", "--seed", "4"][..],
+    ] {
+        let solve = json(&[&["solve", p, "--json"][..], extra].concat());
+        let field = json(&[&["field", p, "--json"][..], extra].concat());
+        let r = &solve["radiance"];
+        assert!(r.is_object(), "{extra:?}: {solve}");
+        assert_eq!(r, &field["radiance"], "{extra:?}");
+        // Five depths x two directions, one channel.
+        let v = r["values"].as_array().unwrap();
+        assert_eq!(v.len(), 5);
+        assert!(v.iter().all(|row| row.as_array().unwrap().len() == 2));
+        let notes = solve["notes"].as_array().unwrap();
+        assert!(!notes.iter().any(|n| n.as_str().unwrap().contains("inside_directions")));
+        let (ok, table, err) = km(&[&["solve", p][..], extra].concat());
+        assert!(ok, "{err}");
+        assert!(table.contains("radiance inside"), "{table}");
+    }
+    // Two-flux gives none and says so; the answer stands.
+    let km_solve = json(&["solve", p, "--method", "km", "--json"]);
+    assert!(km_solve.get("radiance").is_none());
+    let notes = km_solve["notes"].as_array().unwrap();
+    assert!(notes.iter().any(|n| n.as_str().unwrap().contains("gives no radiance")), "{notes:?}");
+    // Without directions: no key.
+    std::fs::write(&path, SCENE).unwrap();
+    assert!(json(&["solve", p, "--json"]).get("radiance").is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

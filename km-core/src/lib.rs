@@ -51,4 +51,6 @@ pub use layer::Layer;
 pub use scene::{
     Light, MonoScene, Scene, SceneLimits, Substrate, read_checked_text, read_scene_text,
 };
-pub use solution::{AccuracyReport, ChannelResult, DepthOutput, Solution, Uncertainty};
+pub use solution::{
+    AccuracyReport, ChannelResult, DepthOutput, InsideField, Solution, Uncertainty,
+};

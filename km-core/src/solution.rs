@@ -219,6 +219,68 @@ pub struct DepthOutput {
     pub net_flux: Vec<Vec<f64>>,
     /// Monte Carlo: the standard errors of `fluence`, `absorbed`, `net_flux`, in that order.
     pub stderr: Option<[Vec<Vec<f64>>; 3]>,
+    /// The radiance at the scene's `[output] inside_directions_deg` and the
+    /// depths (docs/field.md §2a, §4a, §6), when the scene asks for it and the
+    /// method gives it (multi-flux, Monte Carlo): what `km field` gives.
+    pub radiance: Option<InsideField>,
+}
+
+/// The radiance inside the stack at the field's depths and some directions
+/// (docs/field.md §2a, §4a): `km field`'s, and a solve's
+/// ([`DepthOutput::radiance`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct InsideField {
+    /// The directions `[theta, phi]`, degrees: `theta` from the downward
+    /// normal (`< 90` down-going, `> 90` up-going), `phi = 180` the side
+    /// towards which the beam travels.
+    pub directions: Vec<[f64; 2]>,
+    /// `radiance[c][k][j]`: channel `c`, depth `k`, direction `j`; the
+    /// diffuse radiance per unit incident irradiance (1/sr), the collimated
+    /// beams apart.
+    pub radiance: Vec<Vec<Vec<f64>>>,
+    /// Their standard errors (Monte Carlo).
+    pub stderr: Option<Vec<Vec<Vec<f64>>>>,
+    /// Per channel and depth, the down-going and up-going collimated beams'
+    /// irradiance on a horizontal plane (multi-flux): the light not yet
+    /// scattered where the single-scattering correction puts the forward
+    /// peak into `radiance`, else delta-M scaled (docs/field.md §2a).
+    pub beams: Option<[Vec<Vec<f64>>; 2]>,
+    /// The Monte Carlo cone half-angle of each direction, degrees (its
+    /// resolution: the values are cone averages).
+    pub cone_half_angle_deg: Option<Vec<f64>>,
+}
+
+impl InsideField {
+    /// The JSON object of the key `radiance` of `km field --json` and `km
+    /// solve --json` (docs/cli.md): `directions`, `values` (depth x
+    /// direction for one channel, a list of those per channel for several),
+    /// `stderr` (Monte Carlo, the same shape), `beam_down`, `beam_up` (a
+    /// value per depth, a list per channel for several; multi-flux) and
+    /// `cone_half_angle_deg` (a value per direction; Monte Carlo).
+    pub fn to_json(&self) -> Value {
+        let one = self.radiance.len() == 1;
+        let shape = |v: &Vec<Vec<f64>>| {
+            if one { nums(&v[0]) } else { Value::Array(v.iter().map(|r| nums(r)).collect()) }
+        };
+        let shape3 = |v: &Vec<Vec<Vec<f64>>>| {
+            let per = |c: &Vec<Vec<f64>>| Value::Array(c.iter().map(|r| nums(r)).collect());
+            if one { per(&v[0]) } else { Value::Array(v.iter().map(per).collect()) }
+        };
+        let mut o = Map::new();
+        o.insert("directions".into(), json!(self.directions));
+        o.insert("values".into(), shape3(&self.radiance));
+        if let Some(se) = &self.stderr {
+            o.insert("stderr".into(), shape3(se));
+        }
+        if let Some([d, u]) = &self.beams {
+            o.insert("beam_down".into(), shape(d));
+            o.insert("beam_up".into(), shape(u));
+        }
+        if let Some(c) = &self.cone_half_angle_deg {
+            o.insert("cone_half_angle_deg".into(), nums(c));
+        }
+        Value::Object(o)
+    }
 }
 
 /// The JSON keys of a [`DepthOutput`] in the order of its `stderr` array.
@@ -321,6 +383,9 @@ impl Solution {
                         m.insert((*k).into(), rows(v));
                     }
                 }
+            }
+            if let Some(r) = &f.radiance {
+                out.insert("radiance".into(), r.to_json());
             }
         }
         if self.channels.iter().any(|c| c.cones.is_some()) {

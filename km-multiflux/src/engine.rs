@@ -35,7 +35,7 @@ use crate::prepare::{media_grid, planned_cutoff, scale_layers};
 use crate::quadrature::{AngularGrid, MediumNodes};
 use crate::slab::{SlabOrder, slab_beam_reflection, slab_beam_response};
 use crate::stack::{Scaled, delta_parts};
-pub(crate) use extras::{ExtraSetup, Extras};
+pub(crate) use extras::{ExtraSetup, Extras, Kind};
 pub(crate) use pieces::{OrderPieces, marker_path};
 pub use response::ChannelBsdf;
 
@@ -99,7 +99,7 @@ impl<'s> Prepared<'s> {
 /// phase function the kept moments do not represent exactly, above the
 /// first rough face (below it no beam arrives collimated, and no marker
 /// passes a rough face: `rough_pieces`).
-fn corrected_layers(scene: &MonoScene, layers: &[Scaled], delta_m: bool) -> Vec<usize> {
+pub(crate) fn corrected_layers(scene: &MonoScene, layers: &[Scaled], delta_m: bool) -> Vec<usize> {
     if !delta_m {
         return Vec::new();
     }

@@ -22,7 +22,8 @@ use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
-use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, last_moment};
+use crate::correction::PeakCorrection;
+use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, corrected_layers, last_moment};
 use crate::field::{input, locate, split_at_depth};
 use crate::options::MultifluxOptions;
 use crate::prepare::{media_grid, resolve_streams, scale_layers};
@@ -40,11 +41,18 @@ pub struct InsideRadiance {
     /// azimuth with 180 on the side towards which the beam travels.
     pub directions: Vec<[f64; 2]>,
     /// `radiance[k][j]`: the diffuse radiance at depth `k` in direction `j`
-    /// (1/sr; the collimated beams, deltas in angle, are apart).
+    /// (1/sr; the collimated beams, deltas in angle, are apart), the
+    /// single-scattering correction included.
     pub radiance: Vec<Vec<f64>>,
+    /// `correction[k][j]`: the single-scattering correction (TMS,
+    /// `docs/field.md` eq. D17) that `radiance` includes; 0 without a beam,
+    /// without delta-M or without a layer to correct.
+    pub correction: Vec<Vec<f64>>,
     /// Irradiance on a horizontal plane of the down-going collimated beam at
-    /// each depth (delta-M scaled: the truncated forward peak travels with
-    /// it); 0 for diffuse light.
+    /// each depth: the light not yet scattered (true optical depths) where a
+    /// layer is corrected (its singly scattered forward peak is then in
+    /// `radiance`), else delta-M scaled (the truncated forward peak travels
+    /// with it); 0 for diffuse light.
     pub beam_down: Vec<f64>,
     /// The same for the beam reflected by interfaces below, going up.
     pub beam_up: Vec<f64>,
@@ -62,9 +70,11 @@ pub const MAX_INSIDE_VALUES: usize = 1_000_000;
 /// Orders: 0 for diffuse light; under a beam up to the last non-negligible
 /// phase-function moment (every order the streams resolve with all
 /// effects), stopping after two orders below `FOURIER_TOL` of the largest
-/// value (DISORT's test). The single-scattering correction of peaked phase
-/// functions (TMS/IMS) is not applied inside: the radiance is the delta-M
-/// solution's (`docs/field.md` §2a).
+/// value (DISORT's test). Under a beam with delta-M, the single scattering
+/// of the layers whose phase function the kept moments do not represent is
+/// made exact (TMS, Nakajima & Tanaka 1988; `docs/field.md` eq. D17): the
+/// markers of the exit correction carried to the cut; the second-order
+/// (IMS) term of the exits is not applied inside.
 ///
 /// # Errors
 /// An empty list, a depth outside the stack, a direction out of range, a
@@ -117,10 +127,15 @@ pub fn inside_radiance(
     }
     .min(opts.max_fourier_order.unwrap_or(usize::MAX));
     let nd = depths.len();
+    // The layers whose single scattering is made exact (as at the exits).
+    let tms = if diffuse { Vec::new() } else { corrected_layers(scene, &layers, opts.delta_m) };
+    let corr: Vec<Option<PeakCorrection>> =
+        (0..layers.len()).map(|l| tms.contains(&l).then(|| layers[l].correction())).collect();
     let mut out = InsideRadiance {
         depths: depths.to_vec(),
         directions: directions.to_vec(),
         radiance: vec![vec![0.0; directions.len()]; nd],
+        correction: vec![vec![0.0; directions.len()]; nd],
         beam_down: vec![0.0; nd],
         beam_up: vec![0.0; nd],
         orders: 0,
@@ -135,6 +150,7 @@ pub fn inside_radiance(
         n_sub,
         diffuse,
         orders: last + 1,
+        tms: &tms,
     };
     let mut stop = FourierStop::default();
     let mut largest = 0.0f64;
@@ -145,6 +161,12 @@ pub fn inside_radiance(
             if m == 0 {
                 out.beam_down[k] = cut.beam_down;
                 out.beam_up[k] = cut.beam_up;
+                if !tms.is_empty() {
+                    // The beams not yet scattered (the corrected radiance
+                    // holds the peak the scaled beams carry).
+                    (out.beam_down[k], out.beam_up[k]) = shared.true_beams(z)?;
+                    shared.correct(&cut, &corr, directions, &p_of, &mut out.correction[k]);
+                }
             }
             for (j, d) in directions.iter().enumerate() {
                 let p = p_of[j];
@@ -167,6 +189,11 @@ pub fn inside_radiance(
             }
         }
     }
+    // The correction after the orders (their stopping rule sees the
+    // discrete-ordinate values alone).
+    for (r, c) in out.radiance.iter_mut().zip(&out.correction) {
+        r.iter_mut().zip(c).for_each(|(r, c)| *r += c);
+    }
     if !out.radiance.iter().flatten().all(|v| v.is_finite()) {
         return Err(MultifluxError::Numerical {
             what: "inside_radiance",
@@ -187,6 +214,8 @@ struct Shared<'a> {
     n_sub: Option<f64>,
     diffuse: bool,
     orders: usize,
+    /// The corrected layers (their markers ride at `m = 0`).
+    tms: &'a [usize],
 }
 
 impl Shared<'_> {
@@ -196,37 +225,53 @@ impl Shared<'_> {
     fn probes_at(&self, z: f64, m: usize) -> Result<ProbesAtCut, MultifluxError> {
         let (i_cut, dz) = locate(self.scene, z);
         let n_cut = self.scene.layers()[i_cut].n();
-        // The probes by Snell invariant in the medium at the cut.
-        let setup = ExtraSetup {
-            n0: n_cut,
-            n_sub: None,
-            layers: self.layers,
-            tms_layers: &[],
-            corr: &[],
-            secondary: false,
+        // The probes by Snell invariant in the medium at the cut, and at
+        // m = 0 the markers of the corrected layers (eq. D17): per probe,
+        // layer and slot (backward, forward), in the same order above and
+        // below the cut. A marker names its layer by its index in the part
+        // (above: the stack's own; below: from the lower piece of the cut
+        // layer on, the layers above the cut by an index no layer has).
+        let tms: &[usize] = if m == 0 { self.tms } else { &[] };
+        let below_tms: Vec<usize> =
+            tms.iter().map(|&l| if l >= i_cut { l - i_cut } else { usize::MAX - l }).collect();
+        let extras_for = |tms_layers: &[usize]| {
+            let setup = ExtraSetup {
+                n0: n_cut,
+                n_sub: None,
+                layers: self.layers,
+                tms_layers,
+                corr: &[],
+                secondary: false,
+            };
+            Extras::new(self.beams, self.polar, &setup)
         };
-        let extras = Extras::new(self.beams, self.polar, &setup);
-        let pieces = OrderPieces {
+        let (extras_a, extras_b) = (extras_for(tms), extras_for(&below_tms));
+        let (above, below) = split_at_depth(self.scene, self.layers, i_cut, dz);
+        let (corr_a, corr_b) = (vec![None; above.len()], vec![None; below.len()]);
+        let pieces_a = OrderPieces {
             grid: self.grid,
-            extras: &extras,
-            corr: &[],
-            count: extras.ex.len(),
+            extras: &extras_a,
+            corr: &corr_a,
+            count: extras_a.ex.len(),
             m,
             orders: self.orders,
             all_effects: self.opts.all_effects,
         };
-        let (above, below) = split_at_depth(self.scene, self.layers, i_cut, dz);
+        let pieces_b = OrderPieces { extras: &extras_b, corr: &corr_b, ..pieces_a };
         let scene_above = self.scene.with_substrate(Substrate::Transparent { n: n_cut })?;
         let scene_below = self.scene.with_ambient_n(n_cut)?;
-        let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), self.opts.neumann_order)?;
-        let b_ops = pieces.stack(&scene_below, &below, self.n_sub, self.opts.neumann_order)?;
+        let a_ops = pieces_a.stack(&scene_above, &above, Some(n_cut), self.opts.neumann_order)?;
+        let b_ops = pieces_b.stack(&scene_below, &below, self.n_sub, self.opts.neumann_order)?;
+        let extras = extras_a;
         let n0 = self.scene.ambient_n();
         // Incident light on the probes themselves (diffuse light only: a
         // probe that propagates in the ambient medium receives 1/pi).
-        let probe_in: Vec<f64> = extras.ex[extras.r0..extras.t0]
+        // The markers receive nothing from outside.
+        let probe_in: Vec<f64> = extras.ex[extras.r0..]
             .iter()
-            .map(|&(s, _)| {
-                if self.diffuse && m == 0 && mu_of_invariant(s, n0).is_some() {
+            .map(|&(s, kind)| {
+                let probe = kind == crate::engine::Kind::Probe;
+                if probe && self.diffuse && m == 0 && mu_of_invariant(s, n0).is_some() {
                     1.0 / std::f64::consts::PI
                 } else {
                     0.0
@@ -234,12 +279,112 @@ impl Shared<'_> {
             })
             .collect();
         let a = input(self.scene, self.grid, m);
-        let cut = probes_at_cut(&a_ops, &b_ops, &a, &probe_in, self.grid, n_cut, self.beams.len())
+        let mut cut =
+            probes_at_cut(&a_ops, &b_ops, &a, &probe_in, self.grid, n_cut, self.beams.len())
+                .ok_or_else(|| MultifluxError::Numerical {
+                    what: "inside_radiance",
+                    detail: format!("depth {z}, order {m}"),
+                })?;
+        // The markers' streams: per marker its probe's polar angle, layer,
+        // slot, Snell invariant and the weights down and up at the cut.
+        let first = extras.base_len - extras.beams;
+        cut.markers = extras
+            .marker_of
+            .iter()
+            .enumerate()
+            .map(|(k, &(p, l, slot))| Marker {
+                polar: p - extras.r0,
+                layer: l,
+                slot,
+                invariant: extras.ex[p].0,
+                down: cut.down[first + k],
+                up: cut.up[first + k],
+            })
+            .collect();
+        Ok(cut)
+    }
+
+    /// The collimated beams at depth `z` not yet scattered: the stack's
+    /// core at `m = 0` with every layer non-scattering of its true optical
+    /// thickness (the beam column of the adding carries the beams alone:
+    /// diffuse light never enters it), read at the cut.
+    fn true_beams(&self, z: f64) -> Result<(f64, f64), MultifluxError> {
+        let clear: Vec<Scaled> = self
+            .layers
+            .iter()
+            .map(|l| {
+                let mut c = l.clone();
+                (c.tau, c.omega, c.omega_true) = (l.tau_true, 0.0, 0.0);
+                c
+            })
+            .collect();
+        let (i_cut, dz) = locate(self.scene, z);
+        let n_cut = self.scene.layers()[i_cut].n();
+        let setup = ExtraSetup {
+            n0: n_cut,
+            n_sub: None,
+            layers: &clear,
+            tms_layers: &[],
+            corr: &[],
+            secondary: false,
+        };
+        let extras = Extras::new(self.beams, &[], &setup);
+        let pieces = OrderPieces {
+            grid: self.grid,
+            extras: &extras,
+            corr: &[],
+            count: extras.ex.len(),
+            m: 0,
+            orders: 1,
+            all_effects: self.opts.all_effects,
+        };
+        let (above, below) = split_at_depth(self.scene, &clear, i_cut, dz);
+        let scene_above = self.scene.with_substrate(Substrate::Transparent { n: n_cut })?;
+        let scene_below = self.scene.with_ambient_n(n_cut)?;
+        let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), self.opts.neumann_order)?;
+        let b_ops = pieces.stack(&scene_below, &below, self.n_sub, self.opts.neumann_order)?;
+        let a = input(self.scene, self.grid, 0);
+        let cut = probes_at_cut(&a_ops, &b_ops, &a, &[], self.grid, n_cut, self.beams.len())
             .ok_or_else(|| MultifluxError::Numerical {
                 what: "inside_radiance",
-                detail: format!("depth {z}, order {m}"),
+                detail: format!("depth {z}, the beams"),
             })?;
-        Ok(cut)
+        Ok((cut.beam_down, cut.beam_up))
+    }
+
+    /// The single-scattering correction at the cut (eq. D17) into `out`,
+    /// per direction: each marker's weight (down-going or up-going stream
+    /// at the cut) times its layer's source difference at the scattering
+    /// angle of its slot (backward for slot 0, forward for slot 1), in the
+    /// layer's own cosines; the exits' eq. B1, second line.
+    fn correct(
+        &self,
+        cut: &ProbesAtCut,
+        corr: &[Option<PeakCorrection>],
+        directions: &[[f64; 2]],
+        p_of: &[usize],
+        out: &mut [f64],
+    ) {
+        let Some(&beam) = self.beams.first() else { return };
+        for (j, d) in directions.iter().enumerate() {
+            let cphi = (d[1] - 180.0).to_radians().cos();
+            for k in cut.markers.iter().filter(|k| k.polar == p_of[j]) {
+                let Some(c) = corr.get(k.layer).and_then(Option::as_ref) else { continue };
+                let n = self.layers[k.layer].n;
+                let (Some(mu_b), Some(mu_x)) =
+                    (mu_of_invariant(beam, n), mu_of_invariant(k.invariant, n))
+                else {
+                    continue;
+                };
+                let w = if d[0] < 90.0 { k.down } else { k.up };
+                if w == 0.0 {
+                    continue;
+                }
+                let s = ((1.0 - mu_x * mu_x).max(0.0) * (1.0 - mu_b * mu_b).max(0.0)).sqrt();
+                let along = if k.slot == 0 { -mu_x * mu_b } else { mu_x * mu_b };
+                out[j] += w * c.single_source(along + s * cphi, mu_b);
+            }
+        }
     }
 }
 
@@ -292,6 +437,23 @@ struct ProbesAtCut {
     up: Vec<f64>,
     beam_down: f64,
     beam_up: f64,
+    /// The markers' (order 0 of a corrected stack).
+    markers: Vec<Marker>,
+}
+
+/// One marker of the single-scattering correction at the cut.
+struct Marker {
+    /// Its probe's polar angle (index into the request's).
+    polar: usize,
+    /// The layer whose single scattering it carries (the stack's index).
+    layer: usize,
+    /// 0: scattered backward from the beam; 1: forward.
+    slot: usize,
+    /// Snell invariant of its direction.
+    invariant: f64,
+    /// Its down-going and up-going streams at the cut.
+    down: f64,
+    up: f64,
 }
 
 /// The streams at the cut between the stack above (`above`) and below
@@ -342,6 +504,7 @@ fn probes_at_cut(
         beam_up: if beams == 0 { 0.0 } else { u[(nn, 0)] },
         down,
         up,
+        markers: Vec::new(),
     };
     out.down.iter().chain(&out.up).all(|v| v.is_finite()).then_some(out)
 }

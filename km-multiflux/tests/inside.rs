@@ -91,6 +91,10 @@ fn top_face_refracts_the_radiance_inside() {
 /// passed through degrees: measured 1.1e-10 of the largest radiance, at the
 /// interface between the layers; bound 1e-9). Fourier order 0 only
 /// (`max_fourier_order = 0`) under a beam; diffuse light; index steps.
+/// The discrete-ordinate radiance is compared (`radiance - correction`:
+/// the single-scattering correction is not in the node radiances), and the
+/// beams, not yet scattered where a layer is corrected, with those of the
+/// same stack without delta-M (true optical depths).
 #[test]
 fn node_directions_equal_the_node_radiances() {
     let mut worst = 0.0f64;
@@ -116,10 +120,11 @@ fn node_directions_equal_the_node_radiances() {
                 dirs.push([180.0 - t, 0.0]);
             }
             let r = inside_radiance(ch, &o, &[z], &dirs).unwrap();
+            let ordinates: Vec<f64> =
+                r.radiance[0].iter().zip(&r.correction[0]).map(|(v, c)| v - c).collect();
             let scale = f.down.iter().chain(&f.up).fold(0.0f64, |a, b| a.max(b.abs()));
             for i in 0..f.mu.len() {
-                let pairs =
-                    [(r.radiance[0][2 * i], f.down[i]), (r.radiance[0][2 * i + 1], f.up[i])];
+                let pairs = [(ordinates[2 * i], f.down[i]), (ordinates[2 * i + 1], f.up[i])];
                 for (got, want) in pairs {
                     worst = worst.max((got - want).abs() / scale);
                     assert!(
@@ -128,6 +133,8 @@ fn node_directions_equal_the_node_radiances() {
                     );
                 }
             }
+            let clear = MultifluxOptions { delta_m: false, ..o.clone() };
+            let f = internal_field(ch, &clear, z, 0).unwrap();
             assert!((r.beam_down[0] - f.beam_down).abs() < 1e-12);
             assert!((r.beam_up[0] - f.beam_up).abs() < 1e-12);
         }
@@ -323,4 +330,59 @@ fn bad_requests_are_refused() {
     ] {
         assert!(inside_radiance(ch, &o, &depths, &dirs).is_err(), "{depths:?} {dirs:?}");
     }
+}
+
+/// The single-scattering correction inside (docs/field.md eq. D17) in one
+/// layer of matched index (nothing reflects): at depth `z` the down-going
+/// correction is the lone-layer formula of `PeakCorrection::radiance` for
+/// the layer above `z` (scaled optical thickness `tau*(z)`), the up-going
+/// one that of the layer below `z` lit by the beam left at `z`,
+/// `exp(-tau*(z)/mu_b)` (eq. C2 and 14 of docs/multiflux.md, the same path
+/// integrals in closed form: 1e-12 of the largest value allows rounding
+/// only). HG g = 0.9 at 8 streams (16 moments kept, f = 0.9^16), a beam at
+/// 30 degrees, directions on both sides of the plane of incidence (the
+/// beam's own among them, where the peak makes the correction large); the
+/// beam is the unscattered one, `exp(-sigma_t z / mu_b)`.
+#[test]
+fn single_scattering_correction_equals_the_lone_layer_formula() {
+    let s = scene(
+        "[light]\ntheta_deg = 30.0\n[[layer]]\nsigma_a = 0.1\nsigma_s = 2.0\nthickness = 1.0\n\
+         g = 0.9\n",
+    );
+    let ch = &s.channels()[0];
+    let o = MultifluxOptions { streams: Some(8), ..Default::default() };
+    let dirs =
+        [[30.0, 180.0], [20.0, 180.0], [40.0, 180.0], [35.0, 60.0], [140.0, 0.0], [160.0, 180.0]];
+    let depths = [0.0, 0.4, 1.0];
+    let r = inside_radiance(ch, &o, &depths, &dirs).unwrap();
+    let (omega, sigma_t) = (2.0 / 2.1, 2.1);
+    let c = km_multiflux::correction::PeakCorrection::new(
+        km_core::phase::Phase::henyey_greenstein(0.9).unwrap(),
+        omega,
+        16,
+        false,
+    );
+    let factor = 1.0 - omega * c.f();
+    let mu_b = 30f64.to_radians().cos();
+    let mut largest = 0.0f64;
+    let mut worst = 0.0f64;
+    for (k, &z) in depths.iter().enumerate() {
+        let (above, below) = (factor * sigma_t * z, factor * sigma_t * (1.0 - z));
+        assert!((r.beam_down[k] - (-sigma_t * z / mu_b).exp()).abs() < 1e-12, "z {z}");
+        assert_eq!(r.beam_up[k], 0.0);
+        for (j, d) in dirs.iter().enumerate() {
+            let mu_x = d[0].to_radians().cos().abs();
+            let want = if d[0] < 90.0 {
+                c.radiance(mu_b, mu_x, d[1], above).1
+            } else {
+                (-above / mu_b).exp() * c.radiance(mu_b, mu_x, d[1], below).0
+            };
+            let got = r.correction[k][j];
+            largest = largest.max(want.abs());
+            worst = worst.max((got - want).abs());
+            eprintln!("z {z} {d:?}: {got:.6e} vs {want:.6e}");
+        }
+    }
+    assert!(largest > 1.0, "the correction must matter here: {largest}");
+    assert!(worst <= 1e-12 * largest, "worst {worst:e} of {largest:e}");
 }

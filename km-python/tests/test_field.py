@@ -142,3 +142,44 @@ def test_radiance_inside_equals_the_cli(km_cli, tmp_path):
         km.field(s, "km")
     with pytest.raises(ValueError, match="pairs"):
         km.field(s, directions=[1.0, 2.0])
+
+
+def test_solve_carries_the_radiance_inside(km_cli, tmp_path):
+    """`km.solve` on a scene with `[output] depths` and
+    `inside_directions_deg`: `Solution.field["radiance"]` is `km.field`'s dict
+    (docs/field.md §6), the same names, shapes and numbers (multi-flux at the
+    same streams; Monte Carlo at the same photons and seed, from the run that
+    gives the answer), and `to_dict()["radiance"]` the object of `km solve
+    --json`; two-flux gives none and says so in a note."""
+    text = TEXT + "inside_directions_deg = [[10.0, 0.0], [150.0, 180.0]]\n"
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    s = km.Scene.from_toml(text)
+    sol = km.solve(s, streams=16)
+    assert sol.field is not None
+    r = sol.field["radiance"]
+    ref = km.field(s, streams=16)["radiance"]
+    assert set(r) == set(ref)
+    assert r["values"].shape == (1, 7, 2)
+    for k in ("directions", "values", "beam_down", "beam_up"):
+        assert np.array_equal(r[k], ref[k]), k
+    assert r["stderr"] is None and r["cone_half_angle_deg"] is None
+    out = json.loads(subprocess.run([km_cli, "solve", path, "--streams", "16", "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    assert sol.to_dict()["radiance"] == out["radiance"]
+    assert np.array_equal(r["values"][0], np.array(out["radiance"]["values"]))
+    mc = km.solve(s, "mc", samples=5000, seed=3)
+    assert mc.field is not None
+    m = mc.field["radiance"]
+    mref = km.field(s, "mc", samples=5000, seed=3)["radiance"]
+    for k in ("values", "stderr", "cone_half_angle_deg"):
+        assert np.array_equal(m[k], mref[k]), k
+    assert m["beam_down"] is None
+    # The totals are those of the run without the directions (the tally
+    # draws no random number).
+    plain = km.solve(km.Scene.from_toml(TEXT), "mc", samples=5000, seed=3)
+    assert mc.reflectance == plain.reflectance
+    two = km.solve(s, "km")
+    assert two.field is not None and "radiance" not in two.field
+    assert any("gives no radiance" in n for n in two.notes)
+    assert "radiance" not in km.solve(km.Scene.from_toml(TEXT), streams=16).field

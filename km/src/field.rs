@@ -296,22 +296,7 @@ impl Field {
             });
         }
         if let Some(r) = &self.inside {
-            let shape3 = |v: &Vec<Vec<Vec<f64>>>| if one { json!(v[0]) } else { json!(v) };
-            let mut o = json!({
-                "directions": r.directions,
-                "values": shape3(&r.radiance),
-            });
-            if let Some(se) = &r.stderr {
-                o["stderr"] = shape3(se);
-            }
-            if let Some([d, u]) = &r.beams {
-                o["beam_down"] = shape(d);
-                o["beam_up"] = shape(u);
-            }
-            if let Some(c) = &r.cone_half_angle_deg {
-                o["cone_half_angle_deg"] = json!(c);
-            }
-            out["radiance"] = o;
+            out["radiance"] = r.to_json();
         }
         out
     }
@@ -331,45 +316,9 @@ impl Field {
     /// The radiance inside as a text table (`km field`'s table; empty
     /// without one): per channel, a row per depth and direction.
     pub fn inside_table(&self) -> String {
-        use std::fmt::Write as _;
         let Some(r) = &self.inside else { return String::new() };
-        let mut s = String::from(
-            "radiance inside (1/sr per unit incident irradiance; theta from the downward \
-             normal, phi = 180 the beam's forward side; collimated beams apart)\n",
-        );
-        if let Some(c) = &r.cone_half_angle_deg {
-            let cones: Vec<String> = c.iter().map(|a| format!("{a:.3}")).collect();
-            let _ = writeln!(s, "cone averages, half-angles (degrees): {}", cones.join(", "));
-        }
-        for (c, label) in self.labels.iter().enumerate() {
-            if self.labels.len() > 1 {
-                let _ = writeln!(s, "channel {label}");
-            }
-            let _ = writeln!(s, "{:>12} {:>8} {:>8} {:>14}", "z", "theta", "phi", "I");
-            for (k, z) in self.depths.iter().enumerate() {
-                for (j, d) in r.directions.iter().enumerate() {
-                    let se = r
-                        .stderr
-                        .as_ref()
-                        .map_or(String::new(), |e| format!(" ± {:.2e}", e[c][k][j]));
-                    let _ = writeln!(
-                        s,
-                        "{z:>12.6} {:>8.3} {:>8.3} {:>14.6e}{se}",
-                        d[0], d[1], r.radiance[c][k][j]
-                    );
-                }
-                if let Some([dn, up]) = &r.beams
-                    && (dn[c][k] != 0.0 || up[c][k] != 0.0)
-                {
-                    let _ = writeln!(
-                        s,
-                        "{z:>12.6} beams: down {:.6e}, up {:.6e} (irradiance)",
-                        dn[c][k], up[c][k]
-                    );
-                }
-            }
-        }
-        s
+        let rows: Vec<usize> = (0..self.depths.len()).collect();
+        inside_table(r, &self.labels, &self.depths, &rows)
     }
 
     /// The radiance inside as CSV (`km field --csv`'s second table; empty
@@ -396,6 +345,54 @@ impl Field {
         }
         s
     }
+}
+
+/// The radiance inside as a text table (`km field`'s, and `km solve`'s
+/// under its depth table): per channel, a row per depth of `rows` (indices
+/// into `depths`) and direction, the collimated beams' irradiance after a
+/// depth's rows where there are any.
+pub(crate) fn inside_table(
+    r: &InsideField,
+    labels: &[String],
+    depths: &[f64],
+    rows: &[usize],
+) -> String {
+    let mut s = String::from(
+        "radiance inside (1/sr per unit incident irradiance; theta from the downward \
+         normal, phi = 180 the beam's forward side; collimated beams apart)\n",
+    );
+    if let Some(c) = &r.cone_half_angle_deg {
+        let cones: Vec<String> = c.iter().map(|a| format!("{a:.3}")).collect();
+        let _ = writeln!(s, "cone averages, half-angles (degrees): {}", cones.join(", "));
+    }
+    for (c, label) in labels.iter().enumerate() {
+        if labels.len() > 1 {
+            let _ = writeln!(s, "channel {label}");
+        }
+        let _ = writeln!(s, "{:>12} {:>8} {:>8} {:>14}", "z", "theta", "phi", "I");
+        for &k in rows {
+            let z = depths[k];
+            for (j, d) in r.directions.iter().enumerate() {
+                let se =
+                    r.stderr.as_ref().map_or(String::new(), |e| format!(" ± {:.2e}", e[c][k][j]));
+                let _ = writeln!(
+                    s,
+                    "{z:>12.6} {:>8.3} {:>8.3} {:>14.6e}{se}",
+                    d[0], d[1], r.radiance[c][k][j]
+                );
+            }
+            if let Some([dn, up]) = &r.beams
+                && (dn[c][k] != 0.0 || up[c][k] != 0.0)
+            {
+                let _ = writeln!(
+                    s,
+                    "{z:>12.6} beams: down {:.6e}, up {:.6e} (irradiance)",
+                    dn[c][k], up[c][k]
+                );
+            }
+        }
+    }
+    s
 }
 
 /// Two tables, the second (when there is one) after a blank line.
@@ -463,6 +460,7 @@ impl From<Field> for DepthOutput {
             absorbed: f.absorbed,
             net_flux: f.net_flux,
             stderr: f.stderr.map(|s| [s.fluence, s.absorbed, s.net_flux]),
+            radiance: f.inside,
         }
     }
 }
@@ -470,21 +468,32 @@ impl From<Field> for DepthOutput {
 /// A Monte Carlo solve of `scene` that tallies the field at `depths` in the
 /// same run (`km::solve` with `[output] depths`): its answer (the run's
 /// totals, the same as without the depth tally for the same seed) and the
-/// field, with the run's per-layer absorptance.
+/// field, with the run's per-layer absorptance; with `directions` (the
+/// scene's `[output] inside_directions_deg`) the radiance inside from the
+/// same run as well, over `km field`'s default cone
+/// ([`DEFAULT_INSIDE_CONE_DEG`]).
 pub(crate) fn mc_solve_with_field(
     scene: &Scene,
     depths: &[f64],
+    directions: &[[f64; 2]],
     opts: &McOptions,
 ) -> Result<(Solution, DepthOutput), KmError> {
     check_depths(depths)?;
     check_in_stack(scene, depths)?;
-    let v = mc_depths(scene, depths, None, opts)?;
+    let (v, radiance) = if directions.is_empty() {
+        (mc_depths(scene, depths, None, opts)?, None)
+    } else {
+        let (v, r) =
+            mc_depths_inside(scene, depths, None, directions, DEFAULT_INSIDE_CONE_DEG, opts)?;
+        (v, Some(r))
+    };
     let out = DepthOutput {
         depths: v.depths,
         fluence: v.fluence,
         absorbed: v.absorbed,
         net_flux: v.net_flux,
         stderr: Some([v.fluence_se, v.absorbed_se, v.net_flux_se]),
+        radiance,
     };
     Ok((v.bins.solution, out))
 }
@@ -492,7 +501,10 @@ pub(crate) fn mc_solve_with_field(
 /// Attach the field at the scene's `[output] depths` to a solve's answer
 /// `sol` by the same method and settings (the streams an accuracy target
 /// chose; the photons and seed of the run), with the per-layer absorptance
-/// where the solve had none; a method without a depth field adds a note.
+/// where the solve had none, and the radiance at the scene's `[output]
+/// inside_directions_deg` where the method gives it (multi-flux, Monte
+/// Carlo; docs/field.md §6); a method without a depth field or without the
+/// radiance adds a note.
 pub(crate) fn attach(
     scene: &Scene,
     solver: &MethodOptions,
@@ -556,16 +568,36 @@ pub(crate) fn attach(
                  --method multiflux, km or mc)",
                 solver.method().name()
             ));
+            if !scene.inside_directions().is_empty() {
+                sol.notes.push(no_radiance_note(solver.method()));
+            }
             return Ok(());
         }
     }
     attach_field(scene, &opts, sol)
 }
 
-/// [`attach`]'s last step: the field of `scene` by `opts` into `sol`.
+/// The note of a solve whose method does not give the radiance inside
+/// (`km field` refuses it for them, docs/field.md §2a, §4a).
+pub(crate) fn no_radiance_note(method: Method) -> String {
+    format!(
+        "[output] inside_directions_deg ignored: the {} method gives no radiance inside the \
+         stack (the multiflux and mc methods do, docs/field.md §2a, §4a)",
+        method.name()
+    )
+}
+
+/// [`attach`]'s last step: the field of `scene` by `opts` into `sol`, with
+/// the radiance inside where the method gives it (the scene's directions,
+/// `km field`'s default Monte Carlo cone), a note where it does not.
 fn attach_field(scene: &Scene, opts: &FieldOptions, sol: &mut Solution) -> Result<(), KmError> {
-    // The radiance inside is `km field`'s only (docs/field.md §6): none here.
-    let opts = &FieldOptions { directions: Some(Vec::new()), ..opts.clone() };
+    let method = opts.method.0;
+    let gives_radiance = matches!(method, Method::Multiflux | Method::Mc);
+    if !gives_radiance && !scene.inside_directions().is_empty() {
+        sol.notes.push(no_radiance_note(method));
+    }
+    let directions = if gives_radiance { None } else { Some(Vec::new()) };
+    let opts = &FieldOptions { directions, ..opts.clone() };
     let f = field(scene, None, opts)?;
     for (c, layers) in sol.channels.iter_mut().zip(&f.absorptance_layers) {
         if c.absorptance_layers.is_none() && !layers.is_empty() {

@@ -161,7 +161,7 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
         (None, MethodOptions::Mc(o))
             if !depths.is_empty() && options.tolerance.is_none() && reduced.is_none() =>
         {
-            let (s, f) = field::mc_solve_with_field(work, depths, o)?;
+            let (s, f) = field::mc_solve_with_field(work, depths, scene.inside_directions(), o)?;
             field = Some(f);
             s
         }
@@ -177,11 +177,12 @@ pub fn solve(scene: &Scene, options: &Options) -> Result<Solution, KmError> {
             bound.max(f64::MIN_POSITIVE)
         ));
     }
-    // A request the solve does not answer is named, not dropped in silence.
-    if !scene.inside_directions().is_empty() {
+    // A request the solve does not answer is named, not dropped in silence:
+    // the radiance inside is given at the depths (docs/field.md §6).
+    if !scene.inside_directions().is_empty() && depths.is_empty() {
         sol.notes.push(
-            "the radiance inside ([output] inside_directions_deg) is not part of a solve: \
-             `km field` gives it (library: km::field::field; Python: km.field)"
+            "[output] inside_directions_deg ignored: the radiance inside is given at the \
+             scene's [output] depths, and it asks for none"
                 .to_string(),
         );
     }

@@ -214,7 +214,7 @@ fn depth_rows(s: &mut String, sol: &Solution) {
     if rows.last() != Some(&(n - 1)) {
         rows.push(n - 1);
     }
-    for i in rows {
+    for &i in &rows {
         let _ = write!(s, "{:<24}", number(f.depths[i]));
         for c in 0..f.fluence.len() {
             for (q, v) in [&f.fluence, &f.absorbed, &f.net_flux].into_iter().enumerate() {
@@ -226,6 +226,11 @@ fn depth_rows(s: &mut String, sol: &Solution) {
     }
     if step > 1 {
         let _ = writeln!(s, "(every {step}th of {n} depths shown; --json has them all)");
+    }
+    // The radiance inside at the same depths (docs/field.md §6).
+    if let Some(r) = &f.radiance {
+        let _ = writeln!(s);
+        s.push_str(&crate::field::inside_table(r, &sol.labels, &f.depths, &rows));
     }
 }
 

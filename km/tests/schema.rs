@@ -200,22 +200,28 @@ fn multi_channel_monte_carlo_and_accuracy_targets_validate() {
 fn depth_fields_validate_for_one_and_several_channels() {
     // The paint example (three channels) and the Fresnel slab (one), with
     // depths added: the field's keys, and for Monte Carlo their standard
-    // errors inside `stderr`.
+    // errors inside `stderr`; with directions inside as well, the radiance
+    // (docs/field.md §6).
+    const DIRS: &str = "\ninside_directions_deg = [[30.0, 0.0], [150.0, 180.0]]";
     for name in ["paint-over-primer.toml", "fresnel-slab.toml"] {
-        let text = std::fs::read_to_string(root().join("examples").join(name)).unwrap();
-        let with = if text.contains("[output]") {
-            text.replace("[output]", "[output]\ndepths = [0.0, 0.001]")
-        } else {
-            format!("{text}\n[output]\ndepths = [0.0, 0.001]\n")
-        };
-        let scene = Scene::from_toml_str(&with).unwrap();
-        for opts in [Options::new(Method::Multiflux), mc(2_000)] {
-            let v = km::solve(&scene, &opts).unwrap().to_json();
-            assert!(v["depths"].is_array() && v["fluence"].is_array(), "{name}: {v}");
-            if opts.method() == Method::Mc {
-                assert!(v["stderr"]["net_flux"].is_array(), "{name}");
+        for inside in [false, true] {
+            let text = std::fs::read_to_string(root().join("examples").join(name)).unwrap();
+            let keys = format!("depths = [0.0, 0.001]{}", if inside { DIRS } else { "" });
+            let with = if text.contains("[output]") {
+                text.replace("[output]", &format!("[output]\n{keys}"))
+            } else {
+                format!("{text}\n[output]\n{keys}\n")
+            };
+            let scene = Scene::from_toml_str(&with).unwrap();
+            for opts in [Options::new(Method::Multiflux), mc(2_000)] {
+                let v = km::solve(&scene, &opts).unwrap().to_json();
+                assert!(v["depths"].is_array() && v["fluence"].is_array(), "{name}: {v}");
+                if opts.method() == Method::Mc {
+                    assert!(v["stderr"]["net_flux"].is_array(), "{name}");
+                }
+                assert_eq!(v["radiance"]["values"].is_array(), inside, "{name}");
+                assert!(errors(&v).is_empty(), "{name}: {:?}", errors(&v));
             }
-            assert!(errors(&v).is_empty(), "{name}: {:?}", errors(&v));
         }
     }
     // The dipole's field of a half-space (three channels of a preset).

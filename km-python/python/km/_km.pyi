@@ -137,7 +137,8 @@ class Solution:
         """Absorbed fraction per layer, top first, when the method gives it."""
     @property
     def field(self) -> dict[str, Any] | None:
-        """The field at the scene's ``[output] depths``, as ``km.field`` gives it, or None."""
+        """The field at the scene's ``[output] depths``, as ``km.field`` gives it (with
+        ``radiance`` for ``[output] inside_directions_deg``, multiflux and mc), or None."""
     @property
     def stderr(self) -> dict[str, _FloatOrArray] | None:
         """Standard errors by key (Monte Carlo), or None."""

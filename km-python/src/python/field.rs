@@ -109,7 +109,10 @@ pub(crate) fn field<'py>(
 /// The radiance inside as `km.field` returns it: the directions, the values
 /// and standard errors as (channel, depth, direction) arrays, the collimated
 /// beams and the Monte Carlo cones (`None` where the method has none).
-fn radiance_dict<'py>(py: Python<'py>, r: km::field::InsideField) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn radiance_dict<'py>(
+    py: Python<'py>,
+    r: km::field::InsideField,
+) -> PyResult<Bound<'py, PyDict>> {
     let cube = |v: Vec<Vec<Vec<f64>>>| -> PyResult<Bound<'py, PyAny>> {
         let (c, k) = (v.len(), v.first().map_or(0, Vec::len));
         let j = v.first().and_then(|x| x.first()).map_or(0, Vec::len);

@@ -225,7 +225,9 @@ impl PySolution {
     /// The field at the scene's ``[output] depths`` (docs/field.md), as
     /// ``km.field`` gives it: ``depths`` and 2-D arrays (channels x depths)
     /// ``fluence``, ``absorbed``, ``net_flux``, with ``stderr`` of the same
-    /// keys for Monte Carlo; None when the scene asks for no depths or the
+    /// keys for Monte Carlo, and ``radiance`` (``km.field``'s dict) when the
+    /// scene asks for ``[output] inside_directions_deg`` and the method gives
+    /// it (multiflux, mc); None when the scene asks for no depths or the
     /// method gives no depth field.
     #[getter]
     fn field<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
@@ -243,6 +245,9 @@ impl PySolution {
                 s.set_item(*k, rows(py, v.clone())?)?;
             }
             d.set_item("stderr", s)?;
+        }
+        if let Some(r) = &f.radiance {
+            d.set_item("radiance", super::field::radiance_dict(py, r.clone())?)?;
         }
         Ok(Some(d))
     }
