@@ -195,13 +195,13 @@ impl Prepared<'_> {
         let extras = Extras::new(beams, req.theta_o, &setup);
         let ni = beams.len().max(1);
         let mut acc = response::Accumulator::new(self, &extras, req, ni);
-        // A lone layer's nodes and extra directions are those of every order.
+        // A lone layer's nodes and extra directions are those of every order;
+        // its medium is the ambient one (`lone_layer`), whose nodes are kept.
         let lone = self.lone_layer(beams).map(|l| {
             let n = self.layers[l].n;
-            let nodes = self.grid.medium(n);
             let directions = extras.in_medium(n, extras.base_len);
             let all = extras.in_medium(n, extras.ex.len());
-            LoneLayer { l, nodes, directions, all }
+            LoneLayer { l, directions, all }
         });
         for m in 0..=req.last_order {
             let order = match &lone {
@@ -275,8 +275,8 @@ impl Prepared<'_> {
         lone: &LoneLayer,
         m: usize,
     ) -> Result<response::Order, MultifluxError> {
-        let LoneLayer { l: li, ref nodes, ref directions, ref all } = *lone;
-        let l = &self.layers[li];
+        let LoneLayer { l: li, ref directions, ref all } = *lone;
+        let (l, nodes) = (&self.layers[li], &self.nodes0);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
         let (up, down) = if self.n_sub.is_some() {
             slab_beam_response(&nodes.mu, &nodes.w, directions, 0, &p, None)?
@@ -312,11 +312,11 @@ impl Prepared<'_> {
 }
 
 /// A layer alone under one beam ([`Prepared::lone_layer`]) with what every
-/// Fourier order of it reads: its nodes and the extra directions in it
-/// (`directions`: beams and probes; `all`: the markers too).
+/// Fourier order of it reads besides its nodes (the ambient medium's,
+/// [`Prepared::nodes0`]): the extra directions in it (`directions`: beams
+/// and probes; `all`: the markers too).
 struct LoneLayer {
     l: usize,
-    nodes: MediumNodes,
     directions: Vec<crate::slab::Extra>,
     all: Vec<crate::slab::Extra>,
 }
