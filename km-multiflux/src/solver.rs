@@ -200,7 +200,7 @@ fn solve_mono_parts(
 /// The distinct exit polar angles of `dirs` in order of first appearance,
 /// and the index of each direction's angle among them. Angles are told
 /// apart by their bits, by a linear search among those found so far, or
-/// through a map once the request is long (thousands of directions).
+/// through a map when the request has more than 64 directions.
 fn distinct_polar(dirs: &[[f64; 2]]) -> (Vec<f64>, Vec<usize>) {
     let mut theta_o: Vec<f64> = Vec::new();
     let mut index: Option<std::collections::HashMap<u64, usize>> =
