@@ -428,9 +428,12 @@ fn ql_modes_in(
         }
         let ljj = d.sqrt();
         l[j * n + j] = ljj;
-        for i in j + 1..n {
-            let s: f64 = (0..j).map(|k| l[i * n + k] * l[j * n + k]).sum();
-            l[i * n + j] = (hp[(i, j)] - s) / ljj;
+        // Rows below j: the sums over the rows' slices (no index checks).
+        let (upper, lower) = l.split_at_mut((j + 1) * n);
+        let lj = &upper[j * n..j * n + j];
+        for (r, row) in lower.chunks_exact_mut(n).enumerate() {
+            let s: f64 = row[..j].iter().zip(lj).map(|(a, b)| a * b).sum();
+            row[j] = (hp[(j + 1 + r, j)] - s) / ljj;
         }
     }
     // H- L: row i is sum_k hm_ik L_k. over k ascending (L_kj = 0 for j > k).

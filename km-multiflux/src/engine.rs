@@ -195,10 +195,17 @@ impl Prepared<'_> {
         let extras = Extras::new(beams, req.theta_o, &setup);
         let ni = beams.len().max(1);
         let mut acc = response::Accumulator::new(self, &extras, req, ni);
-        let lone = self.lone_layer(beams);
+        // A lone layer's nodes and extra directions are those of every order;
+        // its medium is the ambient one (`lone_layer`), whose nodes are kept.
+        let lone = self.lone_layer(beams).map(|l| {
+            let n = self.layers[l].n;
+            let directions = extras.in_medium(n, extras.base_len);
+            let all = extras.in_medium(n, extras.ex.len());
+            LoneLayer { l, directions, all }
+        });
         for m in 0..=req.last_order {
-            let order = match lone {
-                Some(l) => self.lone_order(&extras, l, m)?,
+            let order = match &lone {
+                Some(lone) => self.lone_order(&extras, lone, m)?,
                 None => self.stack_order(&extras, m, req.last_order + 1)?,
             };
             let read = response::Readout { prep: self, order: &order, extras: &extras, ni };
@@ -265,22 +272,20 @@ impl Prepared<'_> {
     fn lone_order(
         &self,
         extras: &Extras,
-        li: usize,
+        lone: &LoneLayer,
         m: usize,
     ) -> Result<response::Order, MultifluxError> {
-        let l = &self.layers[li];
-        let nodes = self.grid.medium(l.n);
-        let directions = extras.in_medium(l.n, extras.base_len);
+        let LoneLayer { l: li, ref directions, ref all } = *lone;
+        let (l, nodes) = (&self.layers[li], &self.nodes0);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m };
         let (up, down) = if self.n_sub.is_some() {
-            slab_beam_response(&nodes.mu, &nodes.w, &directions, 0, &p, None)?
+            slab_beam_response(&nodes.mu, &nodes.w, directions, 0, &p, None)?
         } else {
             // Nothing below receives the transmitted light: reflection only.
-            (slab_beam_reflection(&nodes.mu, &nodes.w, &directions, 0, &p, None)?, Vec::new())
+            (slab_beam_reflection(&nodes.mu, &nodes.w, directions, 0, &p, None)?, Vec::new())
         };
         let mut markers = Vec::new();
         if m == 0 {
-            let all = extras.in_medium(l.n, extras.ex.len());
             for (k, &(p, ml, slot)) in extras.marker_of.iter().enumerate() {
                 let x = extras.base_len + k;
                 // Nothing above or below sends light back: a marker of a BRDF
@@ -304,6 +309,16 @@ impl Prepared<'_> {
     pub(crate) fn delta_parts(&self, s: f64) -> (f64, f64) {
         delta_parts(&self.scene, &self.layers, self.n_sub, s)
     }
+}
+
+/// A layer alone under one beam ([`Prepared::lone_layer`]) with what every
+/// Fourier order of it reads besides its nodes (the ambient medium's,
+/// [`Prepared::nodes0`]): the extra directions in it (`directions`: beams
+/// and probes; `all`: the markers too).
+struct LoneLayer {
+    l: usize,
+    directions: Vec<crate::slab::Extra>,
+    all: Vec<crate::slab::Extra>,
 }
 
 /// The refusal of exit directions (BRDF, BTDF, the BSDF table) through a

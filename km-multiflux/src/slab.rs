@@ -309,17 +309,29 @@ impl SlabSolution {
     /// Hand this solution's matrices and vectors that came from the
     /// workspace back to it (the end of a layer's order).
     pub(crate) fn recycle(self, ws: &mut Workspace) {
+        // One field at a time (an array of them would be a copy of its own).
         let (ra, rb) = self.rec.into_buffers();
-        for v in [self.mu, self.w, self.ek, self.k, self.t, self.chi, self.lam, ra, rb] {
-            ws.give(v);
-        }
+        ws.give(self.mu);
+        ws.give(self.w);
+        ws.give(self.ek);
+        ws.give(self.k);
+        ws.give(self.t);
+        ws.give(self.chi);
+        ws.give(self.lam);
+        ws.give(ra);
+        ws.give(rb);
         self.lu_p.recycle(ws);
         if let Some(lu) = self.lu_m {
             lu.recycle(ws);
         }
-        for m in [self.cp_out, self.cm_out, self.r, self.tr, self.v, self.z, self.hp, self.hm] {
-            ws.give_mat(m);
-        }
+        ws.give_mat(self.cp_out);
+        ws.give_mat(self.cm_out);
+        ws.give_mat(self.r);
+        ws.give_mat(self.tr);
+        ws.give_mat(self.v);
+        ws.give_mat(self.z);
+        ws.give_mat(self.hp);
+        ws.give_mat(self.hm);
     }
 
     /// The eigen-solutions (seed 000 fig. 3): `(k, G+, G-)` with column `j` of

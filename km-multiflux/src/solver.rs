@@ -198,15 +198,26 @@ fn solve_mono_parts(
 }
 
 /// The distinct exit polar angles of `dirs` in order of first appearance,
-/// and the index of each direction's angle among them.
+/// and the index of each direction's angle among them. Angles are told
+/// apart by their bits, by a linear search among those found so far, or
+/// through a map when the request has more than 64 directions.
 fn distinct_polar(dirs: &[[f64; 2]]) -> (Vec<f64>, Vec<usize>) {
     let mut theta_o: Vec<f64> = Vec::new();
-    let mut index: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+    let mut index: Option<std::collections::HashMap<u64, usize>> =
+        (dirs.len() > 64).then(std::collections::HashMap::new);
     let o_of = dirs
         .iter()
         .map(|d| {
-            *index.entry(d[0].to_bits()).or_insert_with(|| {
+            let bits = d[0].to_bits();
+            let found = match &index {
+                Some(map) => map.get(&bits).copied(),
+                None => theta_o.iter().position(|t| t.to_bits() == bits),
+            };
+            found.unwrap_or_else(|| {
                 theta_o.push(d[0]);
+                if let Some(map) = &mut index {
+                    map.insert(bits, theta_o.len() - 1);
+                }
                 theta_o.len() - 1
             })
         })

@@ -131,9 +131,25 @@ impl Workspace {
 
     /// The kept vector of [`Workspace::take`] (best fit, its old contents),
     /// or a new empty one.
+    #[inline]
     fn take_kept(&mut self, len: usize) -> Vec<f64> {
         self.taken += 1;
         let fit = len.max(MIN_LEN);
+        // The common case, inlined: the most recently returned vector fits
+        // (long enough, at most `fit`), which is where the search below stops.
+        if let Some(c) = self.free.last().map(Vec::capacity)
+            && c >= len
+            && c <= fit
+        {
+            return self.free.pop().expect("checked above");
+        }
+        self.search_kept(len, fit)
+    }
+
+    /// [`Workspace::take_kept`] past its common case: the best fit among
+    /// the kept vectors, or a new one.
+    #[inline(never)]
+    fn search_kept(&mut self, len: usize, fit: usize) -> Vec<f64> {
         let mut best: Option<(usize, usize)> = None;
         for (i, v) in self.free.iter().enumerate().rev() {
             let c = v.capacity();
@@ -158,6 +174,7 @@ impl Workspace {
     /// A vector of `len` unspecified values (those of its last use, zeros
     /// where it grows): [`Workspace::take`] without the zero fill, for
     /// callers that write every element before reading any.
+    #[inline]
     pub(crate) fn take_for_overwrite(&mut self, len: usize) -> Vec<f64> {
         let mut v = self.take_kept(len);
         if v.len() >= len {
@@ -170,6 +187,7 @@ impl Workspace {
 
     /// Hand `v` back for reuse (freed instead when the workspace is full or
     /// `v` is longer than [`MAX_LEN`]).
+    #[inline]
     pub(crate) fn give(&mut self, v: Vec<f64>) {
         if v.capacity() > 0 && v.capacity() <= MAX_LEN && self.free.len() < MAX_VECTORS {
             self.free.push(v);

@@ -257,11 +257,11 @@ impl Readout<'_> {
     }
 
     /// The Fourier coefficients of this order between incidences and exits,
-    /// `[i * no + o]` reflected and transmitted, and the largest of them.
-    fn coefficients(&self, diffuse: bool) -> (Vec<f64>, Vec<f64>, f64) {
+    /// `[i * no + o]`, reflected into `cr` and transmitted into `ct` (zero
+    /// on entry, `ni * no` values each); returns the largest of them.
+    fn coefficients(&self, diffuse: bool, cr: &mut [f64], ct: &mut [f64]) -> f64 {
         let (ex, no) = (self.extras, self.extras.t0 - self.extras.r0);
         let below = self.prep.n_sub.is_some();
-        let (mut cr, mut ct) = (vec![0.0; self.ni * no], vec![0.0; self.ni * no]);
         let mut term = 0.0f64;
         for i in 0..self.ni {
             for o in 0..no {
@@ -275,7 +275,7 @@ impl Readout<'_> {
                 }
             }
         }
-        (cr, ct, term)
+        term
     }
 
     /// The single-scattering correction of layer `l` (scaled as `s`): its
@@ -339,8 +339,11 @@ pub(crate) struct Accumulator<'a> {
     ni: usize,
     no: usize,
     diffuse: bool,
-    coefs_r: Vec<Vec<f64>>,
-    coefs_t: Vec<Vec<f64>>,
+    /// The orders' coefficients, order after order (`[m * ni * no + k]`),
+    /// and how many orders they hold.
+    coefs_r: Vec<f64>,
+    coefs_t: Vec<f64>,
+    orders: usize,
     out: ChannelBsdf,
     stop: FourierStop,
     largest: f64,
@@ -387,8 +390,9 @@ impl<'a> Accumulator<'a> {
             ni,
             no,
             diffuse,
-            coefs_r: Vec::new(),
-            coefs_t: Vec::new(),
+            coefs_r: Vec::with_capacity(ni * no * (req.last_order + 1)),
+            coefs_t: Vec::with_capacity(ni * no * (req.last_order + 1)),
+            orders: 0,
             out,
             stop: FourierStop::default(),
             largest: 0.0,
@@ -402,13 +406,19 @@ impl<'a> Accumulator<'a> {
         read: &Readout<'_>,
         m: usize,
     ) -> Result<bool, MultifluxError> {
-        let (cr, ct, term) = read.coefficients(self.diffuse);
+        // This order's coefficients go straight to the end of the record.
+        let (start, pairs) = (self.coefs_r.len(), self.ni * self.no);
+        let (mut cr, mut ct) =
+            (std::mem::take(&mut self.coefs_r), std::mem::take(&mut self.coefs_t));
+        cr.resize(start + pairs, 0.0);
+        ct.resize(start + pairs, 0.0);
+        let term = read.coefficients(self.diffuse, &mut cr[start..], &mut ct[start..]);
         if m == 0 {
             self.totals(read);
         }
-        let done = self.sum_at_directions(&cr, &ct, m, term);
-        self.coefs_r.push(cr);
-        self.coefs_t.push(ct);
+        let done = self.sum_at_directions(&cr[start..], &ct[start..], m, term);
+        (self.coefs_r, self.coefs_t) = (cr, ct);
+        self.orders += 1;
         Ok(done)
     }
 
@@ -477,9 +487,9 @@ impl<'a> Accumulator<'a> {
         mut self,
     ) -> Result<(ChannelBsdf, Option<DirectionValues>), MultifluxError> {
         let pairs = self.ni * self.no;
-        self.out.orders = self.coefs_r.len();
-        self.out.coef_r = by_pair(&self.coefs_r, pairs);
-        self.out.coef_t = by_pair(&self.coefs_t, pairs);
+        self.out.orders = self.orders;
+        self.out.coef_r = by_pair(&self.coefs_r, pairs, self.orders);
+        self.out.coef_t = by_pair(&self.coefs_t, pairs, self.orders);
         let o = &self.out;
         let values = self.at.map(|a| a.values);
         let finite = o.coef_r.iter().chain(&o.coef_t).chain(&o.reflectance).all(|x| x.is_finite())
@@ -495,14 +505,14 @@ impl<'a> Accumulator<'a> {
     }
 }
 
-/// Per-order coefficients (`coefs[m][k]`) reordered by pair, orders
-/// contiguous: `out[k * orders + m]`.
-fn by_pair(coefs: &[Vec<f64>], pairs: usize) -> Vec<f64> {
-    let orders = coefs.len();
+/// The coefficients of `orders` orders, order after order
+/// (`coefs[m * pairs + k]`), reordered by pair, orders contiguous:
+/// `out[k * orders + m]`.
+fn by_pair(coefs: &[f64], pairs: usize, orders: usize) -> Vec<f64> {
     let mut out = vec![0.0; pairs * orders];
-    for (m, c) in coefs.iter().enumerate() {
-        for k in 0..pairs {
-            out[k * orders + m] = c[k];
+    for (m, c) in coefs.chunks_exact(pairs.max(1)).take(orders).enumerate() {
+        for (k, &x) in c.iter().enumerate() {
+            out[k * orders + m] = x;
         }
     }
     out

@@ -65,7 +65,10 @@ pub struct Lu {
     /// Row exchanged with row `k` at elimination step `k`.
     pub(super) piv: Vec<usize>,
     /// faer's factor object (from `FAER_FROM` (48) nodes on), for every solve.
-    faer: Option<PartialPivLu<f64>>,
+    /// Boxed: the slab's solution carries two of these and is moved whole
+    /// in every Fourier order, so the common case (no faer factors) keeps it
+    /// small.
+    faer: Option<Box<PartialPivLu<f64>>>,
 }
 
 impl Lu {
@@ -226,7 +229,7 @@ impl Lu {
             at[rk] = p;
             at[rp] = k;
         }
-        Lu { n, lu, piv, faer: Some(f) }
+        Lu { n, lu, piv, faer: Some(Box::new(f)) }
     }
 
     /// `x <- C^-1 x` (faer's in-place solve from `FAER_FROM` (48) nodes on).
