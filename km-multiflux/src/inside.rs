@@ -73,8 +73,9 @@ pub const MAX_INSIDE_VALUES: usize = 1_000_000;
 /// value (DISORT's test). Under a beam with delta-M, the single scattering
 /// of the layers whose phase function the kept moments do not represent is
 /// made exact (TMS, Nakajima & Tanaka 1988; `docs/field.md` eq. D17): the
-/// markers of the exit correction carried to the cut; the second-order
-/// (IMS) term of the exits is not applied inside.
+/// markers of the exit correction carried to the cut, with the exits'
+/// second-order (IMS) term near the beam's polar angle (eq. D18) when
+/// `opts.secondary_correction` is on.
 ///
 /// # Errors
 /// An empty list, a depth outside the stack, a direction out of range, a
@@ -151,6 +152,7 @@ pub fn inside_radiance(
         diffuse,
         orders: last + 1,
         tms: &tms,
+        corr: &corr,
     };
     let mut stop = FourierStop::default();
     let mut largest = 0.0f64;
@@ -165,7 +167,7 @@ pub fn inside_radiance(
                     // The beams not yet scattered (the corrected radiance
                     // holds the peak the scaled beams carry).
                     (out.beam_down[k], out.beam_up[k]) = shared.true_beams(z)?;
-                    shared.correct(&cut, &corr, directions, &p_of, &mut out.correction[k]);
+                    shared.correct(&cut, directions, &p_of, &mut out.correction[k]);
                 }
             }
             for (j, d) in directions.iter().enumerate() {
@@ -216,6 +218,8 @@ struct Shared<'a> {
     orders: usize,
     /// The corrected layers (their markers ride at `m = 0`).
     tms: &'a [usize],
+    /// Per layer of the stack, its correction (corrected layers only).
+    corr: &'a [Option<PeakCorrection>],
 }
 
 impl Shared<'_> {
@@ -231,23 +235,31 @@ impl Shared<'_> {
         // below the cut. A marker names its layer by its index in the part
         // (above: the stack's own; below: from the lower piece of the cut
         // layer on, the layers above the cut by an index no layer has).
+        // With the second-order term (eq. D18) a probe near the beam's polar
+        // angle also has the far side's IMS marker (slot 2) per layer.
         let tms: &[usize] = if m == 0 { self.tms } else { &[] };
-        let below_tms: Vec<usize> =
-            tms.iter().map(|&l| if l >= i_cut { l - i_cut } else { usize::MAX - l }).collect();
-        let extras_for = |tms_layers: &[usize]| {
-            let setup = ExtraSetup {
-                n0: n_cut,
-                n_sub: None,
-                layers: self.layers,
-                tms_layers,
-                corr: &[],
-                secondary: false,
-            };
-            Extras::new(self.beams, self.polar, &setup)
+        let setup = ExtraSetup {
+            n0: n_cut,
+            n_sub: None,
+            layers: self.layers,
+            tms_layers: tms,
+            corr: self.corr,
+            secondary: self.opts.secondary_correction,
         };
-        let (extras_a, extras_b) = (extras_for(tms), extras_for(&below_tms));
+        let extras_a = Extras::new(self.beams, self.polar, &setup);
+        let below_index = |l: usize| if l >= i_cut { l - i_cut } else { usize::MAX - l };
+        let mut extras_b = extras_a.clone();
+        for e in &mut extras_b.ex {
+            if let crate::engine::Kind::Marker { l, .. } = &mut e.1 {
+                *l = below_index(*l);
+            }
+        }
         let (above, below) = split_at_depth(self.scene, self.layers, i_cut, dz);
-        let (corr_a, corr_b) = (vec![None; above.len()], vec![None; below.len()]);
+        // The pieces' corrections (their IMS markers' path factors): the
+        // upper piece of the cut layer from its top to `z`, the lower one on.
+        let corr_of = |l: usize| self.corr.get(l).cloned().flatten();
+        let corr_a: Vec<_> = (0..above.len()).map(corr_of).collect();
+        let corr_b: Vec<_> = (0..below.len()).map(|k| corr_of(i_cut + k)).collect();
         let pieces_a = OrderPieces {
             grid: self.grid,
             extras: &extras_a,
@@ -357,19 +369,12 @@ impl Shared<'_> {
     /// at the cut) times its layer's source difference at the scattering
     /// angle of its slot (backward for slot 0, forward for slot 1), in the
     /// layer's own cosines; the exits' eq. B1, second line.
-    fn correct(
-        &self,
-        cut: &ProbesAtCut,
-        corr: &[Option<PeakCorrection>],
-        directions: &[[f64; 2]],
-        p_of: &[usize],
-        out: &mut [f64],
-    ) {
+    fn correct(&self, cut: &ProbesAtCut, directions: &[[f64; 2]], p_of: &[usize], out: &mut [f64]) {
         let Some(&beam) = self.beams.first() else { return };
         for (j, d) in directions.iter().enumerate() {
             let cphi = (d[1] - 180.0).to_radians().cos();
             for k in cut.markers.iter().filter(|k| k.polar == p_of[j]) {
-                let Some(c) = corr.get(k.layer).and_then(Option::as_ref) else { continue };
+                let Some(c) = self.corr.get(k.layer).and_then(Option::as_ref) else { continue };
                 let n = self.layers[k.layer].n;
                 let (Some(mu_b), Some(mu_x)) =
                     (mu_of_invariant(beam, n), mu_of_invariant(k.invariant, n))
@@ -382,7 +387,11 @@ impl Shared<'_> {
                 }
                 let s = ((1.0 - mu_x * mu_x).max(0.0) * (1.0 - mu_b * mu_b).max(0.0)).sqrt();
                 let along = if k.slot == 0 { -mu_x * mu_b } else { mu_x * mu_b };
-                out[j] += w * c.single_source(along + s * cphi, mu_b);
+                out[j] += w * match k.slot {
+                    0 | 1 => c.single_source(along + s * cphi, mu_b),
+                    // The IMS marker (eq. D18): the peak's second order.
+                    _ => c.peak_pspike(along + s * cphi),
+                };
             }
         }
     }

@@ -339,10 +339,12 @@ fn bad_requests_are_refused() {
 /// one that of the layer below `z` lit by the beam left at `z`,
 /// `exp(-tau*(z)/mu_b)` (eq. C2 and 14 of docs/multiflux.md, the same path
 /// integrals in closed form: 1e-12 of the largest value allows rounding
-/// only). HG g = 0.9 at 8 streams (16 moments kept, f = 0.9^16), a beam at
-/// 30 degrees, directions on both sides of the plane of incidence (the
-/// beam's own among them, where the peak makes the correction large); the
-/// beam is the unscattered one, `exp(-sigma_t z / mu_b)`.
+/// only), the peak's second order (eq. D18, eq. 5b–5d there) included
+/// within its cone. HG g = 0.9 at 8 streams (16 moments kept, f =
+/// 0.9^16), a beam at 30 degrees, directions on both sides of the plane of
+/// incidence (the beam's own among them, where the peak makes the
+/// correction large and the second order applies); the beam is the
+/// unscattered one, `exp(-sigma_t z / mu_b)`.
 #[test]
 fn single_scattering_correction_equals_the_lone_layer_formula() {
     let s = scene(
@@ -351,8 +353,17 @@ fn single_scattering_correction_equals_the_lone_layer_formula() {
     );
     let ch = &s.channels()[0];
     let o = MultifluxOptions { streams: Some(8), ..Default::default() };
-    let dirs =
-        [[30.0, 180.0], [20.0, 180.0], [40.0, 180.0], [35.0, 60.0], [140.0, 0.0], [160.0, 180.0]];
+    // 22 and 38 degrees inside the second order's 10-degree cone, 45
+    // outside it (not on its edge, where the term switches off).
+    let dirs = [
+        [30.0, 180.0],
+        [22.0, 180.0],
+        [38.0, 180.0],
+        [45.0, 180.0],
+        [35.0, 60.0],
+        [140.0, 0.0],
+        [160.0, 180.0],
+    ];
     let depths = [0.0, 0.4, 1.0];
     let r = inside_radiance(ch, &o, &depths, &dirs).unwrap();
     let (omega, sigma_t) = (2.0 / 2.1, 2.1);
@@ -360,7 +371,7 @@ fn single_scattering_correction_equals_the_lone_layer_formula() {
         km_core::phase::Phase::henyey_greenstein(0.9).unwrap(),
         omega,
         16,
-        false,
+        true,
     );
     let factor = 1.0 - omega * c.f();
     let mu_b = 30f64.to_radians().cos();

@@ -24,6 +24,7 @@ pub(crate) enum Kind {
 }
 
 /// The extra directions of one channel, each as `(Snell invariant, kind)`.
+#[derive(Clone)]
 pub(crate) struct Extras {
     pub(crate) ex: Vec<(f64, Kind)>,
     /// Number of beams (the first extras).
