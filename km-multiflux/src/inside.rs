@@ -105,20 +105,7 @@ pub fn inside_radiance(
     let layers = scale_layers(scene, opts, streams);
     let beams: Vec<f64> = scene.beam_invariant().into_iter().collect();
     let diffuse = beams.is_empty();
-    // Distinct polar angles in the local hemisphere (theta and 180 - theta
-    // share a probe: its down- and up-going streams).
-    let local = |t: f64| if t > 90.0 { 180.0 - t } else { t };
-    let mut polar: Vec<f64> = Vec::new();
-    let p_of: Vec<usize> = directions
-        .iter()
-        .map(|d| {
-            let t = local(d[0]);
-            polar.iter().position(|&p| p == t).unwrap_or_else(|| {
-                polar.push(t);
-                polar.len() - 1
-            })
-        })
-        .collect();
+    let (polar, p_of) = distinct_polar(directions);
     let last = if diffuse {
         0
     } else if opts.all_effects {
@@ -203,6 +190,25 @@ pub fn inside_radiance(
         });
     }
     Ok(out)
+}
+
+/// The distinct polar angles of `directions` in the local hemisphere
+/// (theta and 180 - theta share a probe: its down- and up-going streams),
+/// and per direction the index of its angle.
+fn distinct_polar(directions: &[[f64; 2]]) -> (Vec<f64>, Vec<usize>) {
+    let local = |t: f64| if t > 90.0 { 180.0 - t } else { t };
+    let mut polar: Vec<f64> = Vec::new();
+    let p_of = directions
+        .iter()
+        .map(|d| {
+            let t = local(d[0]);
+            polar.iter().position(|&p| p == t).unwrap_or_else(|| {
+                polar.push(t);
+                polar.len() - 1
+            })
+        })
+        .collect();
+    (polar, p_of)
 }
 
 /// What every depth and Fourier order of [`inside_radiance`] shares.
