@@ -3,7 +3,10 @@
 //! top-down and one bottom-up pass of the adding give the streams at every
 //! layer face, each layer eigen-solved once, then O(N) per depth), on a
 //! one-layer tissue slab under a Fresnel interface at 30 degrees and on a
-//! three-layer skin-like stack; and the evaluation alone.
+//! three-layer skin-like stack; and the evaluation alone. The radiance
+//! inside (`docs/field.md` §2a, eq. D12-D18) at 4 depths and 6 directions
+//! of the slab (the delta-M radiance with its single-scattering and
+//! second-order corrections and the unscattered beams).
 //!
 //! Short run: `cargo bench --profile dev -p km-bench --bench field -- --noplot
 //! --warm-up-time 1 --measurement-time 3`.
@@ -41,5 +44,20 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+fn radiance(c: &mut Criterion) {
+    let o = MultifluxOptions { streams: Some(16), ..Default::default() };
+    let s = Scene::from_toml_str(SLAB).expect("valid scene");
+    let mono = &s.channels()[0];
+    let depths = [0.1, 0.4, 0.7, 1.0];
+    let dirs =
+        [[20.0, 180.0], [30.0, 0.0], [45.0, 90.0], [60.0, 180.0], [120.0, 0.0], [160.0, 90.0]];
+    c.bench_function("radiance inside 4 depths x 6 directions 16 streams slab", |b| {
+        b.iter(|| {
+            km_multiflux::inside::inside_radiance(black_box(mono), &o, &depths, &dirs)
+                .expect("solves")
+        })
+    });
+}
+
+criterion_group!(benches, bench, radiance);
 criterion_main!(benches);

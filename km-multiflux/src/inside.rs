@@ -233,8 +233,8 @@ impl Shared<'_> {
     /// at `z`, each half added with the probes as extra directions, and the
     /// two halves' adding read off at the cut.
     fn probes_at(&self, z: f64, m: usize) -> Result<ProbesAtCut, MultifluxError> {
-        let (i_cut, dz) = locate(self.scene, z);
-        let n_cut = self.scene.layers()[i_cut].n();
+        let cut = self.cut(self.layers, z);
+        let (i_cut, n_cut) = (cut.i_cut, cut.n_cut);
         // The probes by Snell invariant in the medium at the cut, and at
         // m = 0 the markers of the corrected layers (eq. D17): per probe,
         // layer and slot (backward, forward), in the same order above and
@@ -260,12 +260,11 @@ impl Shared<'_> {
                 *l = below_index(*l);
             }
         }
-        let (above, below) = split_at_depth(self.scene, self.layers, i_cut, dz);
         // The pieces' corrections (their IMS markers' path factors): the
         // upper piece of the cut layer from its top to `z`, the lower one on.
         let corr_of = |l: usize| self.corr.get(l).cloned().flatten();
-        let corr_a: Vec<_> = (0..above.len()).map(corr_of).collect();
-        let corr_b: Vec<_> = (0..below.len()).map(|k| corr_of(i_cut + k)).collect();
+        let corr_a: Vec<_> = (0..cut.above.len()).map(corr_of).collect();
+        let corr_b: Vec<_> = (0..cut.below.len()).map(|k| corr_of(i_cut + k)).collect();
         let pieces_a = OrderPieces {
             grid: self.grid,
             extras: &extras_a,
@@ -276,11 +275,7 @@ impl Shared<'_> {
             all_effects: self.opts.all_effects,
         };
         let pieces_b = OrderPieces { extras: &extras_b, corr: &corr_b, ..pieces_a };
-        let scene_above = self.scene.with_substrate(Substrate::Transparent { n: n_cut })?;
-        let scene_below = self.scene.with_ambient_n(n_cut)?;
-        let a_ops = pieces_a.stack(&scene_above, &above, Some(n_cut), self.opts.neumann_order)?;
-        let b_ops = pieces_b.stack(&scene_below, &below, self.n_sub, self.opts.neumann_order)?;
-        let extras = extras_a;
+        let extras = &extras_a;
         let n0 = self.scene.ambient_n();
         // Incident light on the probes themselves (diffuse light only: a
         // probe that propagates in the ambient medium receives 1/pi).
@@ -296,17 +291,13 @@ impl Shared<'_> {
                 }
             })
             .collect();
-        let a = input(self.scene, self.grid, m);
-        let mut cut =
-            probes_at_cut(&a_ops, &b_ops, &a, &probe_in, self.grid, n_cut, self.beams.len())
-                .ok_or_else(|| MultifluxError::Numerical {
-                    what: "inside_radiance",
-                    detail: format!("depth {z}, order {m}"),
-                })?;
+        let mut at = self.add_halves(&cut, [&pieces_a, &pieces_b], m, &probe_in, || {
+            format!("depth {z}, order {m}")
+        })?;
         // The markers' streams: per marker its probe's polar angle, layer,
         // slot, Snell invariant and the weights down and up at the cut.
         let first = extras.base_len - extras.beams;
-        cut.markers = extras
+        at.markers = extras
             .marker_of
             .iter()
             .enumerate()
@@ -315,11 +306,11 @@ impl Shared<'_> {
                 layer: l,
                 slot,
                 invariant: extras.ex[p].0,
-                down: cut.down[first + k],
-                up: cut.up[first + k],
+                down: at.down[first + k],
+                up: at.up[first + k],
             })
             .collect();
-        Ok(cut)
+        Ok(at)
     }
 
     /// The collimated beams at depth `z` not yet scattered: the stack's
@@ -336,10 +327,9 @@ impl Shared<'_> {
                 c
             })
             .collect();
-        let (i_cut, dz) = locate(self.scene, z);
-        let n_cut = self.scene.layers()[i_cut].n();
+        let cut = self.cut(&clear, z);
         let setup = ExtraSetup {
-            n0: n_cut,
+            n0: cut.n_cut,
             n_sub: None,
             layers: &clear,
             tms_layers: &[],
@@ -356,18 +346,38 @@ impl Shared<'_> {
             orders: 1,
             all_effects: self.opts.all_effects,
         };
-        let (above, below) = split_at_depth(self.scene, &clear, i_cut, dz);
+        let at =
+            self.add_halves(&cut, [&pieces, &pieces], 0, &[], || format!("depth {z}, the beams"))?;
+        Ok((at.beam_down, at.beam_up))
+    }
+
+    /// `layers` (the stack's, scaled) cut at depth `z`.
+    fn cut(&self, layers: &[Scaled], z: f64) -> Cut {
+        let (i_cut, dz) = locate(self.scene, z);
+        let (above, below) = split_at_depth(self.scene, layers, i_cut, dz);
+        Cut { i_cut, n_cut: self.scene.layers()[i_cut].n(), above, below }
+    }
+
+    /// The two halves of `cut`, built by `pieces` (above, below) and each
+    /// added, read at the cut for order `m`'s input on the top and
+    /// `probe_in` on the probes; `detail` names the failure.
+    fn add_halves(
+        &self,
+        cut: &Cut,
+        pieces: [&OrderPieces<'_>; 2],
+        m: usize,
+        probe_in: &[f64],
+        detail: impl FnOnce() -> String,
+    ) -> Result<ProbesAtCut, MultifluxError> {
+        let n_cut = cut.n_cut;
         let scene_above = self.scene.with_substrate(Substrate::Transparent { n: n_cut })?;
         let scene_below = self.scene.with_ambient_n(n_cut)?;
-        let a_ops = pieces.stack(&scene_above, &above, Some(n_cut), self.opts.neumann_order)?;
-        let b_ops = pieces.stack(&scene_below, &below, self.n_sub, self.opts.neumann_order)?;
-        let a = input(self.scene, self.grid, 0);
-        let cut = probes_at_cut(&a_ops, &b_ops, &a, &[], self.grid, n_cut, self.beams.len())
-            .ok_or_else(|| MultifluxError::Numerical {
-                what: "inside_radiance",
-                detail: format!("depth {z}, the beams"),
-            })?;
-        Ok((cut.beam_down, cut.beam_up))
+        let neumann = self.opts.neumann_order;
+        let a_ops = pieces[0].stack(&scene_above, &cut.above, Some(n_cut), neumann)?;
+        let b_ops = pieces[1].stack(&scene_below, &cut.below, self.n_sub, neumann)?;
+        let a = input(self.scene, self.grid, m);
+        probes_at_cut(&a_ops, &b_ops, &a, probe_in, self.grid, n_cut, self.beams.len())
+            .ok_or_else(|| MultifluxError::Numerical { what: "inside_radiance", detail: detail() })
     }
 
     /// The single-scattering correction at the cut (eq. D17) into `out`,
@@ -444,6 +454,15 @@ fn check_request(
         );
     }
     Ok(())
+}
+
+/// A stack cut at a depth: the layer holding it, the index of its medium,
+/// and the layers above and below the cut (that layer split in two).
+struct Cut {
+    i_cut: usize,
+    n_cut: f64,
+    above: Vec<Scaled>,
+    below: Vec<Scaled>,
 }
 
 /// The probes' streams at the cut, and the beams'.
