@@ -208,7 +208,8 @@ def km_values(km, s, method, extra):
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             # A refusal (the multi-flux method refuses exit directions
-            # through rough faces, docs/rough.md §7): recorded, not compared.
+            # through rough faces below alpha 0.1, docs/rough.md §7):
+            # recorded, not compared.
             return {"refused": r.stderr.strip()}
         return json.loads(r.stdout)
     finally:
@@ -224,6 +225,9 @@ def main():
     ap.add_argument("--mc-cone", type=float, default=1.0,
                     help="half-angle (degrees) of km's Monte Carlo cone bins; Mitsuba's "
                     "values are points, so a lobe needs a narrow cone")
+    ap.add_argument("--mf-streams", type=int, default=24,
+                    help="streams of km's multi-flux answer (its change from 16 is in "
+                    "docs/rough.md §7)")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default="rough-mitsuba.json")
     a = ap.parse_args()
@@ -233,7 +237,7 @@ def main():
     spp = 4096 if a.quick else a.spp
     results = []
     for s in stacks:
-        mf = km_values(a.km, s, "multiflux", [])
+        mf = km_values(a.km, s, "multiflux", ["--streams", str(a.mf_streams)])
         mc = km_values(a.km, s, "mc", ["--samples", str(a.mc_samples), "--seed", "1",
                                         "--cone", str(a.mc_cone)])
         ms = mitsuba_values(mi, s, spp, a.seeds)

@@ -5,8 +5,8 @@
 use km_core::Scene;
 
 /// A rough clear coat over a scattering layer on a rough conductor, and a
-/// layer rough on both faces in air (totals only: the multi-flux method
-/// refuses exit directions through rough faces, docs/rough.md §7).
+/// layer rough on both faces in air (totals; their exit directions are
+/// compared in `rough_directions.rs`).
 fn stacks() -> Vec<String> {
     vec![
         "[light]\ntheta_deg = 30.0\n[[layer]]\ntau = 1.0\nalbedo = 0.9\ng = 0.5\nn = 1.5\n\

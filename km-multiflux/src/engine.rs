@@ -22,10 +22,12 @@
 mod extras;
 mod pieces;
 mod response;
+mod rough_paths;
 mod rough_pieces;
 
 use std::borrow::Cow;
 
+use km_core::microfacet::Microfacet;
 use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
@@ -33,6 +35,7 @@ use crate::correction::PeakCorrection;
 use crate::options::{FOURIER_TOL, MultifluxOptions};
 use crate::prepare::{media_grid, planned_cutoff, scale_layers};
 use crate::quadrature::{AngularGrid, MediumNodes};
+use crate::rough::SPREAD_ALPHA;
 use crate::slab::{SlabOrder, slab_beam_reflection, slab_beam_response};
 use crate::stack::{Scaled, delta_parts};
 pub(crate) use extras::{ExtraSetup, Extras, Kind};
@@ -177,8 +180,8 @@ impl Prepared<'_> {
         &self,
         req: &Request<'_>,
     ) -> Result<(ChannelBsdf, Option<DirectionValues>), MultifluxError> {
-        if !req.theta_o.is_empty() && self.scene.has_rough_face() {
-            return Err(rough_exits_refused());
+        if !req.theta_o.is_empty() {
+            self.check_rough_exits()?;
         }
         let beams: &[f64] = match req.incidence {
             Incidence::Beams(b) => b,
@@ -321,19 +324,43 @@ struct LoneLayer {
     all: Vec<crate::slab::Extra>,
 }
 
-/// The refusal of exit directions (BRDF, BTDF, the BSDF table) through a
-/// rough face: the probes' values there are not yet right (docs/rough.md
-/// §7: a probe in the quadrature cell of the beam's mirror or refracted
-/// direction reads the beam's delta correction twice, and other directions
-/// differ from the Monte Carlo by up to 14 %), so none are given; totals are.
-fn rough_exits_refused() -> MultifluxError {
-    MultifluxError::Scene(km_core::CoreError::unsupported(
-        "multiflux",
-        "exit directions (BRDF/BTDF, the BSDF table) through a rough face or off a rough \
-         conductor are not computed: the multi-flux values there disagree with the Monte Carlo \
-         (docs/rough.md §7); the totals R, T, A are given without directions, and the Monte \
-         Carlo method (`mc`) gives BRDF/BTDF for rough faces",
-    ))
+impl Prepared<'_> {
+    /// Exit directions (BRDF, BTDF, the BSDF table) through a rough face need
+    /// the face to spread the beam over its cells (roughness at least
+    /// [`SPREAD_ALPHA`]): a narrower lobe keeps its delta in the beam's slot,
+    /// which a probe in the delta's cell would read twice (docs/rough.md §7).
+    fn check_rough_exits(&self) -> Result<(), MultifluxError> {
+        let scene = &self.scene;
+        let mut above = scene.ambient_n();
+        let mut faces: Vec<Microfacet> = Vec::new();
+        for l in scene.layers() {
+            if l.n() != above {
+                faces.extend(l.roughness());
+            }
+            above = l.n();
+        }
+        let floor_face = match scene.substrate() {
+            Substrate::Transparent { n } => n != above,
+            Substrate::Conductor { .. } => true,
+            _ => false,
+        };
+        if floor_face {
+            faces.extend(scene.substrate_roughness());
+        }
+        match faces.iter().map(|f| f.alpha()).find(|&a| a < SPREAD_ALPHA) {
+            None => Ok(()),
+            Some(alpha) => Err(MultifluxError::Scene(km_core::CoreError::unsupported(
+                "multiflux",
+                format!(
+                    "exit directions (BRDF/BTDF, the BSDF table) through a rough face of roughness \
+                     {alpha} are not computed: below {SPREAD_ALPHA} the face keeps the beam's \
+                     delta apart from its cells, which exit directions would read twice \
+                     (docs/rough.md §7); the totals R, T, A are given without directions, and the \
+                     Monte Carlo method (`mc`) gives BRDF/BTDF for any roughness"
+                ),
+            ))),
+        }
+    }
 }
 
 /// The last Fourier order of a request: 0 for totals or diffuse light; with

@@ -44,10 +44,16 @@
 //! operators are written as the smooth face's node operators (eq. F1 of
 //! [`crate::interface`]) plus the cell integrals of the rough BSDF minus those
 //! of the smooth one (eq. R13): the difference vanishes with `alpha`, so the
-//! smooth operators are recovered exactly (no switch). The collimated beam
-//! keeps its delta slot the same way: the rough lobe of the beam minus the
-//! delta's share of its cell goes to the nodes, the delta to the slot. The
-//! solver reports no mirror or unscattered part through a rough face
+//! smooth operators are recovered exactly (no switch). Below
+//! [`SPREAD_ALPHA`] the collimated beam keeps its delta slot the same way:
+//! the rough lobe of the beam minus the delta's share of its cell goes to
+//! the nodes, the delta to the slot (eq. R14), and a probe reads the smooth
+//! value of its own slot in place of its cell's (eq. R16). From
+//! [`SPREAD_ALPHA`] on the lobe spans cells enough that they carry it better
+//! than a delta does: the whole lobe goes to the cells, and a probe reads the
+//! cells only (eq. R14', R16'); only then are exit directions given, whose
+//! single rough path the engine takes exact (eq. R18). The solver reports no
+//! mirror or unscattered part through a rough face
 //! ([`crate::stack::delta_parts`]).
 
 use std::cell::RefCell;
@@ -62,6 +68,12 @@ use km_core::microfacet::{Far, Microfacet, conductor_reflectance, graded_edges, 
 use crate::adding::LayerOperators;
 use crate::quadrature::MediumNodes;
 use crate::slab::Extra;
+
+/// The roughness from which a face spreads the beam over its cells
+/// (eq. R14'): its lobe then spans enough cells that the cells carry it
+/// better than a delta in the beam's slot does (docs/rough.md §3, §7);
+/// below it the delta stays in the slot (eq. R14), exact as `alpha -> 0`.
+pub const SPREAD_ALPHA: f64 = 0.1;
 
 /// Gauss points per incoming cell (eq. R11): the outer rule whose
 /// disagreement with the transposed integral the symmetric scaling absorbs.
@@ -389,6 +401,7 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
         let mu = ex[x].get(e)?.mu?;
         (x < c.sides.len()).then(|| c.sides[x].n.powi(2) * (1.0 - mu * mu))
     };
+    let spread = c.face.mf.alpha() >= SPREAD_ALPHA;
     let mut memo: Vec<(usize, u64, Rc<Column>)> = Vec::new();
     let mut col = |x: usize, u: f64| {
         if let Some((_, _, v)) = memo.iter().find(|(s, k, _)| *s == x && *k == u.to_bits()) {
@@ -403,9 +416,9 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
             let Some(u) = u_of(x, e) else { continue };
             let g = col(x, u);
             if ex[x][e].beam {
-                beam_column(c, ops, (x, e, u), &g, &u_of, &len, ex);
+                beam_column(c, ops, (x, e, u), &g, &u_of, &len, ex, spread);
             } else {
-                probe_rows(c, ops, (x, e, u), &g, &u_of, &len);
+                probe_rows(c, ops, (x, e, u), &g, &u_of, &len, spread);
             }
         }
     }
@@ -433,6 +446,7 @@ fn beam_column(
     u_of: &dyn Fn(usize, usize) -> Option<f64>,
     len: &[usize],
     ex: [&[Extra]; 2],
+    spread: bool,
 ) {
     let mo = c.orders;
     let r = c.r_smooth(x, u);
@@ -445,6 +459,9 @@ fn beam_column(
             let col = len[x] + e;
             for i in 0..side.len() {
                 mat[(i, col)] = k * g[y][i * mo + m] / side.width(i);
+            }
+            if spread {
+                continue;
             }
             // The delta's share of its cell, and the delta in the beam slot.
             let delta = if y == x { r } else { 1.0 - r };
@@ -480,6 +497,7 @@ fn probe_rows(
     g: &[Vec<f64>],
     u_of: &dyn Fn(usize, usize) -> Option<f64>,
     len: &[usize],
+    spread: bool,
 ) {
     let mo = c.orders;
     let r = c.r_smooth(y, u);
@@ -492,6 +510,9 @@ fn probe_rows(
             // O_xj = (n_Y^2 / n_X^2) C_j / (2 n_X^2) (reciprocity of eq. R10).
             for j in 0..side.len() {
                 mat[(row, j)] = ny2 / nx2 * g[x][j * mo + m] / (2.0 * nx2);
+            }
+            if spread {
+                continue;
             }
             let smooth = if x == y { r } else { ny2 / nx2 * (1.0 - r) };
             if let Some(j) = side.cell_of(u) {

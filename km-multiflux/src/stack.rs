@@ -238,18 +238,7 @@ pub(crate) fn delta_parts(
     n_sub: Option<f64>,
     s: f64,
 ) -> (f64, f64) {
-    // Scalar operators (r_top, t_down, r_bottom, t_up) and their star product
-    // (eq. A4 of the adding module with 1 x 1 operators).
-    type Op = (f64, f64, f64, f64);
-    let star = |(r1, t1, r1p, t1p): Op, (r2, t2, r2p, t2p): Op| -> Op {
-        let x = 1.0 - r1p * r2;
-        if x == 0.0 {
-            // Facing total reflections with nothing between: nothing enters.
-            return (r1, 0.0, r2p, 0.0);
-        }
-        (r1 + t1p * r2 * t1 / x, t2 * t1 / x, r2p + t2 * r1p * t2p / x, t1p * t2p / x)
-    };
-    let iface = |na: f64, nb: f64| -> Op {
+    let iface = |na: f64, nb: f64| -> ScalarOp {
         match (mu_of_invariant(s, na), mu_of_invariant(s, nb)) {
             (Some(a), Some(b)) => {
                 let ra = km_core::fresnel::reflectance(a, na, nb);
@@ -262,8 +251,8 @@ pub(crate) fn delta_parts(
         }
     };
     // A rough face has no mirror part and passes no unscattered beam.
-    let rough_face: Op = (0.0, 0.0, 0.0, 0.0);
-    let mut acc: Op = (0.0, 1.0, 0.0, 1.0);
+    let rough_face: ScalarOp = (0.0, 0.0, 0.0, 0.0);
+    let mut acc: ScalarOp = (0.0, 1.0, 0.0, 1.0);
     let mut n_above = scene.ambient_n();
     for l in layers {
         if l.n != n_above {
@@ -294,6 +283,20 @@ pub(crate) fn delta_parts(
         acc = star(acc, (r, 0.0, 0.0, 0.0));
     }
     (acc.0, if transmits { acc.1 } else { 0.0 })
+}
+
+/// Scalar operators `(r_top, t_down, r_bottom, t_up)` of a delta path.
+pub(crate) type ScalarOp = (f64, f64, f64, f64);
+
+/// The star product of two scalar operators (eq. A4 of the adding module
+/// with 1 x 1 operators).
+pub(crate) fn star((r1, t1, r1p, t1p): ScalarOp, (r2, t2, r2p, t2p): ScalarOp) -> ScalarOp {
+    let x = 1.0 - r1p * r2;
+    if x == 0.0 {
+        // Facing total reflections with nothing between: nothing enters.
+        return (r1, 0.0, r2p, 0.0);
+    }
+    (r1 + t1p * r2 * t1 / x, t2 * t1 / x, r2p + t2 * r1p * t2p / x, t1p * t2p / x)
 }
 
 /// One layer after delta-M scaling.

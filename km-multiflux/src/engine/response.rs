@@ -5,6 +5,7 @@
 
 use km_core::phase::PhaseFunction;
 
+use super::rough_paths::RoughPath;
 use super::{DirectionValues, Extras, FourierStop, Incidence, Prepared, Request, Stop};
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
@@ -486,6 +487,7 @@ impl<'a> Accumulator<'a> {
     pub(crate) fn finish(
         mut self,
     ) -> Result<(ChannelBsdf, Option<DirectionValues>), MultifluxError> {
+        self.exact_rough_path();
         let pairs = self.ni * self.no;
         self.out.orders = self.orders;
         self.out.coef_r = by_pair(&self.coefs_r, pairs, self.orders);
@@ -502,6 +504,29 @@ impl<'a> Accumulator<'a> {
             });
         }
         Ok((self.out, values))
+    }
+}
+
+impl Accumulator<'_> {
+    /// The beam's single path through the first rough face, exact at the
+    /// solve's directions (eq. R18, [`RoughPath`]).
+    fn exact_rough_path(&mut self) {
+        let (Some(at), Incidence::Beams(&[s_b])) = (&mut self.at, self.req.incidence) else {
+            return;
+        };
+        let prep = self.prep;
+        let Some(path) = RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b) else {
+            return;
+        };
+        let (built, summed) = (self.req.last_order + 1, self.orders);
+        let below = prep.n_sub.is_some();
+        for (k, (&o, &phi)) in at.o.iter().zip(&at.phi).enumerate() {
+            let theta = self.req.theta_o[o];
+            at.values.brdf[k] += path.correction(theta, phi, false, built, summed);
+            if below {
+                at.values.btdf[k] += path.correction(theta, phi, true, built, summed);
+            }
+        }
     }
 }
 

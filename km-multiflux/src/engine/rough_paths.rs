@@ -1,0 +1,216 @@
+//! The beam's single rough path, exact (docs/rough.md eq. R18): the light
+//! that reaches the first rough face along the beam's unscattered path, is
+//! reflected or transmitted by that face once, and leaves along the exit
+//! direction's unscattered path.
+//!
+//! A rough face sends the beam into the cells and the probes (eq. R14–R15),
+//! and the probes carry the lobe as its Fourier series, which a narrow lobe
+//! needs far more orders for than the streams resolve: truncated, it rings
+//! (negative values opposite the peak, a peak too low or too high). As the
+//! single-scattering correction does for a peaked phase function (eq. B1 of
+//! docs/bsdf.md), the exit value gets the lobe's exact value in place of the
+//! truncated series it holds:
+//!
+//! ```text
+//!   f_exit += A(s_o) B(s_b) [ f(o <- i) - sum_{m < M} (2 - delta_m0)/(2 pi) F^m cos(m phi) ]            (R18)
+//! ```
+//!
+//! `B` is the beam's irradiance arriving at the face (unscattered, through the
+//! smooth faces and layers above it and their bounces), `A` the exit
+//! direction's radiance transmission from the face to the outside (above for
+//! reflection, below for transmission), both as the engine's slots carry them
+//! (delta-M scaled optical depths; the face itself passes no delta path, so
+//! it ends every bounce), and `F^m` the face's coefficients as its operators
+//! hold them (the same rule and order count, [`Microfacet::fourier`]).
+
+use std::f64::consts::PI;
+
+use km_core::microfacet::{Far, Microfacet, conductor_reflectance};
+use km_core::{MonoScene, Substrate};
+
+use crate::quadrature::mu_of_invariant;
+use crate::stack::{ScalarOp as Op, Scaled, star};
+
+/// A piece that passes every delta path unchanged.
+const CLEAR: Op = (0.0, 1.0, 0.0, 1.0);
+
+/// One piece of the stack as a delta path sees it.
+#[derive(Clone, Copy)]
+enum Piece {
+    /// A face from index `na` above to `nb` below (`rough`: its microfacets).
+    Face { na: f64, nb: f64, rough: Option<Microfacet> },
+    /// A layer of (scaled) optical depth `tau` and index `n`.
+    Layer { tau: f64, n: f64 },
+    /// A conductor floor under index `na`.
+    Conductor { na: f64, n: f64, k: f64, rough: Option<Microfacet> },
+    /// A floor that ends every delta path (Lambertian, black).
+    Dark,
+}
+
+impl Piece {
+    /// The piece's scalar operators at Snell invariant `s`; `radiance`:
+    /// transmission of a radiance (times `(n_to / n_from)^2`), else of an
+    /// irradiance on a horizontal plane. A rough face passes no delta path.
+    fn op(&self, s: f64, radiance: bool) -> Op {
+        match *self {
+            Piece::Face { rough: Some(_), .. } | Piece::Dark => (0.0, 0.0, 0.0, 0.0),
+            Piece::Conductor { rough: Some(_), .. } => (0.0, 0.0, 0.0, 0.0),
+            Piece::Face { na, nb, rough: None } => {
+                match (mu_of_invariant(s, na), mu_of_invariant(s, nb)) {
+                    (Some(a), Some(b)) => {
+                        let ra = km_core::fresnel::reflectance(a, na, nb);
+                        let rb = km_core::fresnel::reflectance(b, nb, na);
+                        let (fd, fu) = if radiance {
+                            ((nb / na).powi(2), (na / nb).powi(2))
+                        } else {
+                            (1.0, 1.0)
+                        };
+                        (ra, (1.0 - ra) * fd, rb, (1.0 - rb) * fu)
+                    }
+                    (Some(_), None) => (1.0, 0.0, 0.0, 0.0),
+                    (None, Some(_)) => (0.0, 0.0, 1.0, 0.0),
+                    (None, None) => (0.0, 0.0, 0.0, 0.0),
+                }
+            }
+            Piece::Layer { tau, n } => {
+                let t = match mu_of_invariant(s, n) {
+                    Some(mu) if tau.is_finite() => (-tau / mu).exp(),
+                    _ => 0.0,
+                };
+                (0.0, t, 0.0, t)
+            }
+            Piece::Conductor { na, n, k, rough: None } => match mu_of_invariant(s, na) {
+                Some(mu) => (conductor_reflectance(mu, na, n, k), 0.0, 0.0, 0.0),
+                None => (0.0, 0.0, 0.0, 0.0),
+            },
+        }
+    }
+}
+
+/// The stack as delta paths see it, top down.
+fn pieces(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>) -> Vec<Piece> {
+    let mut out = Vec::new();
+    let mut above = scene.ambient_n();
+    for l in layers {
+        if l.n != above {
+            out.push(Piece::Face { na: above, nb: l.n, rough: l.rough });
+        }
+        out.push(Piece::Layer { tau: l.tau, n: l.n });
+        above = l.n;
+    }
+    match (scene.substrate(), n_sub) {
+        (Substrate::Transparent { .. }, Some(ns)) if ns != above => {
+            out.push(Piece::Face { na: above, nb: ns, rough: scene.substrate_roughness() });
+        }
+        (Substrate::Transparent { .. }, _) => {}
+        (Substrate::Conductor { n, k }, _) => {
+            out.push(Piece::Conductor { na: above, n, k, rough: scene.substrate_roughness() })
+        }
+        _ => out.push(Piece::Dark),
+    }
+    out
+}
+
+/// The first rough face under a beam and the delta paths to and from it.
+pub(crate) struct RoughPath {
+    mf: Microfacet,
+    /// Index above the face, and what lies below it.
+    n_above: f64,
+    far: Far,
+    /// The beam's Snell invariant and its irradiance at the face (`B`).
+    s_b: f64,
+    b: f64,
+    /// Pieces above and below the face (below: `None` for a conductor floor).
+    above: Vec<Piece>,
+    below: Option<Vec<Piece>>,
+    /// Index of the ambient medium and of the substrate light leaves into.
+    n0: f64,
+    n_sub: Option<f64>,
+}
+
+impl RoughPath {
+    /// The first rough face the beam of invariant `s_b` meets, if any.
+    pub(crate) fn new(
+        scene: &MonoScene,
+        layers: &[Scaled],
+        n_sub: Option<f64>,
+        s_b: f64,
+    ) -> Option<RoughPath> {
+        let all = pieces(scene, layers, n_sub);
+        let k = all.iter().position(|p| {
+            matches!(
+                p,
+                Piece::Face { rough: Some(_), .. } | Piece::Conductor { rough: Some(_), .. }
+            )
+        })?;
+        let (mf, n_above, far, below) = match all[k] {
+            Piece::Face { na, nb, rough: Some(mf) } => {
+                (mf, na, Far::Dielectric(nb), Some(all[k + 1..].to_vec()))
+            }
+            Piece::Conductor { na, n, k: kk, rough: Some(mf) } => {
+                (mf, na, Far::Conductor(n, kk), None)
+            }
+            _ => return None,
+        };
+        let above = all[..k].to_vec();
+        let b = above.iter().fold(CLEAR, |acc, p| star(acc, p.op(s_b, false))).1;
+        Some(RoughPath { mf, n_above, far, s_b, b, above, below, n0: scene.ambient_n(), n_sub })
+    }
+
+    /// The exact value of the single rough path minus its truncated series
+    /// (eq. R18) at exit polar angle `theta_deg`, azimuth `phi_deg`, above
+    /// (`transmit = false`) or below; `built` orders in the face's operators,
+    /// `summed` of them in the exit values.
+    pub(crate) fn correction(
+        &self,
+        theta_deg: f64,
+        phi_deg: f64,
+        transmit: bool,
+        built: usize,
+        summed: usize,
+    ) -> f64 {
+        if self.b == 0.0 {
+            return 0.0;
+        }
+        let sin_o = theta_deg.to_radians().sin();
+        // The exit's invariant, and its radiance transmission from the face.
+        let (s_x, a) = if transmit {
+            let (Some(below), Some(ns)) = (&self.below, self.n_sub) else { return 0.0 };
+            let s = ns * sin_o;
+            (s, below.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true))).1)
+        } else {
+            let s = self.n0 * sin_o;
+            (s, self.above.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true))).3)
+        };
+        if a == 0.0 {
+            return 0.0;
+        }
+        let n_o = match (transmit, self.far) {
+            (true, Far::Dielectric(nb)) => nb,
+            (true, Far::Conductor(..)) => return 0.0,
+            (false, _) => self.n_above,
+        };
+        let (Some(mu_i), Some(mu_o)) =
+            (mu_of_invariant(self.s_b, self.n_above), mu_of_invariant(s_x, n_o))
+        else {
+            return 0.0;
+        };
+        let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
+        let phi = phi_deg.to_radians();
+        let i = [si, 0.0, mu_i];
+        let z = if transmit { -mu_o } else { mu_o };
+        let exact = self.mf.bsdf(i, [so * phi.cos(), so * phi.sin(), z], self.n_above, self.far);
+        let mut coef = vec![0.0; built.max(1)];
+        self.mf.fourier(mu_o, mu_i, self.n_above, self.far, transmit, &mut coef);
+        // The operators' coefficients are in the azimuth between the
+        // directions of travel (0 on the mirror plane, phi = 180 degrees).
+        let psi = phi - PI;
+        let series: f64 = coef
+            .iter()
+            .take(summed)
+            .enumerate()
+            .map(|(m, c)| if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI) * c * (m as f64 * psi).cos())
+            .sum();
+        a * self.b * (exact - series)
+    }
+}
