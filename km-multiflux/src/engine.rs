@@ -27,7 +27,6 @@ mod rough_pieces;
 
 use std::borrow::Cow;
 
-use km_core::microfacet::Microfacet;
 use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
@@ -330,24 +329,8 @@ impl Prepared<'_> {
     /// [`SPREAD_ALPHA`]): a narrower lobe keeps its delta in the beam's slot,
     /// which a probe in the delta's cell would read twice (docs/rough.md §7).
     fn check_rough_exits(&self) -> Result<(), MultifluxError> {
-        let scene = &self.scene;
-        let mut above = scene.ambient_n();
-        let mut faces: Vec<Microfacet> = Vec::new();
-        for l in scene.layers() {
-            if l.n() != above {
-                faces.extend(l.roughness());
-            }
-            above = l.n();
-        }
-        let floor_face = match scene.substrate() {
-            Substrate::Transparent { n } => n != above,
-            Substrate::Conductor { .. } => true,
-            _ => false,
-        };
-        if floor_face {
-            faces.extend(scene.substrate_roughness());
-        }
-        match faces.iter().map(|f| f.alpha()).find(|&a| a < SPREAD_ALPHA) {
+        let faces = rough_paths::rough_faces(&self.scene, &self.layers, self.n_sub);
+        match faces.map(|f| f.alpha()).find(|&a| a < SPREAD_ALPHA) {
             None => Ok(()),
             Some(alpha) => Err(MultifluxError::Scene(km_core::CoreError::unsupported(
                 "multiflux",

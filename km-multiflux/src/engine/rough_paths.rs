@@ -111,6 +111,18 @@ fn pieces(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>) -> Vec<Piece
     out
 }
 
+/// The microfacets of the stack's rough faces, top down.
+pub(crate) fn rough_faces(
+    scene: &MonoScene,
+    layers: &[Scaled],
+    n_sub: Option<f64>,
+) -> impl Iterator<Item = Microfacet> {
+    pieces(scene, layers, n_sub).into_iter().filter_map(|p| match p {
+        Piece::Face { rough, .. } | Piece::Conductor { rough, .. } => rough,
+        _ => None,
+    })
+}
+
 /// The first rough face under a beam and the delta paths to and from it.
 pub(crate) struct RoughPath {
     mf: Microfacet,
