@@ -329,6 +329,9 @@ impl Prepared<'_> {
     /// [`SPREAD_ALPHA`]): a narrower lobe keeps its delta in the beam's slot,
     /// which a probe in the delta's cell would read twice (docs/rough.md §7).
     fn check_rough_exits(&self) -> Result<(), MultifluxError> {
+        if !self.scene.has_rough_face() {
+            return Ok(());
+        }
         let faces = rough_paths::rough_faces(&self.scene, &self.layers, self.n_sub);
         match faces.map(|f| f.alpha()).find(|&a| a < SPREAD_ALPHA) {
             None => Ok(()),

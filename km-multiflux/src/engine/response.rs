@@ -515,16 +515,23 @@ impl Accumulator<'_> {
             return;
         };
         let prep = self.prep;
+        if !prep.scene.has_rough_face() {
+            return;
+        }
         let Some(path) = RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b) else {
             return;
         };
         let (built, summed) = (self.req.last_order + 1, self.orders);
-        let below = prep.n_sub.is_some();
-        for (k, (&o, &phi)) in at.o.iter().zip(&at.phi).enumerate() {
-            let theta = self.req.theta_o[o];
-            at.values.brdf[k] += path.correction(theta, phi, false, built, summed);
-            if below {
-                at.values.btdf[k] += path.correction(theta, phi, true, built, summed);
+        // Per exit polar angle and side once; then per direction its azimuth.
+        let sides: &[bool] = if prep.n_sub.is_some() { &[false, true] } else { &[false] };
+        for &transmit in sides {
+            let polar: Vec<_> =
+                self.req.theta_o.iter().map(|&t| path.at_polar(t, transmit, built)).collect();
+            let values = if transmit { &mut at.values.btdf } else { &mut at.values.brdf };
+            for ((v, &o), &phi) in values.iter_mut().zip(&at.o).zip(&at.phi) {
+                if let Some(p) = &polar[o] {
+                    *v += path.correction(p, phi, summed);
+                }
             }
         }
     }

@@ -169,25 +169,18 @@ impl RoughPath {
         Some(RoughPath { mf, n_above, far, s_b, b, above, below, n0: scene.ambient_n(), n_sub })
     }
 
-    /// The exact value of the single rough path minus its truncated series
-    /// (eq. R18) at exit polar angle `theta_deg`, azimuth `phi_deg`, above
-    /// (`transmit = false`) or below; `built` orders in the face's operators,
-    /// `summed` of them in the exit values.
-    pub(crate) fn correction(
-        &self,
-        theta_deg: f64,
-        phi_deg: f64,
-        transmit: bool,
-        built: usize,
-        summed: usize,
-    ) -> f64 {
+    /// What the single rough path needs at exit polar angle `theta_deg`,
+    /// above (`transmit = false`) or below, whatever the azimuth: `A B`, the
+    /// directions' cosines and the face's coefficients as its operators hold
+    /// them (`built` orders). `None` where no such path reaches the exit.
+    pub(crate) fn at_polar(&self, theta_deg: f64, transmit: bool, built: usize) -> Option<AtPolar> {
         if self.b == 0.0 {
-            return 0.0;
+            return None;
         }
         let sin_o = theta_deg.to_radians().sin();
         // The exit's invariant, and its radiance transmission from the face.
         let (s_x, a) = if transmit {
-            let (Some(below), Some(ns)) = (&self.below, self.n_sub) else { return 0.0 };
+            let (Some(below), Some(ns)) = (&self.below, self.n_sub) else { return None };
             let s = ns * sin_o;
             (s, below.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true))).1)
         } else {
@@ -195,34 +188,49 @@ impl RoughPath {
             (s, self.above.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true))).3)
         };
         if a == 0.0 {
-            return 0.0;
+            return None;
         }
         let n_o = match (transmit, self.far) {
             (true, Far::Dielectric(nb)) => nb,
-            (true, Far::Conductor(..)) => return 0.0,
+            (true, Far::Conductor(..)) => return None,
             (false, _) => self.n_above,
         };
-        let (Some(mu_i), Some(mu_o)) =
-            (mu_of_invariant(self.s_b, self.n_above), mu_of_invariant(s_x, n_o))
-        else {
-            return 0.0;
-        };
-        let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
-        let phi = phi_deg.to_radians();
-        let i = [si, 0.0, mu_i];
-        let z = if transmit { -mu_o } else { mu_o };
-        let exact = self.mf.bsdf(i, [so * phi.cos(), so * phi.sin(), z], self.n_above, self.far);
+        let mu_i = mu_of_invariant(self.s_b, self.n_above)?;
+        let mu_o = mu_of_invariant(s_x, n_o)?;
         let mut coef = vec![0.0; built.max(1)];
         self.mf.fourier(mu_o, mu_i, self.n_above, self.far, transmit, &mut coef);
+        Some(AtPolar { ab: a * self.b, mu_i, mu_o, transmit, coef })
+    }
+
+    /// The exact value of the single rough path minus its truncated series
+    /// (eq. R18) at azimuth `phi_deg` of the polar angle `at`, `summed` of
+    /// its orders in the exit values.
+    pub(crate) fn correction(&self, at: &AtPolar, phi_deg: f64, summed: usize) -> f64 {
+        let (mu_i, mu_o) = (at.mu_i, at.mu_o);
+        let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
+        let phi = phi_deg.to_radians();
+        let z = if at.transmit { -mu_o } else { mu_o };
+        let o = [so * phi.cos(), so * phi.sin(), z];
+        let exact = self.mf.bsdf([si, 0.0, mu_i], o, self.n_above, self.far);
         // The operators' coefficients are in the azimuth between the
         // directions of travel (0 on the mirror plane, phi = 180 degrees).
         let psi = phi - PI;
-        let series: f64 = coef
+        let series: f64 = at
+            .coef
             .iter()
             .take(summed)
             .enumerate()
             .map(|(m, c)| if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI) * c * (m as f64 * psi).cos())
             .sum();
-        a * self.b * (exact - series)
+        at.ab * (exact - series)
     }
+}
+
+/// The single rough path at one exit polar angle ([`RoughPath::at_polar`]).
+pub(crate) struct AtPolar {
+    ab: f64,
+    mu_i: f64,
+    mu_o: f64,
+    transmit: bool,
+    coef: Vec<f64>,
 }
