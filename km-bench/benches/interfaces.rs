@@ -6,7 +6,8 @@
 //! over glass n = 1.5, and water over air: total reflection inside) and a
 //! rough conductor floor (gold at 550 nm under glass, GGX 0.2), at 6 and 16
 //! streams, 6 Fourier orders, one beam (40 degrees in air) and one probe
-//! (25 degrees) as extras.
+//! (25 degrees) as extras; and GGX 0.3 (air over glass, water over air)
+//! with the `2N` orders a solve with exit directions builds.
 //!
 //! The rough operators are computed anew in every iteration
 //! (`rough_operators`, not the per-thread cache a solve reads them through).
@@ -55,6 +56,15 @@ fn bench(c: &mut Criterion) {
             g.bench_with_input(id, &streams, |bch, _| {
                 bch.iter(|| black_box(rough_operators(face, &a, Some(&b), &ea, &eb, ORDERS)))
             });
+            if alpha == 0.3 {
+                // As many orders as a solve with exit directions builds (2N).
+                let id = BenchmarkId::new("ggx 0.3 air/1.5, 2N orders", streams);
+                g.bench_with_input(id, &streams, |bch, _| {
+                    bch.iter(|| {
+                        black_box(rough_operators(face, &a, Some(&b), &ea, &eb, 2 * streams))
+                    })
+                });
+            }
         }
         // Water over air: the face seen from the denser side (total reflection).
         let (nw, nair) = (1.33, 1.0);
@@ -65,6 +75,10 @@ fn bench(c: &mut Criterion) {
         let face = RoughFace { mf, n_above: nw, below: Far::Dielectric(nair) };
         g.bench_with_input(BenchmarkId::new("ggx 0.3 1.33/air", streams), &streams, |bch, _| {
             bch.iter(|| black_box(rough_operators(face, &w, Some(&air), &ew, &eair, ORDERS)))
+        });
+        let id = BenchmarkId::new("ggx 0.3 1.33/air, 2N orders", streams);
+        g.bench_with_input(id, &streams, |bch, _| {
+            bch.iter(|| black_box(rough_operators(face, &w, Some(&air), &ew, &eair, 2 * streams)))
         });
         // Gold (n + ik = 0.47 + 2.4i at 550 nm) under glass.
         let gg = AngularGrid::new(&[nb], streams);

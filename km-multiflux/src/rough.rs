@@ -64,6 +64,7 @@ use std::rc::Rc;
 use faer::Mat;
 use km_core::fresnel::reflectance;
 use km_core::microfacet::{Far, Microfacet, conductor_reflectance, graded_edges, panel_rule_mu};
+use rayon::prelude::*;
 
 use crate::adding::LayerOperators;
 use crate::quadrature::MediumNodes;
@@ -244,26 +245,32 @@ pub fn rough_operators(
 }
 
 /// The blocks `Q[y][x]` (rows: cells of side `y`, columns: cells of side
-/// `x`, per order) integrated as in eq. R11, before symmetrisation.
+/// `x`, per order) integrated as in eq. R11, before symmetrisation. The
+/// incoming points' columns are independent and computed in parallel
+/// (rayon), then summed in a fixed order: the result does not depend on the
+/// number of threads.
 fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
     let ns = c.sides.len();
     let mo = c.orders;
     let mut q: Vec<Vec<Vec<f64>>> = (0..ns)
         .map(|y| (0..ns).map(|x| vec![0.0; c.sides[y].len() * c.sides[x].len() * mo]).collect())
         .collect();
-    for x in 0..ns {
+    let points: Vec<(usize, usize, f64, f64)> = (0..ns)
+        .flat_map(|x| {
+            (0..c.sides[x].len()).flat_map(move |j| {
+                cell_points(c.sides[x].cell[j]).map(move |(u, vq)| (x, j, u, vq))
+            })
+        })
+        .collect();
+    let columns: Vec<Column> = points.par_iter().map(|&(x, _, u, _)| column(c, x, u)).collect();
+    for (&(x, j, _, vq), col) in points.iter().zip(&columns) {
         let nx = c.sides[x].len();
-        for j in 0..nx {
-            for (u, vq) in cell_points(c.sides[x].cell[j]) {
-                let col = column(c, x, u);
-                for y in 0..ns {
-                    let inv = 1.0 / (c.sides[y].n * c.sides[y].n);
-                    for i in 0..c.sides[y].len() {
-                        let dst = &mut q[y][x][(i * nx + j) * mo..(i * nx + j + 1) * mo];
-                        for (d, g) in dst.iter_mut().zip(&col[y][i * mo..(i + 1) * mo]) {
-                            *d += vq * g * inv;
-                        }
-                    }
+        for y in 0..ns {
+            let inv = 1.0 / (c.sides[y].n * c.sides[y].n);
+            for i in 0..c.sides[y].len() {
+                let dst = &mut q[y][x][(i * nx + j) * mo..(i * nx + j + 1) * mo];
+                for (d, g) in dst.iter_mut().zip(&col[y][i * mo..(i + 1) * mo]) {
+                    *d += vq * g * inv;
                 }
             }
         }
@@ -402,23 +409,29 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
         (x < c.sides.len()).then(|| c.sides[x].n.powi(2) * (1.0 - mu * mu))
     };
     let spread = c.face.mf.alpha() >= SPREAD_ALPHA;
-    let mut memo: Vec<(usize, u64, Rc<Column>)> = Vec::new();
-    let mut col = |x: usize, u: f64| {
-        if let Some((_, _, v)) = memo.iter().find(|(s, k, _)| *s == x && *k == u.to_bits()) {
-            return Rc::clone(v);
+    // The distinct columns the extras need (`slot[x][e]`: which), computed
+    // in parallel.
+    let mut wanted: Vec<(usize, f64)> = Vec::new();
+    let mut slot = vec![vec![None; ne]; c.sides.len()];
+    for e in 0..ne {
+        for (x, row) in slot.iter_mut().enumerate() {
+            let Some(u) = u_of(x, e) else { continue };
+            let k = wanted.iter().position(|&(y, v)| y == x && v.to_bits() == u.to_bits());
+            row[e] = Some(k.unwrap_or_else(|| {
+                wanted.push((x, u));
+                wanted.len() - 1
+            }));
         }
-        let v = Rc::new(column(c, x, u));
-        memo.push((x, u.to_bits(), Rc::clone(&v)));
-        v
-    };
+    }
+    let columns: Vec<Column> = wanted.par_iter().map(|&(x, u)| column(c, x, u)).collect();
     for e in 0..ne {
         for x in 0..c.sides.len() {
-            let Some(u) = u_of(x, e) else { continue };
-            let g = col(x, u);
+            let (Some(u), Some(k)) = (u_of(x, e), slot[x][e]) else { continue };
+            let g = &columns[k];
             if ex[x][e].beam {
-                beam_column(c, ops, (x, e, u), &g, &u_of, &len, ex, spread);
+                beam_column(c, ops, (x, e, u), g, &u_of, &len, ex, spread);
             } else {
-                probe_rows(c, ops, (x, e, u), &g, &u_of, &len, spread);
+                probe_rows(c, ops, (x, e, u), g, &u_of, &len, spread);
             }
         }
     }
