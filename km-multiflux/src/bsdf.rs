@@ -289,6 +289,33 @@ impl Bsdf {
         self.channels[c].eval_into(i, o, phi_deg, transmitted, out);
     }
 
+    /// [`Bsdf::eval_into`] without the exact single rough path (eq. R18 of
+    /// docs/rough.md): the series of eq. B1 alone. The path's exact value
+    /// minus its series has no azimuthal mean (the series holds its order 0
+    /// exactly), so this integrates over azimuth to the same totals as
+    /// [`Bsdf::eval_into`] while a grid coarser than a narrow lobe cannot.
+    pub fn eval_series_into(
+        &self,
+        c: usize,
+        i: usize,
+        o: usize,
+        phi_deg: &[f64],
+        transmitted: bool,
+        out: &mut [f64],
+    ) {
+        self.channels[c].eval_series_into(i, o, phi_deg, transmitted, out);
+    }
+
+    /// Keep the series of eq. B1 alone from now on: through a rough face
+    /// the exact single path (eq. R18 of docs/rough.md), which a table
+    /// evaluates by default, is dropped. The series is band-limited to the
+    /// table's orders, as a renderer interpolating a coarse grid wants; the
+    /// exact path is a lobe as narrow as the face's, which such a grid
+    /// cannot hold.
+    pub fn drop_exact_paths(&mut self) {
+        self.channels.iter_mut().for_each(ChannelBsdf::drop_exact_paths);
+    }
+
     /// The table of eq. B1 at every azimuth of `phi_deg`:
     /// `(brdf, btdf)`, each `[((c * n_i + i) * n_o + o) * n_phi + p]`, 1/sr.
     pub fn table(&self, phi_deg: &[f64]) -> (Vec<f64>, Vec<f64>) {

@@ -317,3 +317,58 @@ fn single_rough_path_is_exact() {
         assert!((ch.btdf[k] - exact).abs() <= peak, "{d:?}: {} vs {exact}", ch.btdf[k]);
     }
 }
+
+/// The BSDF table holds the exact single rough path too (eq. R18): on the
+/// dark and the index-matched stacks of `single_rough_path_is_exact` its
+/// values are the microfacet BSDF (times the attenuation) at every grid
+/// point to 1e-9, where the series alone is off by percents; and without
+/// the exact path the table is the series.
+#[test]
+fn bsdf_table_holds_the_exact_single_rough_path() {
+    use km_multiflux::bsdf::{Bsdf, BsdfOptions};
+    let alpha = 0.1;
+    let mf = Microfacet::new(alpha, Distribution::Ggx).unwrap();
+    let opts = BsdfOptions {
+        solver: km_multiflux::MultifluxOptions { streams: Some(8), ..Default::default() },
+        ..Default::default()
+    };
+    let (ti, to) = ([0.0, 30.0, 60.0], km_multiflux::bsdf::gauss_angles(24).0);
+    let phi: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
+    for (substrate, tau, transmit) in
+        [("kind = \"black\"", 40.0, false), ("kind = \"transparent\"\nn = 1.5", 0.3, true)]
+    {
+        let text = format!(
+            "[[layer]]\ntau = {tau}\nalbedo = 0.0\nn = 1.5\nroughness = {alpha}\n[substrate]\n{substrate}\n"
+        );
+        let scene = km_core::Scene::from_toml_str(&text).unwrap();
+        let mut b = Bsdf::new(&scene, &ti, &to, &opts).unwrap();
+        let mut series_off = 0.0f64;
+        for (i, &t_i) in ti.iter().enumerate() {
+            let beam = dir([t_i, 0.0], false);
+            for (o, &t_o) in to.iter().enumerate() {
+                let mut v = vec![0.0; phi.len()];
+                b.eval_into(0, i, o, &phi, transmit, &mut v);
+                let mut s = vec![0.0; phi.len()];
+                b.eval_series_into(0, i, o, &phi, transmit, &mut s);
+                for (k, &p) in phi.iter().enumerate() {
+                    let out = dir([t_o, p], transmit);
+                    let f = mf.bsdf(beam, out, 1.0, Far::Dielectric(1.5));
+                    let exact = if transmit { f * (-tau / -out[2]).exp() } else { f };
+                    series_off = series_off.max((s[k] - exact).abs() / exact.max(1e-3));
+                    assert!(
+                        (v[k] - exact).abs() <= 1e-9 * exact.max(1e-3),
+                        "{transmit} ({t_i}, {t_o}, {p}): {} vs {exact}",
+                        v[k]
+                    );
+                }
+            }
+        }
+        assert!(series_off > 1e-2, "the series alone is off by {series_off}");
+        b.drop_exact_paths();
+        let mut v = vec![0.0; phi.len()];
+        b.eval_into(0, 1, 2, &phi, transmit, &mut v);
+        let mut s = vec![0.0; phi.len()];
+        b.eval_series_into(0, 1, 2, &phi, transmit, &mut s);
+        assert_eq!(v, s, "without the exact path the table is the series");
+    }
+}

@@ -41,7 +41,10 @@ fn mu_weights(theta_o: &[f64]) -> Vec<f64> {
 /// table, `2 pi sum_o w_o mu_o <f>_phi(mu_o)` with the azimuthal mean over a
 /// uniform grid of `n_phi` azimuths (exact for the cosine series, spectrally
 /// accurate for the correction), plus the delta parts, against the solver's
-/// totals per incidence.
+/// totals per incidence. Through a rough face it integrates the series
+/// ([`Bsdf::eval_series_into`]): the exact single path (eq. R18 of
+/// docs/rough.md) that the table adds has no azimuthal mean, and a lobe
+/// narrower than the azimuth grid would only measure the grid.
 ///
 /// # Reference
 /// `docs/conventions.md` §3, eq. C3 (`R(mu0) = integral f_r mu dw`).
@@ -64,10 +67,10 @@ pub fn energy_weighted(b: &Bsdf, w_mu: &[f64], n_phi: usize) -> Energy {
             let (mut r, mut t) = (0.0, 0.0);
             for o in 0..no {
                 let mu = b.theta_o[o].to_radians().cos();
-                b.eval_into(c, i, o, &phi, false, &mut buf);
+                b.eval_series_into(c, i, o, &phi, false, &mut buf);
                 r += w[o] * mu * buf.iter().sum::<f64>() / n_phi as f64;
                 if b.transmits {
-                    b.eval_into(c, i, o, &phi, true, &mut buf);
+                    b.eval_series_into(c, i, o, &phi, true, &mut buf);
                     t += w[o] * mu * buf.iter().sum::<f64>() / n_phi as f64;
                 }
             }

@@ -5,7 +5,7 @@
 
 use km_core::phase::PhaseFunction;
 
-use super::rough_paths::RoughPath;
+use super::rough_paths::{AtPolar, RoughPath};
 use super::{DirectionValues, Extras, FourierStop, Incidence, Prepared, Request, Stop};
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
@@ -90,6 +90,17 @@ pub struct ChannelBsdf {
     pub transmittance_direct: Vec<f64>,
     /// Stream count used.
     pub streams: usize,
+    /// The beams' single paths through the first rough face, exact (eq.
+    /// R18): per incidence its path, per pair `[reflected, transmitted]`.
+    pub(crate) rough: Option<RoughTable>,
+}
+
+/// The exact single rough path of every pair of a table (eq. R18 of
+/// docs/rough.md), added at each azimuth in place of its truncated series.
+#[derive(Debug, Clone)]
+pub(crate) struct RoughTable {
+    paths: Vec<Option<RoughPath>>,
+    at: Vec<[Option<AtPolar>; 2]>,
 }
 
 impl ChannelBsdf {
@@ -100,10 +111,40 @@ impl ChannelBsdf {
         &c[k..k + self.orders]
     }
 
+    /// Eq. B1 for one polar pair at every azimuth of `phi_deg` into `out`,
+    /// and the exact single rough path in place of its truncated series
+    /// (eq. R18 of docs/rough.md) where the table keeps one
+    /// ([`ChannelBsdf::drop_exact_paths`]).
+    pub(crate) fn eval_into(
+        &self,
+        i: usize,
+        o: usize,
+        phi_deg: &[f64],
+        transmitted: bool,
+        out: &mut [f64],
+    ) {
+        self.eval_series_into(i, o, phi_deg, transmitted, out);
+        if let Some(r) = &self.rough
+            && let (Some(path), Some(at)) =
+                (&r.paths[i], &r.at[i * self.no + o][transmitted as usize])
+        {
+            for (v, &p) in out.iter_mut().zip(phi_deg) {
+                *v += path.correction(at, p, self.orders);
+            }
+        }
+    }
+
+    /// Forget the exact single rough paths: [`ChannelBsdf::eval_into`] then
+    /// gives the series of eq. B1 alone, band-limited to the table's orders
+    /// (what a coarse grid interpolated by a renderer wants).
+    pub(crate) fn drop_exact_paths(&mut self) {
+        self.rough = None;
+    }
+
     /// Eq. B1 for one polar pair at every azimuth of `phi_deg` into `out`
     /// (each azimuth a cosine recurrence of `M` steps and, with a peaked
     /// phase function, two Legendre sums per scattering layer).
-    pub(crate) fn eval_into(
+    pub(crate) fn eval_series_into(
         &self,
         i: usize,
         o: usize,
@@ -371,6 +412,7 @@ impl<'a> Accumulator<'a> {
             reflectance_specular: vec![0.0; ni],
             transmittance_direct: vec![0.0; ni],
             streams: prep.streams,
+            rough: None,
         };
         let at = match req.directions {
             [] => None,
@@ -509,15 +551,21 @@ impl<'a> Accumulator<'a> {
 
 impl Accumulator<'_> {
     /// The beam's single path through the first rough face, exact at the
-    /// solve's directions (eq. R18, [`RoughPath`]).
+    /// solve's directions (eq. R18, [`RoughPath`]), or for every pair of a
+    /// table ([`RoughTable`], added at each azimuth by
+    /// [`ChannelBsdf::eval_into`]).
     fn exact_rough_path(&mut self) {
-        let (Some(at), Incidence::Beams(&[s_b])) = (&mut self.at, self.req.incidence) else {
-            return;
-        };
         let prep = self.prep;
         if !prep.scene.has_rough_face() {
             return;
         }
+        if self.at.is_none() && matches!(self.req.stop, Stop::Table) {
+            self.rough_table();
+            return;
+        }
+        let (Some(at), Incidence::Beams(&[s_b])) = (&mut self.at, self.req.incidence) else {
+            return;
+        };
         let Some(path) = RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b) else {
             return;
         };
@@ -534,6 +582,31 @@ impl Accumulator<'_> {
                 }
             }
         }
+    }
+}
+
+impl Accumulator<'_> {
+    /// [`RoughTable`]: per incidence its single rough path, per pair and
+    /// side its exit's data (the face's coefficients of the `built` orders).
+    fn rough_table(&mut self) {
+        let Incidence::Beams(beams) = self.req.incidence else { return };
+        let prep = self.prep;
+        let built = self.req.last_order + 1;
+        let paths: Vec<Option<RoughPath>> = beams
+            .iter()
+            .map(|&s_b| RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b))
+            .collect();
+        let mut at = Vec::with_capacity(paths.len() * self.req.theta_o.len());
+        for path in &paths {
+            for &t in self.req.theta_o {
+                let pair = |transmit: bool| {
+                    let below = !transmit || prep.n_sub.is_some();
+                    path.as_ref().filter(|_| below).and_then(|p| p.at_polar(t, transmit, built))
+                };
+                at.push([pair(false), pair(true)]);
+            }
+        }
+        self.out.rough = Some(RoughTable { paths, at });
     }
 }
 

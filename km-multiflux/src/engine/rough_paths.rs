@@ -35,7 +35,7 @@ use crate::stack::{ScalarOp as Op, Scaled, star};
 const CLEAR: Op = (0.0, 1.0, 0.0, 1.0);
 
 /// One piece of the stack as a delta path sees it.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 enum Piece {
     /// A face from index `na` above to `nb` below (`rough`: its microfacets).
     Face { na: f64, nb: f64, rough: Option<Microfacet> },
@@ -124,6 +124,7 @@ pub(crate) fn rough_faces(
 }
 
 /// The first rough face under a beam and the delta paths to and from it.
+#[derive(Debug, Clone)]
 pub(crate) struct RoughPath {
     mf: Microfacet,
     /// Index above the face, and what lies below it.
@@ -227,6 +228,7 @@ impl RoughPath {
 }
 
 /// The single rough path at one exit polar angle ([`RoughPath::at_polar`]).
+#[derive(Debug, Clone)]
 pub(crate) struct AtPolar {
     ab: f64,
     mu_i: f64,

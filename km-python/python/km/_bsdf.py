@@ -239,7 +239,7 @@ class Bsdf:
         return {k: _shape(np.asarray(d[k]), self.channels, ti.shape) for k in _TOTALS}
 
     def table(self, theta_i: Any = None, theta_o: Any = None, phi: Any = None, *,
-              side: str = "above") -> dict[str, Any]:
+              side: str = "above", exact_single_path: bool = True) -> dict[str, Any]:
         """The arrays that ``km bsdf --format npz`` writes, on the grids given.
 
         Parameters
@@ -248,6 +248,13 @@ class Bsdf:
             The grids, degrees.
         side : {"above", "below"}, default "above"
             As for :meth:`eval`.
+        exact_single_path : bool, default True
+            Through a rough face, the beam's path that meets it once is
+            exact (point values of a lobe as narrow as the face's, as
+            ``km bsdf`` writes them); ``False`` keeps the Fourier series
+            alone, band-limited to the table's orders (for a grid coarser
+            than the lobe that is interpolated, as :mod:`km.mitsuba` does;
+            docs/rough.md eq. R18).
 
         Returns
         -------
@@ -273,8 +280,8 @@ class Bsdf:
             ti = np.asarray(theta_i, dtype=np.float64)
             to = ti if theta_o is None else np.asarray(theta_o, dtype=np.float64)
         ph = np.arange(72) * 5.0 if phi is None else np.asarray(phi, dtype=np.float64)
-        args = [np.ascontiguousarray(np.atleast_1d(a).ravel()) for a in (ti, to, ph)]
-        return dict(self._core._table(_check_side(side), *args))
+        ti_, to_, ph_ = (np.ascontiguousarray(np.atleast_1d(a).ravel()) for a in (ti, to, ph))
+        return dict(self._core._table(_check_side(side), ti_, to_, ph_, bool(exact_single_path)))
 
 
 def bsdf(scene: Scene, *, streams: int | None = None,

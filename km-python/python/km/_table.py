@@ -71,7 +71,11 @@ class BsdfTable:
         sides = SIDES if self.transmits else SIDES[:1]
         mu_o = np.cos(np.radians(self.theta))
         for side in sides:
-            tab = bsdf.table(self.theta, self.theta, self.phi, side=side)
+            # The series alone: band-limited to the table's orders, which a
+            # trilinear interpolation of this grid can follow (the exact
+            # single rough path is narrower than its cells).
+            tab = bsdf.table(self.theta, self.theta, self.phi, side=side,
+                             exact_single_path=False)
             self.totals[side] = {k: tab[k] for k in ("reflectance", "transmittance",
                                                       "reflectance_specular",
                                                       "transmittance_direct")}

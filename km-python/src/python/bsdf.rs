@@ -264,7 +264,9 @@ impl PyBsdfCore {
         Ok(d)
     }
 
-    /// The arrays of `km bsdf --format npz` on the grids given.
+    /// The arrays of `km bsdf --format npz` on the grids given; `exact`:
+    /// with the exact single rough path (eq. R18 of docs/rough.md), else
+    /// the series alone ([`Bsdf::drop_exact_paths`]).
     fn _table<'py>(
         &self,
         py: Python<'py>,
@@ -272,6 +274,7 @@ impl PyBsdfCore {
         theta_i: PyReadonlyArray1<'py, f64>,
         theta_o: PyReadonlyArray1<'py, f64>,
         phi: PyReadonlyArray1<'py, f64>,
+        exact: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let (ti, to, ph) = (vec1(&theta_i), vec1(&theta_o), vec1(&phi));
         // The grid budget of `km bsdf` at budget 1 (angle pairs and table
@@ -295,7 +298,10 @@ impl PyBsdfCore {
             },
         )?;
         let (b, brdf, btdf) = guarded(py, || {
-            let b = self.build(side, &ti, &to)?;
+            let mut b = self.build(side, &ti, &to)?;
+            if !exact {
+                b.drop_exact_paths();
+            }
             let t = km::bsdf::write::Table::new(&b, &ph)?;
             let (r, t) = (t.brdf, t.btdf);
             Ok((b, r, t))
