@@ -215,14 +215,13 @@ impl RoughPath {
         let exact = self.mf.bsdf([si, 0.0, mu_i], o, self.n_above, self.far);
         // The operators' coefficients are in the azimuth between the
         // directions of travel (0 on the mirror plane, phi = 180 degrees).
-        let psi = phi - PI;
-        let series: f64 = at
-            .coef
-            .iter()
-            .take(summed)
-            .enumerate()
-            .map(|(m, c)| if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI) * c * (m as f64 * psi).cos())
-            .sum();
+        // cos(m psi) by the Chebyshev recurrence.
+        let c1 = (phi - PI).cos();
+        let (mut prev, mut cur, mut series) = (c1, 1.0, 0.0);
+        for (m, c) in at.coef.iter().take(summed).enumerate() {
+            series += if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI) * c * cur;
+            (prev, cur) = (cur, if m == 0 { c1 } else { 2.0 * c1 * cur - prev });
+        }
         at.ab * (exact - series)
     }
 }
