@@ -672,7 +672,22 @@ impl Microfacet {
         transmit: bool,
         out: &mut [f64],
     ) {
-        out.iter_mut().for_each(|x| *x = 0.0);
+        let mut sum = FourierSum::new(out.len());
+        self.fourier_add((mu_o, mu_i), n_i, far, transmit, 1.0, &mut sum);
+        sum.finish_into(out);
+    }
+
+    /// Add `weight` times the coefficients of [`Microfacet::fourier`] of the
+    /// pair `(mu_o, mu_i)` to `sum` (`sum`'s order count).
+    pub fn fourier_add(
+        &self,
+        (mu_o, mu_i): (f64, f64),
+        n_i: f64,
+        far: Far,
+        transmit: bool,
+        weight: f64,
+        sum: &mut FourierSum,
+    ) {
         let si = (1.0 - mu_i * mu_i).max(0.0).sqrt();
         let so = (1.0 - mu_o * mu_o).max(0.0).sqrt();
         // The lobe in psi (eq. R6b): the (generalised) half vector
@@ -693,7 +708,7 @@ impl Microfacet {
         };
         // Quantised to powers of two so the per-thread rule cache stays small.
         let delta = 2f64.powi((0.5 * width.min(PI)).log2().floor() as i32);
-        let orders = out.len().max(1);
+        let orders = sum.orders;
         let rule = psi_rule(delta, orders);
         // Where the integrand is not smooth in psi (eq. R6a). Reflection
         // inside a denser medium: facets beyond the critical angle reflect
@@ -724,21 +739,14 @@ impl Microfacet {
         let span = kink.map(|pk| rule.kink_span(pk));
         let pair = AtPair::new(*self, (mu_o, mu_i), n_i, far, transmit);
         let value = |c1: f64, s1: f64| pair.at(c1, s1);
-        for (p, moments) in rule.moments.chunks_exact(PANEL_POINTS * orders).enumerate() {
-            if span.is_some_and(|(a, b)| (a..=b).contains(&p)) {
+        // 2 x the half-circle (f is even in psi).
+        let w2 = 2.0 * weight;
+        let acc = sum.samples_of(&rule);
+        for (k, ((&c1, &s1), a)) in rule.cos.iter().zip(&rule.sin).zip(acc).enumerate() {
+            if span.is_some_and(|(lo, hi)| (lo..=hi).contains(&(k / PANEL_POINTS))) {
                 continue;
             }
-            for (k, row) in moments.chunks_exact(orders).enumerate() {
-                let f = value(rule.cos[p * PANEL_POINTS + k], rule.sin[p * PANEL_POINTS + k]);
-                if f == 0.0 {
-                    continue;
-                }
-                // 2 x the half-circle (f is even in psi).
-                let v = 2.0 * f;
-                for (slot, r) in out.iter_mut().zip(row) {
-                    *slot += v * r;
-                }
-            }
+            *a += w2 * value(c1, s1);
         }
         if let (Some(pk), Some((a, b))) = (kink, span) {
             let (lo, hi) = (rule.edges[a], rule.edges[b + 1]);
@@ -746,10 +754,10 @@ impl Microfacet {
             for (c1, s1, wt) in kink_panel(lo, pk, hi, orders) {
                 let f = value(c1, s1);
                 if f != 0.0 {
-                    points.push((c1, 2.0 * wt * f));
+                    points.push((c1, w2 * wt * f));
                 }
             }
-            add_cosine_sums(&points, out);
+            add_cosine_sums(&points, &mut sum.direct);
         }
     }
 
@@ -1047,6 +1055,59 @@ fn kink_panel(lo: f64, pk: f64, hi: f64, orders: usize) -> Vec<(f64, f64, f64)> 
         }
     }
     out
+}
+
+/// A sum of weighted azimuthal coefficients over many pairs of directions
+/// ([`Microfacet::fourier_add`]), kept as samples: per azimuthal rule the
+/// weighted sum of the BSDF at its points, whose moments (eq. R6a) are
+/// applied once, in [`FourierSum::finish_into`]. The pairs of a face's
+/// outgoing cell mostly share a few rules, so the product with the moments
+/// (`orders` per point) is paid per rule, not per pair.
+pub struct FourierSum {
+    orders: usize,
+    rules: Vec<(std::rc::Rc<PsiRule>, Vec<f64>)>,
+    /// What the pieces around a kink add, order by order.
+    direct: Vec<f64>,
+}
+
+impl FourierSum {
+    /// An empty sum of `orders` orders (at least 1).
+    pub fn new(orders: usize) -> FourierSum {
+        let orders = orders.max(1);
+        FourierSum { orders, rules: Vec::new(), direct: vec![0.0; orders] }
+    }
+
+    /// The samples' sums of `rule`, added on first use.
+    fn samples_of(&mut self, rule: &std::rc::Rc<PsiRule>) -> &mut [f64] {
+        let k = match self.rules.iter().position(|(r, _)| std::rc::Rc::ptr_eq(r, rule)) {
+            Some(k) => k,
+            None => {
+                self.rules.push((std::rc::Rc::clone(rule), vec![0.0; rule.cos.len()]));
+                self.rules.len() - 1
+            }
+        };
+        &mut self.rules[k].1
+    }
+
+    /// The coefficients summed so far into `out` (overwritten; `out.len()`
+    /// orders, at most the sum's), and the sum emptied.
+    pub fn finish_into(&mut self, out: &mut [f64]) {
+        let orders = self.orders;
+        for (slot, d) in out.iter_mut().zip(&self.direct) {
+            *slot = *d;
+        }
+        for (rule, acc) in self.rules.drain(..) {
+            for (&a, row) in acc.iter().zip(rule.moments.chunks_exact(orders)) {
+                if a == 0.0 {
+                    continue;
+                }
+                for (slot, r) in out.iter_mut().zip(row) {
+                    *slot += a * r;
+                }
+            }
+        }
+        self.direct.iter_mut().for_each(|x| *x = 0.0);
+    }
 }
 
 /// `out[m] += sum_k v_k cos(m psi_k)` for `points` `(cos psi_k, v_k)`, the

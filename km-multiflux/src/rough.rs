@@ -63,7 +63,9 @@ use std::rc::Rc;
 
 use faer::Mat;
 use km_core::fresnel::reflectance;
-use km_core::microfacet::{Far, Microfacet, conductor_reflectance, graded_edges, panel_rule_mu};
+use km_core::microfacet::{
+    Far, FourierSum, Microfacet, conductor_reflectance, graded_edges, panel_rule_mu,
+};
 use rayon::prelude::*;
 
 use crate::adding::LayerOperators;
@@ -184,7 +186,6 @@ fn column(c: &Ctx<'_>, x: usize, u_in: f64) -> Column {
     let (n_i, far) = (c.sides[x].n, c.far(x));
     let mu_in = c.sides[x].mu_of(u_in);
     let mut out: Vec<Vec<f64>> = c.sides.iter().map(|s| vec![0.0; s.len() * mo]).collect();
-    let mut buf = vec![0.0; mo];
     for (y, side) in c.sides.iter().enumerate() {
         let transmit = y != x;
         let top = side.n * side.n;
@@ -195,12 +196,16 @@ fn column(c: &Ctx<'_>, x: usize, u_in: f64) -> Column {
             / km_core::microfacet::sharpness(n_i, far, transmit);
         let edges = graded_edges(0.0, top, u_in, width, &cuts);
         let (pts, wts) = panel_rule_mu(&edges, top);
+        // Per cell, the points' samples summed before the moments (eq. R6a).
+        let mut sums: Vec<Option<FourierSum>> = (0..side.len()).map(|_| None).collect();
         for (&u, &wt) in pts.iter().zip(&wts) {
             let Some(i) = side.cell_of(u) else { continue };
-            c.face.mf.fourier(side.mu_of(u), mu_in, n_i, far, transmit, &mut buf);
-            let dst = &mut out[y][i * mo..(i + 1) * mo];
-            for (d, b) in dst.iter_mut().zip(&buf) {
-                *d += wt * b;
+            let sum = sums[i].get_or_insert_with(|| FourierSum::new(mo));
+            c.face.mf.fourier_add((side.mu_of(u), mu_in), n_i, far, transmit, wt, sum);
+        }
+        for (i, sum) in sums.iter_mut().enumerate() {
+            if let Some(sum) = sum {
+                sum.finish_into(&mut out[y][i * mo..(i + 1) * mo]);
             }
         }
     }
