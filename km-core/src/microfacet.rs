@@ -143,15 +143,7 @@ impl Microfacet {
         if h[2] <= 0.0 {
             return 0.0;
         }
-        let (c2, s2) = (h[2] * h[2], h[0] * h[0] + h[1] * h[1]);
-        let a2 = self.alpha * self.alpha;
-        match self.distribution {
-            Distribution::Ggx => {
-                let t = c2 * a2 + s2;
-                a2 / (PI * t * t)
-            }
-            Distribution::Beckmann => (-s2 / (c2 * a2)).exp() / (PI * a2 * c2 * c2),
-        }
+        self.d_parts(h[2] * h[2], h[0] * h[0] + h[1] * h[1], 1.0)
     }
 
     /// `D(h)` (eq. R1) of the facet normal along `H`, from the squares of
@@ -359,14 +351,13 @@ impl Microfacet {
         if ci <= 0.0 || co == 0.0 {
             return 0.0;
         }
-        let g1 = |cos_v: f64, v_dot_h: f64| self.g1(cos_v, v_dot_h);
         if co > 0.0 {
             // Reflection: the half vector.
             let Some(h) = normalize([i[0] + o[0], i[1] + o[1], i[2] + o[2]]) else {
                 return 0.0;
             };
             let ih = dot(i, h);
-            let g = g1(ci, ih) * g1(co, dot(o, h));
+            let g = self.g1(ci, ih) * self.g1(co, dot(o, h));
             if g == 0.0 {
                 return 0.0;
             }
@@ -397,7 +388,7 @@ impl Microfacet {
         if ih <= 0.0 || oh >= 0.0 {
             return 0.0;
         }
-        let g = g1(ci, ih) * g1(co, oh);
+        let g = self.g1(ci, ih) * self.g1(co, oh);
         if g == 0.0 {
             return 0.0;
         }
@@ -690,6 +681,7 @@ impl Microfacet {
     ) {
         let si = (1.0 - mu_i * mu_i).max(0.0).sqrt();
         let so = (1.0 - mu_o * mu_o).max(0.0).sqrt();
+        let pair = AtPair::new(*self, (mu_o, mu_i), n_i, far, transmit);
         // The lobe in psi (eq. R6b): the (generalised) half vector
         // n_i i + n_o o has the vertical part h_z and a horizontal part of
         // length sqrt(a^2 + b^2 - 2 a b cos psi), a = n_i sin_i, b = n_o sin_o;
@@ -697,12 +689,9 @@ impl Microfacet {
         // psi ~ sqrt((alpha h_z)^2 + (a - b)^2) / sqrt(a b), and beyond the
         // integrand varies on the scale psi itself. The rule is graded from
         // half that width; grazing pairs (small h_z) get narrow lobes.
-        let (a, b, hz) = match (transmit, far) {
-            (true, Far::Dielectric(n_o)) => (n_i * si, n_o * so, (n_i * mu_i - n_o * mu_o).abs()),
-            _ => (si, so, mu_i + mu_o),
-        };
+        let (a, b) = (pair.a, pair.b);
         let width = if a * b > 0.0 {
-            ((self.alpha * hz).powi(2) + (a - b).powi(2)).sqrt() / (a * b).sqrt()
+            ((self.alpha * pair.hz).powi(2) + (a - b).powi(2)).sqrt() / (a * b).sqrt()
         } else {
             PI
         };
@@ -737,8 +726,6 @@ impl Microfacet {
         // The panel holding the kink is left out of the cached rule and
         // integrated apart, split at the kink (eq. R6a).
         let span = kink.map(|pk| rule.kink_span(pk));
-        let pair = AtPair::new(*self, (mu_o, mu_i), n_i, far, transmit);
-        let value = |c1: f64, s1: f64| pair.at(c1, s1);
         // 2 x the half-circle (f is even in psi).
         let w2 = 2.0 * weight;
         let acc = sum.samples_of(&rule);
@@ -746,13 +733,13 @@ impl Microfacet {
             if span.is_some_and(|(lo, hi)| (lo..=hi).contains(&(k / PANEL_POINTS))) {
                 continue;
             }
-            *a += w2 * value(c1, s1);
+            *a += w2 * pair.at(c1, s1);
         }
         if let (Some(pk), Some((a, b))) = (kink, span) {
             let (lo, hi) = (rule.edges[a], rule.edges[b + 1]);
             let mut points = Vec::with_capacity(64);
             for (c1, s1, wt) in kink_panel(lo, pk, hi, orders) {
-                let f = value(c1, s1);
+                let f = pair.at(c1, s1);
                 if f != 0.0 {
                     points.push((c1, w2 * wt * f));
                 }
@@ -789,15 +776,15 @@ impl Microfacet {
         let width = self.lobe_width_u(top, mu_i) / sharpness(n_i, far, transmit);
         let edges = graded_edges(0.0, top, u_peak, width, &cuts);
         let (x, w) = panel_rule_mu(&edges, top);
-        let mut f0 = [0.0];
-        let mut sum = 0.0;
+        let mut sum = FourierSum::new(1);
         for (&u, &wt) in x.iter().zip(&w) {
             let mu_o = (1.0 - u / top).max(0.0).sqrt();
-            self.fourier(mu_o, mu_i, n_i, far, transmit, &mut f0);
             // mu dmu = du / (2 n_o^2).
-            sum += wt * f0[0] / (2.0 * top);
+            self.fourier_add((mu_o, mu_i), n_i, far, transmit, wt / (2.0 * top), &mut sum);
         }
-        sum
+        let mut f0 = [0.0];
+        sum.finish_into(&mut f0);
+        f0[0]
     }
 
     /// The values of `u = s^2` on the exit side where the integrand over

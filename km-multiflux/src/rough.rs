@@ -431,8 +431,8 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
     let columns: Vec<Column> = wanted.par_iter().map(|&(x, u)| column(c, x, u)).collect();
     for e in 0..ne {
         for x in 0..c.sides.len() {
-            let (Some(u), Some(k)) = (u_of(x, e), slot[x][e]) else { continue };
-            let g = &columns[k];
+            let Some(k) = slot[x][e] else { continue };
+            let (g, u) = (&columns[k], wanted[k].1);
             if ex[x][e].beam {
                 beam_column(c, ops, (x, e, u), g, &u_of, &len, ex, spread);
             } else {

@@ -599,10 +599,9 @@ impl Accumulator<'_> {
         let mut at = Vec::with_capacity(paths.len() * self.req.theta_o.len());
         for path in &paths {
             for &t in self.req.theta_o {
-                let pair = |transmit: bool| {
-                    let below = !transmit || prep.n_sub.is_some();
-                    path.as_ref().filter(|_| below).and_then(|p| p.at_polar(t, transmit, built))
-                };
+                // (`at_polar` gives no transmitted exit without a substrate.)
+                let pair =
+                    |transmit: bool| path.as_ref().and_then(|p| p.at_polar(t, transmit, built));
                 at.push([pair(false), pair(true)]);
             }
         }
