@@ -207,8 +207,7 @@ def km_values(km, s, method, extra):
         cmd = [km, "solve", path, "--method", method, "--json"] + extra
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
-            # A refusal (the multi-flux method refuses exit directions
-            # through rough faces below alpha 0.1, docs/rough.md §7):
+            # A refusal (a method that cannot give the stack's answer):
             # recorded, not compared.
             return {"refused": r.stderr.strip()}
         return json.loads(r.stdout)
@@ -228,12 +227,20 @@ def main():
     ap.add_argument("--mf-streams", type=int, default=24,
                     help="streams of km's multi-flux answer (its change from 16 is in "
                     "docs/rough.md §7)")
+    ap.add_argument("--stacks", default="",
+                    help="comma-separated names of the stacks to run (default: all)")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default="rough-mitsuba.json")
     a = ap.parse_args()
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     stacks = STACKS[:2] if a.quick else STACKS
+    if a.stacks:
+        names = a.stacks.split(",")
+        unknown = set(names) - {s["name"] for s in STACKS}
+        if unknown:
+            ap.error(f"unknown stacks {sorted(unknown)}; known: {[s['name'] for s in STACKS]}")
+        stacks = [s for s in STACKS if s["name"] in names]
     spp = 4096 if a.quick else a.spp
     results = []
     for s in stacks:

@@ -689,12 +689,7 @@ impl Microfacet {
         // psi ~ sqrt((alpha h_z)^2 + (a - b)^2) / sqrt(a b), and beyond the
         // integrand varies on the scale psi itself. The rule is graded from
         // half that width; grazing pairs (small h_z) get narrow lobes.
-        let (a, b) = (pair.a, pair.b);
-        let width = if a * b > 0.0 {
-            ((self.alpha * pair.hz).powi(2) + (a - b).powi(2)).sqrt() / (a * b).sqrt()
-        } else {
-            PI
-        };
+        let width = self.psi_width_of(&pair);
         // Quantised to powers of two so the per-thread rule cache stays small.
         let delta = 2f64.powi((0.5 * width.min(PI)).log2().floor() as i32);
         let orders = sum.orders;
@@ -745,6 +740,22 @@ impl Microfacet {
                 }
             }
             add_cosine_sums(&points, &mut sum.direct);
+        }
+    }
+
+    /// The lobe's width in `psi` of the pair (eq. R6b), at most `pi`: the
+    /// scale of the azimuthal integrand of [`Microfacet::fourier`], whose
+    /// coefficients fall about as `exp(-m width)` beyond `1 / width`.
+    pub fn psi_width(&self, (mu_o, mu_i): (f64, f64), n_i: f64, far: Far, transmit: bool) -> f64 {
+        self.psi_width_of(&AtPair::new(*self, (mu_o, mu_i), n_i, far, transmit))
+    }
+
+    fn psi_width_of(&self, pair: &AtPair) -> f64 {
+        let (a, b) = (pair.a, pair.b);
+        if a * b > 0.0 {
+            (((self.alpha * pair.hz).powi(2) + (a - b).powi(2)).sqrt() / (a * b).sqrt()).min(PI)
+        } else {
+            PI
         }
     }
 

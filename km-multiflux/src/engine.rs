@@ -34,7 +34,6 @@ use crate::correction::PeakCorrection;
 use crate::options::{FOURIER_TOL, MultifluxOptions};
 use crate::prepare::{media_grid, planned_cutoff, scale_layers};
 use crate::quadrature::{AngularGrid, MediumNodes};
-use crate::rough::SPREAD_ALPHA;
 use crate::slab::{SlabOrder, slab_beam_reflection, slab_beam_response};
 use crate::stack::{Scaled, delta_parts};
 pub(crate) use extras::{ExtraSetup, Extras, Kind};
@@ -179,9 +178,6 @@ impl Prepared<'_> {
         &self,
         req: &Request<'_>,
     ) -> Result<(ChannelBsdf, Option<DirectionValues>), MultifluxError> {
-        if !req.theta_o.is_empty() {
-            self.check_rough_exits()?;
-        }
         let beams: &[f64] = match req.incidence {
             Incidence::Beams(b) => b,
             Incidence::Diffuse => &[],
@@ -321,32 +317,6 @@ struct LoneLayer {
     l: usize,
     directions: Vec<crate::slab::Extra>,
     all: Vec<crate::slab::Extra>,
-}
-
-impl Prepared<'_> {
-    /// Exit directions (BRDF, BTDF, the BSDF table) through a rough face need
-    /// the face to spread the beam over its cells (roughness at least
-    /// [`SPREAD_ALPHA`]): a narrower lobe keeps its delta in the beam's slot,
-    /// which a probe in the delta's cell would read twice (docs/rough.md §7).
-    fn check_rough_exits(&self) -> Result<(), MultifluxError> {
-        if !self.scene.has_rough_face() {
-            return Ok(());
-        }
-        let faces = rough_paths::rough_faces(&self.scene, &self.layers, self.n_sub);
-        match faces.map(|f| f.alpha()).find(|&a| a < SPREAD_ALPHA) {
-            None => Ok(()),
-            Some(alpha) => Err(MultifluxError::Scene(km_core::CoreError::unsupported(
-                "multiflux",
-                format!(
-                    "exit directions (BRDF/BTDF, the BSDF table) through a rough face of roughness \
-                     {alpha} are not computed: below {SPREAD_ALPHA} the face keeps the beam's \
-                     delta apart from its cells, which exit directions would read twice \
-                     (docs/rough.md §7); the totals R, T, A are given without directions, and the \
-                     Monte Carlo method (`mc`) gives BRDF/BTDF for any roughness"
-                ),
-            ))),
-        }
-    }
 }
 
 /// The last Fourier order of a request: 0 for totals or diffuse light; with

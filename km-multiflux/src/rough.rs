@@ -45,16 +45,16 @@
 //! [`crate::interface`]) plus the cell integrals of the rough BSDF minus those
 //! of the smooth one (eq. R13): the difference vanishes with `alpha`, so the
 //! smooth operators are recovered exactly (no switch). Below
-//! [`SPREAD_ALPHA`] the collimated beam keeps its delta slot the same way:
-//! the rough lobe of the beam minus the delta's share of its cell goes to
-//! the nodes, the delta to the slot (eq. R14), and a probe reads the smooth
-//! value of its own slot in place of its cell's (eq. R16). From
-//! [`SPREAD_ALPHA`] on the lobe spans cells enough that they carry it better
-//! than a delta does: the whole lobe goes to the cells, and a probe reads the
-//! cells only (eq. R14', R16'); only then are exit directions given, whose
-//! single rough path the engine takes exact (eq. R18). The solver reports no
-//! mirror or unscattered part through a rough face
-//! ([`crate::stack::delta_parts`]).
+//! [`SPREAD_ALPHA`], in a request of totals alone, the collimated beam keeps
+//! its delta slot the same way: the rough lobe of the beam minus the delta's
+//! share of its cell goes to the nodes, the delta to the slot (eq. R14).
+//! From [`SPREAD_ALPHA`] on the lobe spans cells enough that they carry it
+//! better than a delta does, and a request with exit directions (probes)
+//! needs the cells at any roughness ([`spreads`]): the whole lobe goes to the
+//! cells, and a probe reads the cells only (eq. R14', R16'). The engine
+//! takes the paths that meet rough faces once or twice exact at the exits
+//! (eq. R18, R19: `double_path`). The solver reports no mirror or
+//! unscattered part through a rough face ([`crate::stack::delta_parts`]).
 
 use std::cell::RefCell;
 use std::f64::consts::PI;
@@ -77,6 +77,15 @@ use crate::slab::Extra;
 /// better than a delta in the beam's slot does (docs/rough.md §3, §7);
 /// below it the delta stays in the slot (eq. R14), exact as `alpha -> 0`.
 pub const SPREAD_ALPHA: f64 = 0.1;
+
+/// Whether a face spreads the beam over its cells (eq. R14') rather than
+/// keeping its delta in the beam's slot (eq. R14): from [`SPREAD_ALPHA`] on,
+/// and at any roughness when the request has exit directions (probes), whose
+/// single rough path the engine takes exact (eq. R18) and which a delta in
+/// the beam's slot would be read twice by (docs/rough.md §3, §7).
+pub fn spreads(alpha: f64, ea: &[Extra], eb: &[Extra]) -> bool {
+    alpha >= SPREAD_ALPHA || ea.iter().chain(eb).any(|e| !e.beam)
+}
 
 /// Gauss points per incoming cell (eq. R11): the outer rule whose
 /// disagreement with the transposed integral the symmetric scaling absorbs.
@@ -413,7 +422,7 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
         let mu = ex[x].get(e)?.mu?;
         (x < c.sides.len()).then(|| c.sides[x].n.powi(2) * (1.0 - mu * mu))
     };
-    let spread = c.face.mf.alpha() >= SPREAD_ALPHA;
+    let spread = spreads(c.face.mf.alpha(), ea, eb);
     // The distinct columns the extras need (`slot[x][e]`: which), computed
     // in parallel.
     let mut wanted: Vec<(usize, f64)> = Vec::new();
@@ -436,7 +445,7 @@ fn extras(c: &Ctx<'_>, ea: &[Extra], eb: &[Extra], ops: &mut [LayerOperators]) {
             if ex[x][e].beam {
                 beam_column(c, ops, (x, e, u), g, &u_of, &len, ex, spread);
             } else {
-                probe_rows(c, ops, (x, e, u), g, &u_of, &len, spread);
+                probe_rows(c, ops, (x, e), g, &len);
             }
         }
     }
@@ -505,20 +514,18 @@ fn beam_column(
     }
 }
 
-/// The probe `e` on side `y` at `u`: its rows from the nodes of every side
-/// (by reciprocity, from the column of light leaving along the probe), minus
-/// the delta's cell share, and the smooth face's value in its own slot (eq. R15).
+/// The probe `e` on side `y`: its rows from the nodes of every side (by
+/// reciprocity, from the column of light leaving along the probe; eq.
+/// R16'). A request with probes spreads the beam ([`spreads`]), so a probe
+/// reads the cells only.
 fn probe_rows(
     c: &Ctx<'_>,
     ops: &mut [LayerOperators],
-    (y, e, u): (usize, usize, f64),
+    (y, e): (usize, usize),
     g: &[Vec<f64>],
-    u_of: &dyn Fn(usize, usize) -> Option<f64>,
     len: &[usize],
-    spread: bool,
 ) {
     let mo = c.orders;
-    let r = c.r_smooth(y, u);
     let ny2 = c.sides[y].n.powi(2);
     for (m, o) in ops.iter_mut().enumerate() {
         for (x, side) in c.sides.iter().enumerate() {
@@ -528,16 +535,6 @@ fn probe_rows(
             // O_xj = (n_Y^2 / n_X^2) C_j / (2 n_X^2) (reciprocity of eq. R10).
             for j in 0..side.len() {
                 mat[(row, j)] = ny2 / nx2 * g[x][j * mo + m] / (2.0 * nx2);
-            }
-            if spread {
-                continue;
-            }
-            let smooth = if x == y { r } else { ny2 / nx2 * (1.0 - r) };
-            if let Some(j) = side.cell_of(u) {
-                mat[(row, j)] -= smooth;
-            }
-            if u_of(x, e).is_some() {
-                mat[(row, len[x] + e)] = smooth;
             }
         }
     }
@@ -655,4 +652,131 @@ pub fn smooth_conductor(a: &MediumNodes, ea: &[Extra], n: f64, k: f64) -> Mat<f6
         }
     }
     r
+}
+
+/// The double transmitted path of eq. R19 (docs/rough.md §3) per Fourier
+/// order, without the factor `(2 - delta_m0) / (2 pi)`: the beam through a
+/// first rough face, the layers between unscattered, and through a second
+/// rough face to an exit below it.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct DoublePath {
+    /// As the operators hold it (the orders built): the beam's column of the
+    /// first face into the cells between, their unscattered transmission,
+    /// and the probe's row of the second face (eq. R14', R16').
+    pub held: Vec<f64>,
+    /// The same integral over the cells' variable `u` by a fine rule.
+    pub exact: Vec<f64>,
+}
+
+/// Where the double path of eq. R19 leaves: through a second rough face
+/// into the medium below it (`Below`); or, after the delta path below has
+/// reflected it, back up through the first face (`Back`) or reflected down
+/// again by the first face from below (`Inside`, to an exit under the
+/// stack).
+#[derive(Clone, Copy)]
+pub(crate) enum Exit<'a> {
+    Below(RoughFace, &'a MediumNodes),
+    Back,
+    Inside,
+}
+
+/// The faces of eq. R19 and the media around them: the first face with the
+/// nodes above it, the nodes of the medium below it, the delta path's factor
+/// between the two meetings (of `mu` in that medium: the layers' unscattered
+/// transmission, or the reflection of what lies below), and the exit.
+pub(crate) struct TwoFaces<'a> {
+    pub first: (RoughFace, &'a MediumNodes),
+    pub mid: &'a MediumNodes,
+    pub between: &'a dyn Fn(f64) -> f64,
+    pub exit: Exit<'a>,
+}
+
+/// Eq. R19's coefficients for the beam at `u_b` (above the first face) and
+/// the exit at `u_o`, `built` orders as the operators hold them,
+/// `exact_orders` by the fine rule.
+pub(crate) fn double_path(
+    faces: &TwoFaces<'_>,
+    (u_b, u_o): (f64, f64),
+    built: usize,
+    exact_orders: usize,
+) -> DoublePath {
+    let ((f1, a), mid, between) = (faces.first, faces.mid, faces.between);
+    let nm = mid.n;
+    let top = nm * nm;
+    let far = Far::Dielectric(nm);
+    // As held: the cells' integrals of both meetings (the operators' own
+    // rule): the beam's column into the cells below the first face, and
+    // the exit's column (its probe's row by reciprocity, eq. R16') there.
+    let c1 = Ctx { face: f1, sides: vec![Side::new(a), Side::new(mid)], orders: built.max(1) };
+    let g1 = column(&c1, 0, u_b).swap_remove(1);
+    // The second meeting: its face's context, the exit's side `y` and the
+    // side of the medium between (`x`).
+    let (c2, y, x) = match faces.exit {
+        Exit::Below(f2, b) => {
+            (Ctx { face: f2, sides: vec![Side::new(mid), Side::new(b)], orders: c1.orders }, 1, 0)
+        }
+        Exit::Back => (c1_again(&c1, a, mid), 0, 1),
+        Exit::Inside => (c1_again(&c1, a, mid), 1, 1),
+    };
+    let g2 = column(&c2, y, u_o).swap_remove(x);
+    let (mf2, n_o, far2, transmit2) = (c2.face.mf, c2.sides[y].n, c2.far(y), x != y);
+    // The probe's row of eq. R16' without its cell integral.
+    let row = (n_o * n_o) / (nm * nm) / (2.0 * nm * nm);
+    let mo = c1.orders;
+    let mut held = vec![0.0; mo];
+    for j in 0..c1.sides[1].len() {
+        let t = between(mid.mu[j]) / c1.sides[1].width(j) * row;
+        for (m, h) in held.iter_mut().enumerate() {
+            *h += g1[j * mo + m] * t * g2[j * mo + m];
+        }
+    }
+    // Exact: the same integrand on panels graded towards both peaks (the
+    // beam's u_b and the exit's u_o: u = s^2 is Snell's invariant squared)
+    // and split at both meetings' kinks.
+    let (mu_b, mu_o) = (mid_mu(a.n * a.n, u_b), mid_mu(n_o * n_o, u_o));
+    let w1 = f1.mf.lobe_width_u(top, mu_b.min(mid_mu(top, u_b)))
+        / km_core::microfacet::sharpness(a.n, far, true);
+    let w2 = mf2.lobe_width_u(top, mu_o.min(mid_mu(top, u_o)))
+        / km_core::microfacet::sharpness(n_o, far2, transmit2);
+    let mut cuts = f1.mf.kink_cuts(mu_b, a.n, far, true);
+    cuts.extend(mf2.kink_cuts(mu_o, n_o, far2, transmit2));
+    cuts.extend(graded_edges(0.0, top, u_o, w2, &[]));
+    let edges = graded_edges(0.0, top, u_b, w1, &cuts);
+    let (pts, wts) = panel_rule_mu(&edges, top);
+    let mut exact = vec![0.0; exact_orders.max(1)];
+    let (mut b1, mut b2) = (exact.clone(), exact.clone());
+    for (&u, &wt) in pts.iter().zip(&wts) {
+        let mu = mid_mu(top, u);
+        let t = wt * between(mu) * row;
+        if t == 0.0 {
+            continue;
+        }
+        // The orders this point contributes to: the product of the two
+        // coefficients falls at least as fast as the narrower lobe's, about
+        // as exp(-m width) (eq. R6b), below 1e-8 from m width = 20; a power
+        // of two (the azimuthal rules are cached per order count).
+        let width = f1.mf.psi_width((mu, mu_b), a.n, far, true).max(mf2.psi_width(
+            (mu, mu_o),
+            n_o,
+            far2,
+            transmit2,
+        ));
+        let m = ((20.0 / width).ceil() as usize).next_power_of_two().min(exact.len());
+        f1.mf.fourier(mu, mu_b, a.n, far, true, &mut b1[..m]);
+        mf2.fourier(mu, mu_o, n_o, far2, transmit2, &mut b2[..m]);
+        for ((e, x), y) in exact.iter_mut().zip(&b1[..m]).zip(&b2[..m]) {
+            *e += t * x * y;
+        }
+    }
+    DoublePath { held, exact }
+}
+
+/// The first face's context once more (for its second meeting).
+fn c1_again<'a>(c1: &Ctx<'_>, a: &'a MediumNodes, mid: &'a MediumNodes) -> Ctx<'a> {
+    Ctx { face: c1.face, sides: vec![Side::new(a), Side::new(mid)], orders: c1.orders }
+}
+
+/// `mu` of `u` on a side with `top = n^2`.
+fn mid_mu(top: f64, u: f64) -> f64 {
+    (1.0 - u / top).max(0.0).sqrt()
 }

@@ -1,7 +1,7 @@
 //! BRDF lobes against roughness (docs/rough.md §9): a rough clear coat over
 //! a pigment layer, and a rough lacquer over gold, in the plane of
-//! incidence, from km's Monte Carlo (the multi-flux method gives exit
-//! directions through rough faces from alpha 0.1 on, docs/rough.md §7); the smooth stack's
+//! incidence, from km's Monte Carlo (an independent method; the multi-flux
+//! method gives these lobes too, docs/rough.md §7); the smooth stack's
 //! multi-flux BRDF (its mirror part a delta, given apart) is the reference
 //! curve.
 
@@ -268,8 +268,8 @@ pub fn recipe(ctx: &mut Ctx) -> anyhow::Result<Section> {
     sec.text(format!(
         "The BRDF in the plane of incidence (beam at {THETA_I:.0} degrees, exit angle -80..80 \
          degrees, + on the mirror side) of two coated stacks whose top face is rough (GGX, alpha \
-         {}). The lobes are km's Monte Carlo (the multi-flux method gives exit \
-         directions through rough faces from alpha 0.1 on, not at 0.05, docs/rough.md §7), in cone bins of a quarter of each \
+         {}). The lobes are km's Monte Carlo (an independent method; the multi-flux \
+         method gives them too, docs/rough.md §7), in cone bins of a quarter of each \
          lobe's half width (1 to 5 degrees: a cone mean at a peak lies about 2.6 % below the \
          point value), with one standard error as bars. The smooth stack (alpha = 0) is the \
          multi-flux BRDF: its mirror reflection is a delta, not drawn (its weight is in the \

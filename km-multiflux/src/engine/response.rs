@@ -566,7 +566,8 @@ impl Accumulator<'_> {
         let (Some(at), Incidence::Beams(&[s_b])) = (&mut self.at, self.req.incidence) else {
             return;
         };
-        let Some(path) = RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b) else {
+        let Some(path) = RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b, &prep.grid)
+        else {
             return;
         };
         let (built, summed) = (self.req.last_order + 1, self.orders);
@@ -574,7 +575,7 @@ impl Accumulator<'_> {
         let sides: &[bool] = if prep.n_sub.is_some() { &[false, true] } else { &[false] };
         for &transmit in sides {
             let polar: Vec<_> =
-                self.req.theta_o.iter().map(|&t| path.at_polar(t, transmit, built)).collect();
+                self.req.theta_o.iter().map(|&t| path.at_polar(t, transmit, built, true)).collect();
             let values = if transmit { &mut at.values.btdf } else { &mut at.values.brdf };
             for ((v, &o), &phi) in values.iter_mut().zip(&at.o).zip(&at.phi) {
                 if let Some(p) = &polar[o] {
@@ -594,14 +595,17 @@ impl Accumulator<'_> {
         let built = self.req.last_order + 1;
         let paths: Vec<Option<RoughPath>> = beams
             .iter()
-            .map(|&s_b| RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b))
+            .map(|&s_b| RoughPath::new(&prep.scene, &prep.layers, prep.n_sub, s_b, &prep.grid))
             .collect();
         let mut at = Vec::with_capacity(paths.len() * self.req.theta_o.len());
         for path in &paths {
             for &t in self.req.theta_o {
-                // (`at_polar` gives no transmitted exit without a substrate.)
-                let pair =
-                    |transmit: bool| path.as_ref().and_then(|p| p.at_polar(t, transmit, built));
+                // (`at_polar` gives no transmitted exit without a substrate;
+                // the double path of eq. R19 stays the series here: its
+                // cost per pair, docs/rough.md §7.)
+                let pair = |transmit: bool| {
+                    path.as_ref().and_then(|p| p.at_polar(t, transmit, built, false))
+                };
                 at.push([pair(false), pair(true)]);
             }
         }

@@ -28,7 +28,8 @@ use std::f64::consts::PI;
 use km_core::microfacet::{Far, Microfacet, conductor_reflectance};
 use km_core::{MonoScene, Substrate};
 
-use crate::quadrature::mu_of_invariant;
+use crate::quadrature::{AngularGrid, MediumNodes, mu_of_invariant};
+use crate::rough::{DoublePath, Exit, RoughFace, TwoFaces, double_path};
 use crate::stack::{ScalarOp as Op, Scaled, star};
 
 /// A piece that passes every delta path unchanged.
@@ -111,18 +112,6 @@ fn pieces(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>) -> Vec<Piece
     out
 }
 
-/// The microfacets of the stack's rough faces, top down.
-pub(crate) fn rough_faces(
-    scene: &MonoScene,
-    layers: &[Scaled],
-    n_sub: Option<f64>,
-) -> impl Iterator<Item = Microfacet> {
-    pieces(scene, layers, n_sub).into_iter().filter_map(|p| match p {
-        Piece::Face { rough, .. } | Piece::Conductor { rough, .. } => rough,
-        _ => None,
-    })
-}
-
 /// The first rough face under a beam and the delta paths to and from it.
 #[derive(Debug, Clone)]
 pub(crate) struct RoughPath {
@@ -139,6 +128,30 @@ pub(crate) struct RoughPath {
     /// Index of the ambient medium and of the substrate light leaves into.
     n0: f64,
     n_sub: Option<f64>,
+    /// A second rough face under layers alone (eq. R19, transmitted).
+    second: Option<Second>,
+    /// The nodes above and below a dielectric first face whose delta paths
+    /// below reflect (eq. R19, back up through the face).
+    back: Option<[MediumNodes; 2]>,
+}
+
+/// The second rough face of eq. R19: layers alone (optical depth `tau`)
+/// between it and the first, the pieces below it, and the nodes of the media
+/// above the first face, between the faces and below the second.
+#[derive(Debug, Clone)]
+struct Second {
+    mf: Microfacet,
+    tau: f64,
+    below: Vec<Piece>,
+    nodes: [MediumNodes; 3],
+}
+
+/// Orders the exact sum of eq. R19 takes: a GGX lobe's coefficients fall
+/// about as `(1 + alpha m) exp(-alpha m)` (a Lorentzian's transform), and
+/// the path's as their product, below 1e-6 of order 0 from `m = 10 / alpha`;
+/// never fewer than the operators'.
+fn exact_orders(alpha: f64, built: usize) -> usize {
+    ((10.0 / alpha).ceil() as usize).clamp(built.max(1), 1024)
 }
 
 impl RoughPath {
@@ -148,6 +161,7 @@ impl RoughPath {
         layers: &[Scaled],
         n_sub: Option<f64>,
         s_b: f64,
+        grid: &AngularGrid,
     ) -> Option<RoughPath> {
         let all = pieces(scene, layers, n_sub);
         let k = all.iter().position(|p| {
@@ -167,16 +181,35 @@ impl RoughPath {
         };
         let above = all[..k].to_vec();
         let b = above.iter().fold(CLEAR, |acc, p| star(acc, p.op(s_b, false))).1;
-        Some(RoughPath { mf, n_above, far, s_b, b, above, below, n0: scene.ambient_n(), n_sub })
+        let second = below.as_deref().and_then(|b| second_face(b, n_above, far, grid));
+        let back = match (far, below.as_deref()) {
+            (Far::Dielectric(nb), Some(b)) if reflects(b) => {
+                Some([grid.medium(n_above), grid.medium(nb)])
+            }
+            _ => None,
+        };
+        let n0 = scene.ambient_n();
+        Some(RoughPath { mf, n_above, far, s_b, b, above, below, n0, n_sub, second, back })
     }
 
     /// What the single rough path needs at exit polar angle `theta_deg`,
     /// above (`transmit = false`) or below, whatever the azimuth: `A B`, the
     /// directions' cosines and the face's coefficients as its operators hold
-    /// them (`built` orders). `None` where no such path reaches the exit.
-    pub(crate) fn at_polar(&self, theta_deg: f64, transmit: bool, built: usize) -> Option<AtPolar> {
+    /// them (`built` orders). With `double`, the double path of eq. R19 too:
+    /// below a second rough face reached through layers alone, or back up
+    /// through the first face. `None` where no such path reaches the exit.
+    pub(crate) fn at_polar(
+        &self,
+        theta_deg: f64,
+        transmit: bool,
+        built: usize,
+        double: bool,
+    ) -> Option<AtPolar> {
         if self.b == 0.0 {
             return None;
+        }
+        if transmit && let Some(second) = &self.second {
+            return if double { self.through_second(second, theta_deg, built) } else { None };
         }
         let sin_o = theta_deg.to_radians().sin();
         // The exit's invariant, and its radiance transmission from the face.
@@ -200,38 +233,144 @@ impl RoughPath {
         let mu_o = mu_of_invariant(s_x, n_o)?;
         let mut coef = vec![0.0; built.max(1)];
         self.mf.fourier(mu_o, mu_i, self.n_above, self.far, transmit, &mut coef);
-        Some(AtPolar { ab: a * self.b, mu_i, mu_o, transmit, coef })
+        let double = match (&self.back, double) {
+            (Some(nodes), true) => {
+                let exit = if transmit { Exit::Inside } else { Exit::Back };
+                self.reflected_below(nodes, s_x, exit, built)
+            }
+            _ => None,
+        };
+        Some(AtPolar { ab: a * self.b, mu_i, mu_o, transmit, single: Some(coef), double })
     }
 
-    /// The exact value of the single rough path minus its truncated series
-    /// (eq. R18) at azimuth `phi_deg` of the polar angle `at`, `summed` of
-    /// its orders in the exit values.
+    /// Eq. R19 to the exit below the second face.
+    fn through_second(&self, second: &Second, theta_deg: f64, built: usize) -> Option<AtPolar> {
+        let ns = self.n_sub?;
+        let s_o = ns * theta_deg.to_radians().sin();
+        let a = second.below.iter().fold(CLEAR, |acc, p| star(acc, p.op(s_o, true))).1;
+        let [up, mid, down] = &second.nodes;
+        let (mu_i, mu_o) = (mu_of_invariant(self.s_b, up.n)?, mu_of_invariant(s_o, down.n)?);
+        if a == 0.0 || self.s_b >= mid.n {
+            return None;
+        }
+        let tau = second.tau;
+        let att = move |mu: f64| if mu > 0.0 { (-tau / mu).exp() } else { 0.0 };
+        let f2 = RoughFace { mf: second.mf, n_above: mid.n, below: Far::Dielectric(down.n) };
+        let faces = TwoFaces {
+            first: (RoughFace { mf: self.mf, n_above: up.n, below: Far::Dielectric(mid.n) }, up),
+            mid,
+            between: &att,
+            exit: Exit::Below(f2, down),
+        };
+        let m = exact_orders(self.mf.alpha().min(second.mf.alpha()), built);
+        let d = double_path(&faces, (self.s_b * self.s_b, s_o * s_o), built, m);
+        Some(AtPolar { ab: a * self.b, mu_i, mu_o, transmit: true, single: None, double: Some(d) })
+    }
+
+    /// Eq. R19 with the delta paths below the first face reflecting between
+    /// its two meetings: back up through it, or reflected down by it again
+    /// (`exit`); `s_o` the exit's invariant.
+    fn reflected_below(
+        &self,
+        nodes: &[MediumNodes; 2],
+        s_o: f64,
+        exit: Exit<'_>,
+        built: usize,
+    ) -> Option<DoublePath> {
+        let [up, mid] = nodes;
+        let below = self.below.as_ref()?;
+        if self.s_b >= mid.n || s_o >= mid.n {
+            return None;
+        }
+        let n = mid.n;
+        let refl = |mu: f64| {
+            let s = n * (1.0 - mu * mu).max(0.0).sqrt();
+            below.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, false))).0
+        };
+        let faces = TwoFaces {
+            first: (RoughFace { mf: self.mf, n_above: up.n, below: Far::Dielectric(n) }, up),
+            mid,
+            between: &refl,
+            exit,
+        };
+        let m = exact_orders(self.mf.alpha(), built);
+        Some(double_path(&faces, (self.s_b * self.s_b, s_o * s_o), built, m))
+    }
+
+    /// The exact values of the single rough path (eq. R18) and of the double
+    /// one (eq. R19) minus their truncated series at azimuth `phi_deg` of
+    /// the polar angle `at`, `summed` of its orders in the exit values.
     pub(crate) fn correction(&self, at: &AtPolar, phi_deg: f64, summed: usize) -> f64 {
-        let (mu_i, mu_o) = (at.mu_i, at.mu_o);
-        let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
         let phi = phi_deg.to_radians();
-        let z = if at.transmit { -mu_o } else { mu_o };
-        let o = [so * phi.cos(), so * phi.sin(), z];
-        let exact = self.mf.bsdf([si, 0.0, mu_i], o, self.n_above, self.far);
         // The operators' coefficients are in the azimuth between the
         // directions of travel (0 on the mirror plane, phi = 180 degrees).
-        // cos(m psi) by the Chebyshev recurrence.
         let c1 = (phi - PI).cos();
-        let (mut prev, mut cur, mut series) = (c1, 1.0, 0.0);
-        for (m, c) in at.coef.iter().take(summed).enumerate() {
-            series += if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI) * c * cur;
-            (prev, cur) = (cur, if m == 0 { c1 } else { 2.0 * c1 * cur - prev });
+        let mut value = 0.0;
+        if let Some(coef) = &at.single {
+            let (mu_i, mu_o) = (at.mu_i, at.mu_o);
+            let si = (1.0 - mu_i * mu_i).max(0.0).sqrt();
+            let so = (1.0 - mu_o * mu_o).max(0.0).sqrt();
+            let z = if at.transmit { -mu_o } else { mu_o };
+            let o = [so * phi.cos(), so * phi.sin(), z];
+            let exact = self.mf.bsdf([si, 0.0, mu_i], o, self.n_above, self.far);
+            value += exact - cosine_series(coef, c1, summed);
         }
-        at.ab * (exact - series)
+        if let Some(d) = &at.double {
+            value +=
+                cosine_series(&d.exact, c1, d.exact.len()) - cosine_series(&d.held, c1, summed);
+        }
+        at.ab * value
     }
 }
 
-/// The single rough path at one exit polar angle ([`RoughPath::at_polar`]).
+/// `sum_{m < count} (2 - delta_m0) / (2 pi) c_m cos(m psi)` from `cos psi`
+/// (Chebyshev's recurrence).
+fn cosine_series(c: &[f64], c1: f64, count: usize) -> f64 {
+    let (mut prev, mut cur, mut series) = (c1, 1.0, 0.0);
+    for (m, x) in c.iter().take(count).enumerate() {
+        series += if m == 0 { 1.0 } else { 2.0 } / (2.0 * PI) * x * cur;
+        (prev, cur) = (cur, if m == 0 { c1 } else { 2.0 * c1 * cur - prev });
+    }
+    series
+}
+
+/// Whether the delta paths of the pieces `below` a face reflect: the first
+/// piece other than a layer is a smooth face or a smooth conductor.
+fn reflects(below: &[Piece]) -> bool {
+    matches!(
+        below.iter().find(|p| !matches!(p, Piece::Layer { .. })),
+        Some(Piece::Face { rough: None, .. } | Piece::Conductor { rough: None, .. })
+    )
+}
+
+/// The second rough face of eq. R19 in the pieces `below` the first (a
+/// dielectric face from `n_above` to `far`): one reached through layers
+/// alone, a dielectric.
+fn second_face(below: &[Piece], n_above: f64, far: Far, grid: &AngularGrid) -> Option<Second> {
+    let Far::Dielectric(n_mid) = far else { return None };
+    let mut tau = 0.0;
+    for (j, p) in below.iter().enumerate() {
+        match *p {
+            Piece::Layer { tau: t, .. } => tau += t,
+            Piece::Face { na, nb, rough: Some(mf) } if na == n_mid => {
+                let nodes = [grid.medium(n_above), grid.medium(n_mid), grid.medium(nb)];
+                return Some(Second { mf, tau, below: below[j + 1..].to_vec(), nodes });
+            }
+            _ => return None,
+        }
+    }
+    None
+}
+
+/// The rough paths at one exit polar angle ([`RoughPath::at_polar`]).
 #[derive(Debug, Clone)]
 pub(crate) struct AtPolar {
     ab: f64,
     mu_i: f64,
     mu_o: f64,
     transmit: bool,
-    coef: Vec<f64>,
+    /// The single path's coefficients as the operators hold them (eq. R18).
+    single: Option<Vec<f64>>,
+    /// The double path (eq. R19).
+    double: Option<DoublePath>,
 }
