@@ -308,11 +308,7 @@ fn double_rough_path_is_the_convolution_of_the_two_lobes() {
          roughness = {a1}\n[substrate]\nkind = \"transparent\"\nn = 1.0\nroughness = {a2}\n\
          [output]\ndirections_deg = {dirs:?}\n"
     );
-    let opts = km_multiflux::MultifluxOptions { streams: Some(STREAMS), ..Default::default() };
-    let ch = km_multiflux::solve(&km_core::Scene::from_toml_str(&scene).unwrap(), &opts)
-        .unwrap()
-        .channels[0]
-        .clone();
+    let ch = channel(&scene, STREAMS);
     let (f1, f2) = (
         Microfacet::new(a1, Distribution::Ggx).unwrap(),
         Microfacet::new(a2, Distribution::Ggx).unwrap(),
@@ -330,6 +326,13 @@ fn double_rough_path_is_the_convolution_of_the_two_lobes() {
         });
         assert!((ch.btdf[k] - f).abs() <= 5e-4 * peak, "{d:?}: {} vs {f}", ch.btdf[k]);
     }
+}
+
+/// The multi-flux solve of the scene `text` at `streams`, first channel.
+fn channel(text: &str, streams: usize) -> km_core::ChannelResult {
+    let opts = km_multiflux::MultifluxOptions { streams: Some(streams), ..Default::default() };
+    km_multiflux::solve(&km_core::Scene::from_toml_str(text).unwrap(), &opts).unwrap().channels[0]
+        .clone()
 }
 
 /// `integral g(w_down, w_up, mu) mu dw` over the directions inside a layer
@@ -382,11 +385,7 @@ fn path_back_up_through_one_rough_face_is_its_lobes_convolution() {
          roughness = {alpha}\n[substrate]\nkind = \"transparent\"\nn = {n_floor}\n\
          [output]\ndirections_deg = {dirs:?}\n"
     );
-    let opts = km_multiflux::MultifluxOptions { streams: Some(STREAMS), ..Default::default() };
-    let ch = km_multiflux::solve(&km_core::Scene::from_toml_str(&scene).unwrap(), &opts)
-        .unwrap()
-        .channels[0]
-        .clone();
+    let ch = channel(&scene, STREAMS);
     let mf = Microfacet::new(alpha, Distribution::Ggx).unwrap();
     let beam = dir([30.0, 0.0], false);
     let double: Vec<f64> = dirs

@@ -151,7 +151,7 @@ struct Second {
 /// the path's as their product, below 1e-6 of order 0 from `m = 10 / alpha`;
 /// never fewer than the operators'.
 fn exact_orders(alpha: f64, built: usize) -> usize {
-    ((10.0 / alpha).ceil() as usize).clamp(built.max(1), 1024)
+    ((10.0 / alpha).ceil() as usize).min(1024).max(built.max(1))
 }
 
 impl RoughPath {
@@ -250,7 +250,9 @@ impl RoughPath {
         let a = second.below.iter().fold(CLEAR, |acc, p| star(acc, p.op(s_o, true))).1;
         let [up, mid, down] = &second.nodes;
         let (mu_i, mu_o) = (mu_of_invariant(self.s_b, up.n)?, mu_of_invariant(s_o, down.n)?);
-        if a == 0.0 || self.s_b >= mid.n {
+        // (Facets refract any direction: u_b or u_o beyond the medium
+        // between, n^2, still meet its cells.)
+        if a == 0.0 {
             return None;
         }
         let tau = second.tau;
@@ -279,9 +281,6 @@ impl RoughPath {
     ) -> Option<DoublePath> {
         let [up, mid] = nodes;
         let below = self.below.as_ref()?;
-        if self.s_b >= mid.n || s_o >= mid.n {
-            return None;
-        }
         let n = mid.n;
         let refl = |mu: f64| {
             let s = n * (1.0 - mu * mu).max(0.0).sqrt();
