@@ -191,31 +191,35 @@ type Column = Vec<Vec<f64>>;
 /// For light arriving at `u_in` from side `x`: `integral_{c_i} F^m(u <- u_in) du`
 /// for every cell `i` of every side (`out[side][i * orders + m]`, eq. R11).
 fn column(c: &Ctx<'_>, x: usize, u_in: f64) -> Column {
+    (0..c.sides.len()).map(|y| side_column(c, x, u_in, y)).collect()
+}
+
+/// [`column`]'s integrals on side `y` alone (`out[i * orders + m]`).
+fn side_column(c: &Ctx<'_>, x: usize, u_in: f64, y: usize) -> Vec<f64> {
     let mo = c.orders;
     let (n_i, far) = (c.sides[x].n, c.far(x));
     let mu_in = c.sides[x].mu_of(u_in);
-    let mut out: Vec<Vec<f64>> = c.sides.iter().map(|s| vec![0.0; s.len() * mo]).collect();
-    for (y, side) in c.sides.iter().enumerate() {
-        let transmit = y != x;
-        let top = side.n * side.n;
-        // Panels: cell edges, kinks, graded towards the peak u = u_in.
-        let mut cuts = side.upper.clone();
-        cuts.extend(c.face.mf.kink_cuts(mu_in, n_i, far, transmit));
-        let width = c.face.mf.lobe_width_u(top, mu_in.min(side.mu_of(u_in)))
-            / km_core::microfacet::sharpness(n_i, far, transmit);
-        let edges = graded_edges(0.0, top, u_in, width, &cuts);
-        let (pts, wts) = panel_rule_mu(&edges, top);
-        // Per cell, the points' samples summed before the moments (eq. R6a).
-        let mut sums: Vec<Option<FourierSum>> = (0..side.len()).map(|_| None).collect();
-        for (&u, &wt) in pts.iter().zip(&wts) {
-            let Some(i) = side.cell_of(u) else { continue };
-            let sum = sums[i].get_or_insert_with(|| FourierSum::new(mo));
-            c.face.mf.fourier_add((side.mu_of(u), mu_in), n_i, far, transmit, wt, sum);
-        }
-        for (i, sum) in sums.iter_mut().enumerate() {
-            if let Some(sum) = sum {
-                sum.finish_into(&mut out[y][i * mo..(i + 1) * mo]);
-            }
+    let side = &c.sides[y];
+    let mut out = vec![0.0; side.len() * mo];
+    let transmit = y != x;
+    let top = side.n * side.n;
+    // Panels: cell edges, kinks, graded towards the peak u = u_in.
+    let mut cuts = side.upper.clone();
+    cuts.extend(c.face.mf.kink_cuts(mu_in, n_i, far, transmit));
+    let width = c.face.mf.lobe_width_u(top, mu_in.min(side.mu_of(u_in)))
+        / km_core::microfacet::sharpness(n_i, far, transmit);
+    let edges = graded_edges(0.0, top, u_in, width, &cuts);
+    let (pts, wts) = panel_rule_mu(&edges, top);
+    // Per cell, the points' samples summed before the moments (eq. R6a).
+    let mut sums: Vec<Option<FourierSum>> = (0..side.len()).map(|_| None).collect();
+    for (&u, &wt) in pts.iter().zip(&wts) {
+        let Some(i) = side.cell_of(u) else { continue };
+        let sum = sums[i].get_or_insert_with(|| FourierSum::new(mo));
+        c.face.mf.fourier_add((side.mu_of(u), mu_in), n_i, far, transmit, wt, sum);
+    }
+    for (i, sum) in sums.iter_mut().enumerate() {
+        if let Some(sum) = sum {
+            sum.finish_into(&mut out[i * mo..(i + 1) * mo]);
         }
     }
     out
@@ -708,7 +712,7 @@ pub(crate) fn double_path(
     // rule): the beam's column into the cells below the first face, and
     // the exit's column (its probe's row by reciprocity, eq. R16') there.
     let c1 = Ctx { face: f1, sides: vec![Side::new(a), Side::new(mid)], orders: built.max(1) };
-    let g1 = column(&c1, 0, u_b).swap_remove(1);
+    let g1 = side_column(&c1, 0, u_b, 1);
     // The second meeting: its face's context, the exit's side `y` and the
     // side of the medium between (`x`).
     let (c2, y, x) = match faces.exit {
@@ -718,7 +722,7 @@ pub(crate) fn double_path(
         Exit::Back => (c1_again(&c1, a, mid), 0, 1),
         Exit::Inside => (c1_again(&c1, a, mid), 1, 1),
     };
-    let g2 = column(&c2, y, u_o).swap_remove(x);
+    let g2 = side_column(&c2, y, u_o, x);
     let (mf2, n_o, far2, transmit2) = (c2.face.mf, c2.sides[y].n, c2.far(y), x != y);
     // The probe's row of eq. R16' without its cell integral.
     let row = (n_o * n_o) / (nm * nm) / (2.0 * nm * nm);
