@@ -22,7 +22,7 @@
 mod extras;
 mod pieces;
 mod response;
-mod rough_paths;
+pub(crate) mod rough_paths;
 mod rough_pieces;
 
 use std::borrow::Cow;

@@ -23,6 +23,7 @@ use km_core::{MonoScene, Substrate};
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
 use crate::correction::PeakCorrection;
+use crate::engine::rough_paths::inside_single;
 use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, corrected_layers, last_moment};
 use crate::field::{input, locate, split_at_depth};
 use crate::options::MultifluxOptions;
@@ -108,7 +109,9 @@ pub fn inside_radiance(
     let (polar, p_of) = distinct_polar(directions);
     let last = if diffuse {
         0
-    } else if opts.all_effects {
+    } else if opts.all_effects || scene.has_rough_face() {
+        // A rough face's lobe needs every order the streams resolve (as at
+        // the exits; the azimuthal test ends the series early).
         2 * streams - 1
     } else {
         last_moment(&layers)
@@ -178,10 +181,29 @@ pub fn inside_radiance(
             }
         }
     }
-    // The correction after the orders (their stopping rule sees the
-    // discrete-ordinate values alone).
+    // The corrections after the orders (their stopping rule sees the
+    // discrete-ordinate values alone): the single scattering's, and the
+    // beam's single rough path exact in place of its truncated series (eq.
+    // R18 at a depth).
     for (r, c) in out.radiance.iter_mut().zip(&out.correction) {
         r.iter_mut().zip(c).for_each(|(r, c)| *r += c);
+    }
+    if let (Some(&s_b), true) = (beams.first(), scene.has_rough_face()) {
+        for (k, &z) in depths.iter().enumerate() {
+            let cut = shared.cut(&layers, z);
+            for (j, &d) in directions.iter().enumerate() {
+                out.radiance[k][j] += inside_single(
+                    scene,
+                    &cut.above,
+                    &cut.below,
+                    n_sub,
+                    s_b,
+                    cut.n_cut,
+                    d,
+                    (shared.orders, out.orders),
+                );
+            }
+        }
     }
     if !out.radiance.iter().flatten().all(|v| v.is_finite()) {
         return Err(MultifluxError::Numerical {
@@ -444,14 +466,6 @@ fn check_request(
         if !d[1].is_finite() {
             return bad("directions", d[1], "phi must be finite");
         }
-    }
-    if scene.has_rough_face() {
-        return bad(
-            "directions",
-            f64::NAN,
-            "radiance inside a stack with a rough face is not computed (its probes are not \
-             right, docs/rough.md §7); use the Monte Carlo method",
-        );
     }
     Ok(())
 }

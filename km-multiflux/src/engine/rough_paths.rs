@@ -373,3 +373,89 @@ pub(crate) struct AtPolar {
     /// The double path (eq. R19).
     double: Option<DoublePath>,
 }
+
+/// The beam's single rough path to a direction inside the stack (eq. R18 at
+/// a depth, docs/field.md §2a): the exact value minus the truncated series
+/// the probes hold, for the stack's layers cut at the depth into `above`
+/// and `below` (the cut in a medium of index `n_cut`), the beam of
+/// invariant `s_b`, the direction `[theta, phi]` (degrees; theta from the
+/// downward normal, above 90 up-going), the faces' `built` orders and the
+/// `summed` ones. 0 where no single rough path reaches the direction.
+///
+/// With the first rough face above the cut, the face transmits the beam and
+/// the pieces between carry it down to the cut (`t`), where the probe's own
+/// reflections between the two parts (`r'` of the part above, from below;
+/// `r` of the part below) divide it by `1 - r' r` (eq. D14): down-going
+/// `t / (1 - r' r)`, up-going `t r / (1 - r' r)`. With the face below the
+/// cut it reflects the beam, and the pieces between carry it up: up-going
+/// `t / (1 - r' r)`, down-going `t r' / (1 - r' r)`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn inside_single(
+    scene: &MonoScene,
+    above: &[Scaled],
+    below: &[Scaled],
+    n_sub: Option<f64>,
+    s_b: f64,
+    n_cut: f64,
+    dir: [f64; 2],
+    (built, summed): (usize, usize),
+) -> f64 {
+    let layers: Vec<Scaled> = above.iter().chain(below).cloned().collect();
+    let all = pieces(scene, &layers, n_sub);
+    // The cut: after the pieces of the layers above it (their faces and
+    // layers; the layer split at the cut has no face between its halves).
+    let mut c = 0;
+    let mut n_prev = scene.ambient_n();
+    for l in above {
+        c += if l.n != n_prev { 2 } else { 1 };
+        n_prev = l.n;
+    }
+    let Some(k) = all.iter().position(|p| {
+        matches!(p, Piece::Face { rough: Some(_), .. } | Piece::Conductor { rough: Some(_), .. })
+    }) else {
+        return 0.0;
+    };
+    let b = all[..k].iter().fold(CLEAR, |acc, p| star(acc, p.op(s_b, false))).1;
+    let down = dir[0] < 90.0;
+    let local = if down { dir[0] } else { 180.0 - dir[0] };
+    let s = n_cut * local.to_radians().sin();
+    let fold = |ps: &[Piece]| ps.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true)));
+    let (mf, n_face, far, transmit, a) = match all[k] {
+        Piece::Face { na, nb, rough: Some(mf) } if k < c => {
+            let (between, r) = (fold(&all[k + 1..c]), fold(&all[c..]).0);
+            let den = 1.0 - between.2 * r;
+            let a = if down { between.1 / den } else { between.1 * r / den };
+            (mf, na, Far::Dielectric(nb), true, a)
+        }
+        Piece::Face { na, nb, rough: Some(mf) } => {
+            let (between, r1) = (fold(&all[c..k]), fold(&all[..c]).2);
+            let den = 1.0 - r1 * between.0;
+            let a = if down { between.3 * r1 / den } else { between.3 / den };
+            (mf, na, Far::Dielectric(nb), false, a)
+        }
+        Piece::Conductor { na, n, k: kk, rough: Some(mf) } => {
+            let (between, r1) = (fold(&all[c..k]), fold(&all[..c]).2);
+            let den = 1.0 - r1 * between.0;
+            let a = if down { between.3 * r1 / den } else { between.3 / den };
+            (mf, na, Far::Conductor(n, kk), false, a)
+        }
+        _ => return 0.0,
+    };
+    if a * b == 0.0 || !a.is_finite() {
+        return 0.0;
+    }
+    let n_o = match far {
+        Far::Dielectric(nb) if transmit => nb,
+        _ => n_face,
+    };
+    let (Some(mu_i), Some(mu_o)) = (mu_of_invariant(s_b, n_face), mu_of_invariant(s, n_o)) else {
+        return 0.0;
+    };
+    let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
+    let phi = dir[1].to_radians();
+    let o = [so * phi.cos(), so * phi.sin(), if transmit { -mu_o } else { mu_o }];
+    let exact = mf.bsdf([si, 0.0, mu_i], o, n_face, far);
+    let mut coef = vec![0.0; built.max(1)];
+    mf.fourier(mu_o, mu_i, n_face, far, transmit, &mut coef);
+    a * b * (exact - cosine_series(&coef, (phi - PI).cos(), summed))
+}
