@@ -107,16 +107,7 @@ pub fn inside_radiance(
     let beams: Vec<f64> = scene.beam_invariant().into_iter().collect();
     let diffuse = beams.is_empty();
     let (polar, p_of) = distinct_polar(directions);
-    let last = if diffuse {
-        0
-    } else if opts.all_effects || scene.has_rough_face() {
-        // A rough face's lobe needs every order the streams resolve (as at
-        // the exits; the azimuthal test ends the series early).
-        2 * streams - 1
-    } else {
-        last_moment(&layers)
-    }
-    .min(opts.max_fourier_order.unwrap_or(usize::MAX));
+    let last = last_order(scene, opts, &layers, diffuse, streams);
     let nd = depths.len();
     // The layers whose single scattering is made exact (as at the exits).
     let tms = if diffuse { Vec::new() } else { corrected_layers(scene, &layers, opts.delta_m) };
@@ -189,21 +180,7 @@ pub fn inside_radiance(
         r.iter_mut().zip(c).for_each(|(r, c)| *r += c);
     }
     if let (Some(&s_b), true) = (beams.first(), scene.has_rough_face()) {
-        for (k, &z) in depths.iter().enumerate() {
-            let cut = shared.cut(&layers, z);
-            for (j, &d) in directions.iter().enumerate() {
-                out.radiance[k][j] += inside_single(
-                    scene,
-                    &cut.above,
-                    &cut.below,
-                    n_sub,
-                    s_b,
-                    cut.n_cut,
-                    d,
-                    (shared.orders, out.orders),
-                );
-            }
-        }
+        shared.exact_rough_path(s_b, &mut out);
     }
     if !out.radiance.iter().flatten().all(|v| v.is_finite()) {
         return Err(MultifluxError::Numerical {
@@ -212,6 +189,27 @@ pub fn inside_radiance(
         });
     }
     Ok(out)
+}
+
+/// The last Fourier order of the radiance inside: 0 for diffuse light; every
+/// order the streams resolve with all effects or a rough face (whose lobe
+/// needs them, as at the exits; the azimuthal test ends the series early);
+/// else the last non-negligible moment; never above the options' bound.
+fn last_order(
+    scene: &MonoScene,
+    opts: &MultifluxOptions,
+    layers: &[Scaled],
+    diffuse: bool,
+    streams: usize,
+) -> usize {
+    let last = if diffuse {
+        0
+    } else if opts.all_effects || scene.has_rough_face() {
+        2 * streams - 1
+    } else {
+        last_moment(layers)
+    };
+    last.min(opts.max_fourier_order.unwrap_or(usize::MAX))
 }
 
 /// The distinct polar angles of `directions` in the local hemisphere
@@ -251,6 +249,21 @@ struct Shared<'a> {
 }
 
 impl Shared<'_> {
+    /// The beam's single rough path (invariant `s_b`) exact at every depth
+    /// and direction of `out` in place of the truncated series its orders
+    /// hold (eq. D14a of docs/field.md).
+    fn exact_rough_path(&self, s_b: f64, out: &mut InsideRadiance) {
+        for (k, &z) in out.depths.iter().enumerate() {
+            let cut = self.cut(self.layers, z);
+            for (j, &d) in out.directions.iter().enumerate() {
+                let (above, below) = (&cut.above, &cut.below);
+                let orders = (self.orders, out.orders);
+                out.radiance[k][j] +=
+                    inside_single(self.scene, above, below, self.n_sub, s_b, cut.n_cut, d, orders);
+            }
+        }
+    }
+
     /// The probes' streams at depth `z` in Fourier order `m`: the stack cut
     /// at `z`, each half added with the probes as extra directions, and the
     /// two halves' adding read off at the cut.
