@@ -23,7 +23,7 @@ use km_core::{MonoScene, Substrate};
 use crate::MultifluxError;
 use crate::adding::probed::Augmented;
 use crate::correction::PeakCorrection;
-use crate::engine::rough_paths::inside_single;
+use crate::engine::rough_paths::InsidePath;
 use crate::engine::{ExtraSetup, Extras, FourierStop, OrderPieces, corrected_layers, last_moment};
 use crate::field::{input, locate, split_at_depth};
 use crate::options::MultifluxOptions;
@@ -253,13 +253,15 @@ impl Shared<'_> {
     /// and direction of `out` in place of the truncated series its orders
     /// hold (eq. D14a of docs/field.md).
     fn exact_rough_path(&self, s_b: f64, out: &mut InsideRadiance) {
+        let orders = (self.orders, out.orders);
         for (k, &z) in out.depths.iter().enumerate() {
             let cut = self.cut(self.layers, z);
-            for (j, &d) in out.directions.iter().enumerate() {
-                let (above, below) = (&cut.above, &cut.below);
-                let orders = (self.orders, out.orders);
-                out.radiance[k][j] +=
-                    inside_single(self.scene, above, below, self.n_sub, s_b, cut.n_cut, d, orders);
+            let halves = (&cut.above[..], &cut.below[..]);
+            let Some(path) = InsidePath::new(self.scene, halves, self.n_sub, cut.n_cut, s_b) else {
+                continue;
+            };
+            for (r, &d) in out.radiance[k].iter_mut().zip(&out.directions) {
+                *r += path.correction(d, orders);
             }
         }
     }

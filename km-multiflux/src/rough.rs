@@ -715,14 +715,16 @@ pub(crate) fn double_path(
     let g1 = side_column(&c1, 0, u_b, 1);
     // The second meeting: its face's context, the exit's side `y` and the
     // side of the medium between (`x`).
+    let second;
     let (c2, y, x) = match faces.exit {
         Exit::Below(f2, b) => {
-            (Ctx { face: f2, sides: vec![Side::new(mid), Side::new(b)], orders: c1.orders }, 1, 0)
+            second = Ctx { face: f2, sides: vec![Side::new(mid), Side::new(b)], orders: c1.orders };
+            (&second, 1, 0)
         }
-        Exit::Back => (c1_again(&c1, a, mid), 0, 1),
-        Exit::Inside => (c1_again(&c1, a, mid), 1, 1),
+        Exit::Back => (&c1, 0, 1),
+        Exit::Inside => (&c1, 1, 1),
     };
-    let g2 = side_column(&c2, y, u_o, x);
+    let g2 = side_column(c2, y, u_o, x);
     let (mf2, n_o, far2, transmit2) = (c2.face.mf, c2.sides[y].n, c2.far(y), x != y);
     // The probe's row of eq. R16' without its cell integral.
     let row = (n_o * n_o) / (nm * nm) / (2.0 * nm * nm);
@@ -773,11 +775,6 @@ pub(crate) fn double_path(
         }
     }
     DoublePath { held, exact }
-}
-
-/// The first face's context once more (for its second meeting).
-fn c1_again<'a>(c1: &Ctx<'_>, a: &'a MediumNodes, mid: &'a MediumNodes) -> Ctx<'a> {
-    Ctx { face: c1.face, sides: vec![Side::new(a), Side::new(mid)], orders: c1.orders }
 }
 
 /// `mu` of `u` on a side with `top = n^2`.

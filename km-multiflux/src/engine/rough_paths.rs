@@ -90,26 +90,44 @@ impl Piece {
 
 /// The stack as delta paths see it, top down.
 fn pieces(scene: &MonoScene, layers: &[Scaled], n_sub: Option<f64>) -> Vec<Piece> {
+    pieces_cut(scene, layers, &[], n_sub).0
+}
+
+/// [`pieces`] of the layers `above` a cut and `below` it, and the index of
+/// the first piece below the cut.
+fn pieces_cut(
+    scene: &MonoScene,
+    above: &[Scaled],
+    below: &[Scaled],
+    n_sub: Option<f64>,
+) -> (Vec<Piece>, usize) {
     let mut out = Vec::new();
-    let mut above = scene.ambient_n();
-    for l in layers {
-        if l.n != above {
-            out.push(Piece::Face { na: above, nb: l.n, rough: l.rough });
+    let mut n_prev = scene.ambient_n();
+    let mut cut = 0;
+    for (i, l) in above.iter().chain(below).enumerate() {
+        if i == above.len() {
+            cut = out.len();
+        }
+        if l.n != n_prev {
+            out.push(Piece::Face { na: n_prev, nb: l.n, rough: l.rough });
         }
         out.push(Piece::Layer { tau: l.tau, n: l.n });
-        above = l.n;
+        n_prev = l.n;
+    }
+    if below.is_empty() {
+        cut = out.len();
     }
     match (scene.substrate(), n_sub) {
-        (Substrate::Transparent { .. }, Some(ns)) if ns != above => {
-            out.push(Piece::Face { na: above, nb: ns, rough: scene.substrate_roughness() });
+        (Substrate::Transparent { .. }, Some(ns)) if ns != n_prev => {
+            out.push(Piece::Face { na: n_prev, nb: ns, rough: scene.substrate_roughness() });
         }
         (Substrate::Transparent { .. }, _) => {}
         (Substrate::Conductor { n, k }, _) => {
-            out.push(Piece::Conductor { na: above, n, k, rough: scene.substrate_roughness() })
+            out.push(Piece::Conductor { na: n_prev, n, k, rough: scene.substrate_roughness() })
         }
         _ => out.push(Piece::Dark),
     }
-    out
+    (out, cut)
 }
 
 /// The first rough face under a beam and the delta paths to and from it.
@@ -374,88 +392,93 @@ pub(crate) struct AtPolar {
     double: Option<DoublePath>,
 }
 
-/// The beam's single rough path to a direction inside the stack (eq. R18 at
-/// a depth, docs/field.md §2a): the exact value minus the truncated series
-/// the probes hold, for the stack's layers cut at the depth into `above`
-/// and `below` (the cut in a medium of index `n_cut`), the beam of
-/// invariant `s_b`, the direction `[theta, phi]` (degrees; theta from the
-/// downward normal, above 90 up-going), the faces' `built` orders and the
-/// `summed` ones. 0 where no single rough path reaches the direction.
+/// The beam's single rough path to the directions inside the stack at one
+/// depth (eq. R18 at a depth, eq. D14a of docs/field.md): the stack's
+/// layers cut there into `above` and `below` (the cut in a medium of index
+/// `n_cut`), and the first rough face under the beam.
 ///
-/// With the first rough face above the cut, the face transmits the beam and
-/// the pieces between carry it down to the cut (`t`), where the probe's own
-/// reflections between the two parts (`r'` of the part above, from below;
-/// `r` of the part below) divide it by `1 - r' r` (eq. D14): down-going
+/// With that face above the cut, it transmits the beam and the pieces
+/// between carry it down to the cut (`t`), where the probe's own reflections
+/// between the two parts (`r'` of the part above, from below; `r` of the
+/// part below) divide it by `1 - r' r` (eq. D14): down-going
 /// `t / (1 - r' r)`, up-going `t r / (1 - r' r)`. With the face below the
 /// cut it reflects the beam, and the pieces between carry it up: up-going
 /// `t / (1 - r' r)`, down-going `t r' / (1 - r' r)`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn inside_single(
-    scene: &MonoScene,
-    above: &[Scaled],
-    below: &[Scaled],
-    n_sub: Option<f64>,
-    s_b: f64,
+pub(crate) struct InsidePath {
+    all: Vec<Piece>,
+    /// The first piece below the cut, and the first rough face.
+    cut: usize,
+    face: usize,
+    mf: Microfacet,
+    n_face: f64,
+    far: Far,
     n_cut: f64,
-    dir: [f64; 2],
-    (built, summed): (usize, usize),
-) -> f64 {
-    let layers: Vec<Scaled> = above.iter().chain(below).cloned().collect();
-    let all = pieces(scene, &layers, n_sub);
-    // The cut: after the pieces of the layers above it (their faces and
-    // layers; the layer split at the cut has no face between its halves).
-    let mut c = 0;
-    let mut n_prev = scene.ambient_n();
-    for l in above {
-        c += if l.n != n_prev { 2 } else { 1 };
-        n_prev = l.n;
+    s_b: f64,
+    /// The beam's irradiance at the face.
+    b: f64,
+}
+
+impl InsidePath {
+    /// The path of the beam of invariant `s_b`, if it meets a rough face.
+    pub(crate) fn new(
+        scene: &MonoScene,
+        (above, below): (&[Scaled], &[Scaled]),
+        n_sub: Option<f64>,
+        n_cut: f64,
+        s_b: f64,
+    ) -> Option<InsidePath> {
+        let (all, cut) = pieces_cut(scene, above, below, n_sub);
+        let (face, mf, n_face, far) = all.iter().enumerate().find_map(|(k, p)| match *p {
+            Piece::Face { na, nb, rough: Some(mf) } => Some((k, mf, na, Far::Dielectric(nb))),
+            Piece::Conductor { na, n, k: kk, rough: Some(mf) } => {
+                Some((k, mf, na, Far::Conductor(n, kk)))
+            }
+            _ => None,
+        })?;
+        let b = all[..face].iter().fold(CLEAR, |acc, p| star(acc, p.op(s_b, false))).1;
+        (b != 0.0).then_some(InsidePath { all, cut, face, mf, n_face, far, n_cut, s_b, b })
     }
-    let Some(k) = all.iter().position(|p| {
-        matches!(p, Piece::Face { rough: Some(_), .. } | Piece::Conductor { rough: Some(_), .. })
-    }) else {
-        return 0.0;
-    };
-    let b = all[..k].iter().fold(CLEAR, |acc, p| star(acc, p.op(s_b, false))).1;
-    let down = dir[0] < 90.0;
-    let local = if down { dir[0] } else { 180.0 - dir[0] };
-    let s = n_cut * local.to_radians().sin();
-    let fold = |ps: &[Piece]| ps.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true)));
-    let (mf, n_face, far, transmit, a) = match all[k] {
-        Piece::Face { na, nb, rough: Some(mf) } if k < c => {
+
+    /// The exact value minus the truncated series the probes hold at the
+    /// direction `[theta, phi]` (degrees; theta from the downward normal,
+    /// above 90 up-going), the face's `built` orders and the `summed` ones; 0
+    /// where the single rough path does not reach it.
+    pub(crate) fn correction(&self, dir: [f64; 2], (built, summed): (usize, usize)) -> f64 {
+        let (all, c, k) = (&self.all, self.cut, self.face);
+        let down = dir[0] < 90.0;
+        let local = if down { dir[0] } else { 180.0 - dir[0] };
+        let s = self.n_cut * local.to_radians().sin();
+        let fold = |ps: &[Piece]| ps.iter().fold(CLEAR, |acc, p| star(acc, p.op(s, true)));
+        // A face above the cut (a dielectric: a conductor is the floor)
+        // transmits; one below reflects.
+        let transmit = k < c;
+        let a = if transmit {
             let (between, r) = (fold(&all[k + 1..c]), fold(&all[c..]).0);
             let den = 1.0 - between.2 * r;
-            let a = if down { between.1 / den } else { between.1 * r / den };
-            (mf, na, Far::Dielectric(nb), true, a)
-        }
-        Piece::Face { na, nb, rough: Some(mf) } => {
+            if down { between.1 / den } else { between.1 * r / den }
+        } else {
             let (between, r1) = (fold(&all[c..k]), fold(&all[..c]).2);
             let den = 1.0 - r1 * between.0;
-            let a = if down { between.3 * r1 / den } else { between.3 / den };
-            (mf, na, Far::Dielectric(nb), false, a)
+            if down { between.3 * r1 / den } else { between.3 / den }
+        };
+        let n_o = match self.far {
+            Far::Dielectric(nb) if transmit => nb,
+            _ => self.n_face,
+        };
+        let (Some(mu_i), Some(mu_o)) =
+            (mu_of_invariant(self.s_b, self.n_face), mu_of_invariant(s, n_o))
+        else {
+            return 0.0;
+        };
+        if a == 0.0 || !a.is_finite() {
+            return 0.0;
         }
-        Piece::Conductor { na, n, k: kk, rough: Some(mf) } => {
-            let (between, r1) = (fold(&all[c..k]), fold(&all[..c]).2);
-            let den = 1.0 - r1 * between.0;
-            let a = if down { between.3 * r1 / den } else { between.3 / den };
-            (mf, na, Far::Conductor(n, kk), false, a)
-        }
-        _ => return 0.0,
-    };
-    if a * b == 0.0 || !a.is_finite() {
-        return 0.0;
+        let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
+        let phi = dir[1].to_radians();
+        let o = [so * phi.cos(), so * phi.sin(), if transmit { -mu_o } else { mu_o }];
+        let exact = self.mf.bsdf([si, 0.0, mu_i], o, self.n_face, self.far);
+        let mut coef = vec![0.0; built.max(1)];
+        self.mf.fourier(mu_o, mu_i, self.n_face, self.far, transmit, &mut coef);
+        a * self.b * (exact - cosine_series(&coef, (phi - PI).cos(), summed))
     }
-    let n_o = match far {
-        Far::Dielectric(nb) if transmit => nb,
-        _ => n_face,
-    };
-    let (Some(mu_i), Some(mu_o)) = (mu_of_invariant(s_b, n_face), mu_of_invariant(s, n_o)) else {
-        return 0.0;
-    };
-    let (si, so) = ((1.0 - mu_i * mu_i).max(0.0).sqrt(), (1.0 - mu_o * mu_o).max(0.0).sqrt());
-    let phi = dir[1].to_radians();
-    let o = [so * phi.cos(), so * phi.sin(), if transmit { -mu_o } else { mu_o }];
-    let exact = mf.bsdf([si, 0.0, mu_i], o, n_face, far);
-    let mut coef = vec![0.0; built.max(1)];
-    mf.fourier(mu_o, mu_i, n_face, far, transmit, &mut coef);
-    a * b * (exact - cosine_series(&coef, (phi - PI).cos(), summed))
 }
