@@ -65,6 +65,7 @@ use faer::Mat;
 use km_core::fresnel::reflectance;
 use km_core::microfacet::{
     Far, FourierSum, Microfacet, conductor_reflectance, graded_edges, panel_rule_mu,
+    panel_rule_mu_near,
 };
 use rayon::prelude::*;
 
@@ -203,13 +204,17 @@ fn side_column(c: &Ctx<'_>, x: usize, u_in: f64, y: usize) -> Vec<f64> {
     let mut out = vec![0.0; side.len() * mo];
     let transmit = y != x;
     let top = side.n * side.n;
-    // Panels: cell edges, kinks, graded towards the peak u = u_in.
+    // Panels: cell edges, kinks, graded towards the peak u = u_in; the
+    // panels far from the peak, the kinks and the normal (u = 0, where the
+    // odd orders go as sqrt(u)) with fewer points.
+    let mut singular = c.face.mf.kink_cuts(mu_in, n_i, far, transmit);
     let mut cuts = side.upper.clone();
-    cuts.extend(c.face.mf.kink_cuts(mu_in, n_i, far, transmit));
+    cuts.extend(&singular);
+    singular.extend([u_in, 0.0]);
     let width = c.face.mf.lobe_width_u(top, mu_in.min(side.mu_of(u_in)))
         / km_core::microfacet::sharpness(n_i, far, transmit);
     let edges = graded_edges(0.0, top, u_in, width, &cuts);
-    let (pts, wts) = panel_rule_mu(&edges, top);
+    let (pts, wts) = panel_rule_mu_near(&edges, top, &singular);
     // Per cell, the points' samples summed before the moments (eq. R6a).
     let mut sums: Vec<Option<FourierSum>> = (0..side.len()).map(|_| None).collect();
     for (&u, &wt) in pts.iter().zip(&wts) {
