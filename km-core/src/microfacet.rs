@@ -1551,6 +1551,32 @@ mod tests {
         assert!(worst.0 < 1e-5, "{:.3e} at {}", worst.0, worst.1);
     }
 
+    /// The pairs of directions the two tests of [`AtPair`] go over: both
+    /// distributions at `alphas`, every face of `faces`, reflection and
+    /// transmission, normal to grazing cosines; `f` gets the pair, its
+    /// microfacets, and `(n_i, far, transmit, mu_i, mu_o)`.
+    fn each_pair(
+        faces: &[(f64, Far)],
+        alphas: [f64; 3],
+        mut f: impl FnMut(AtPair, &Microfacet, (f64, Far, bool, f64, f64)),
+    ) {
+        for dist in [Distribution::Ggx, Distribution::Beckmann] {
+            for alpha in alphas {
+                let mf = Microfacet::new(alpha, dist).unwrap();
+                for &(n_i, far) in faces {
+                    for transmit in [false, true] {
+                        for mu_i in [1.0, 0.9, 0.5, 0.1, 0.01] {
+                            for mu_o in [1.0, 0.8, 0.45, 0.2, 0.02] {
+                                let pair = AtPair::new(mf, (mu_o, mu_i), n_i, far, transmit);
+                                f(pair, &mf, (n_i, far, transmit, mu_i, mu_o));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// [`AtPair`] is [`Microfacet::bsdf`] written in the half vector's
     /// parts: the same values to rounding over both distributions, glass
     /// from either side (refraction kinks and total reflection), a
@@ -1563,30 +1589,16 @@ mod tests {
             (1.33, Far::Conductor(0.47, 2.4)),
         ];
         let mut worst = 0.0f64;
-        for dist in [Distribution::Ggx, Distribution::Beckmann] {
-            for alpha in [0.05, 0.3, 0.8] {
-                let mf = Microfacet::new(alpha, dist).unwrap();
-                for (n_i, far) in faces {
-                    for transmit in [false, true] {
-                        for mu_i in [1.0, 0.9, 0.5, 0.1, 0.01] {
-                            for mu_o in [1.0, 0.8, 0.45, 0.2, 0.02] {
-                                let pair = AtPair::new(mf, (mu_o, mu_i), n_i, far, transmit);
-                                let (si, so) =
-                                    ((1.0 - mu_i * mu_i).sqrt(), (1.0 - mu_o * mu_o).sqrt());
-                                let z = if transmit { -mu_o } else { mu_o };
-                                for k in 0..=36 {
-                                    let (s, c) = (PI * k as f64 / 36.0).sin_cos();
-                                    let want =
-                                        mf.bsdf([si, 0.0, mu_i], [-so * c, -so * s, z], n_i, far);
-                                    let got = pair.at(c, s);
-                                    worst = worst.max((got - want).abs() / want.abs().max(1e-3));
-                                }
-                            }
-                        }
-                    }
-                }
+        each_pair(&faces, [0.05, 0.3, 0.8], |pair, mf, (n_i, far, transmit, mu_i, mu_o)| {
+            let (si, so) = ((1.0 - mu_i * mu_i).sqrt(), (1.0 - mu_o * mu_o).sqrt());
+            let z = if transmit { -mu_o } else { mu_o };
+            for k in 0..=36 {
+                let (s, c) = (PI * k as f64 / 36.0).sin_cos();
+                let want = mf.bsdf([si, 0.0, mu_i], [-so * c, -so * s, z], n_i, far);
+                let got = pair.at(c, s);
+                worst = worst.max((got - want).abs() / want.abs().max(1e-3));
             }
-        }
+        });
         assert!(worst < 1e-11, "{worst:.2e}");
     }
 
@@ -1606,32 +1618,21 @@ mod tests {
         let (c, s): (Vec<f64>, Vec<f64>) =
             (0..=720).map(|k| (PI * k as f64 / 720.0).sin_cos()).map(|(s, c)| (c, s)).unzip();
         let mut compared = 0;
-        for dist in [Distribution::Ggx, Distribution::Beckmann] {
-            for alpha in [0.01, 0.3, 0.8] {
-                let mf = Microfacet::new(alpha, dist).unwrap();
-                for (n_i, far) in faces {
-                    for transmit in [false, true] {
-                        for mu_i in [1.0, 0.9, 0.5, 0.1, 0.01] {
-                            for mu_o in [1.0, 0.8, 0.45, 0.2, 0.02] {
-                                let pair = AtPair::new(mf, (mu_o, mu_i), n_i, far, transmit);
-                                let mut got = vec![0.0; c.len()];
-                                pair.add_many((&c, &s), 0.7, &mut got);
-                                for k in 0..c.len() {
-                                    let want = 0.0 + 0.7 * pair.at(c[k], s[k]);
-                                    assert_eq!(
-                                        got[k].to_bits(),
-                                        want.to_bits(),
-                                        "{dist:?} {alpha} {n_i} {far:?} t{transmit} {mu_i} {mu_o} {k}: {} {want}",
-                                        got[k]
-                                    );
-                                    compared += usize::from(want != 0.0);
-                                }
-                            }
-                        }
-                    }
-                }
+        each_pair(&faces, [0.01, 0.3, 0.8], |pair, mf, (n_i, far, transmit, mu_i, mu_o)| {
+            let mut got = vec![0.0; c.len()];
+            pair.add_many((&c, &s), 0.7, &mut got);
+            for k in 0..c.len() {
+                let want = 0.0 + 0.7 * pair.at(c[k], s[k]);
+                let (alpha, dist) = (mf.alpha(), mf.distribution());
+                assert_eq!(
+                    got[k].to_bits(),
+                    want.to_bits(),
+                    "{dist:?} {alpha} {n_i} {far:?} t{transmit} {mu_i} {mu_o} {k}: {} {want}",
+                    got[k]
+                );
+                compared += usize::from(want != 0.0);
             }
-        }
+        });
         assert!(compared > 100_000, "{compared}");
     }
 
