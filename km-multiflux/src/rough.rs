@@ -269,9 +269,11 @@ pub fn rough_operators(
 
 /// The blocks `Q[y][x]` (rows: cells of side `y`, columns: cells of side
 /// `x`, per order) integrated as in eq. R11, before symmetrisation. The
-/// incoming points' columns are independent and computed in parallel
-/// (rayon), then summed in a fixed order: the result does not depend on the
-/// number of threads.
+/// transmission is integrated from the side above only (`t`); the other
+/// way is its transpose (eq. R11'), as the symmetrisation of eq. R12 would
+/// make it. The incoming points'
+/// columns are independent and computed in parallel (rayon), then summed
+/// in a fixed order: the result does not depend on the number of threads.
 fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
     let ns = c.sides.len();
     let mo = c.orders;
@@ -285,16 +287,40 @@ fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
             })
         })
         .collect();
-    let columns: Vec<Column> = points.par_iter().map(|&(x, _, u, _)| column(c, x, u)).collect();
+    // The side whose points integrate the transmission: above (from below
+    // on the 1.5 / 1.4 face of docs/rough.md §7's three-layer table, its
+    // energy check read 4.4e-4 instead of 1.5e-4).
+    let t = 0;
+    let columns: Vec<Column> = points
+        .par_iter()
+        .map(|&(x, _, u, _)| {
+            (0..ns)
+                .map(|y| if y == x || x == t { side_column(c, x, u, y) } else { Vec::new() })
+                .collect()
+        })
+        .collect();
     for (&(x, j, _, vq), col) in points.iter().zip(&columns) {
         let nx = c.sides[x].len();
-        for y in 0..ns {
+        for y in (0..ns).filter(|&y| !col[y].is_empty()) {
             let inv = 1.0 / (c.sides[y].n * c.sides[y].n);
             for i in 0..c.sides[y].len() {
                 let dst = &mut q[y][x][(i * nx + j) * mo..(i * nx + j + 1) * mo];
                 for (d, g) in dst.iter_mut().zip(&col[y][i * mo..(i + 1) * mo]) {
                     *d += vq * g * inv;
                 }
+            }
+        }
+    }
+    if ns == 2 {
+        // Q[o][t](i, j) = Q[t][o](j, i) (eq. R11': R11's 1/n_Y^2 makes the
+        // exact integrals symmetric).
+        let o = 1 - t;
+        let (nt, no) = (c.sides[t].len(), c.sides[o].len());
+        for i in 0..nt {
+            for j in 0..no {
+                let (from, to) = ((j * nt + i) * mo, (i * no + j) * mo);
+                let v = q[o][t][from..from + mo].to_vec();
+                q[t][o][to..to + mo].copy_from_slice(&v);
             }
         }
     }
