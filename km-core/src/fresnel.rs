@@ -59,13 +59,24 @@ pub fn reflectance(cos_i: f64, n_i: f64, n_t: f64) -> f64 {
     if n_i == n_t {
         return 0.0;
     }
+    reflectance_across(cos_i, n_i, n_t)
+}
+
+/// [`reflectance`] for `n_i != n_t`, written without branches (total
+/// internal reflection as a select: its lanes compute a NaN they then
+/// drop), so that loops over many cosines vectorise; the same values bit
+/// for bit.
+#[inline(always)]
+pub fn reflectance_across(cos_i: f64, n_i: f64, n_t: f64) -> f64 {
     let cos_i = cos_i.abs().min(1.0);
-    let Some(cos_t) = snell_cos_t(cos_i, n_i, n_t) else {
-        return 1.0;
-    };
+    // Snell's law (eq. F1) as in [`snell_cos_t`].
+    let eta = n_i / n_t;
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    let cos_t = (1.0 - sin2_t).sqrt();
     let rs = (n_i * cos_i - n_t * cos_t) / (n_i * cos_i + n_t * cos_t);
     let rp = (n_t * cos_i - n_i * cos_t) / (n_t * cos_i + n_i * cos_t);
-    (0.5 * (rs * rs + rp * rp)).min(1.0)
+    let r = (0.5 * (rs * rs + rp * rp)).min(1.0);
+    if sin2_t >= 1.0 { 1.0 } else { r }
 }
 
 /// The Gauss–Legendre rule and integral, kept here for compatibility: they

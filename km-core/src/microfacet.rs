@@ -496,7 +496,7 @@ impl AtPair {
                 for (o, (&c1, &s1)) in lanes {
                     let (hxy2, l2) = parts(c1, s1);
                     let d = ggx_d(hxy2, l2);
-                    let f = dielectric_select(0.5 * l2.sqrt(), n_i, n_t);
+                    let f = crate::fresnel::reflectance_across(0.5 * l2.sqrt(), n_i, n_t);
                     *o += weight * (k * f * d);
                 }
             }
@@ -517,7 +517,7 @@ impl AtPair {
                     let l = l2.sqrt();
                     let ih = sign * (n_i + n_o * io) / l;
                     let oh = sign * (n_i * io + n_o) / l;
-                    let f = dielectric_select(ih, n_i, n_o);
+                    let f = crate::fresnel::reflectance_across(ih, n_i, n_o);
                     let v = k * (ih * oh).abs() * (1.0 - f) * d / l2;
                     *o += weight * if ih <= 0.0 || oh >= 0.0 { 0.0 } else { v };
                 }
@@ -529,21 +529,6 @@ impl AtPair {
             }
         }
     }
-}
-
-/// [`crate::fresnel::reflectance`] for `n_i != n_t` with its branches as
-/// selects (the same value bit for bit; the lanes of total reflection
-/// compute a NaN they then drop).
-#[inline(always)]
-fn dielectric_select(cos_i: f64, n_i: f64, n_t: f64) -> f64 {
-    let cos_i = cos_i.abs().min(1.0);
-    let eta = n_i / n_t;
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
-    let cos_t = (1.0 - sin2_t).sqrt();
-    let rs = (n_i * cos_i - n_t * cos_t) / (n_i * cos_i + n_t * cos_t);
-    let rp = (n_t * cos_i - n_i * cos_t) / (n_t * cos_i + n_i * cos_t);
-    let r = (0.5 * (rs * rs + rp * rp)).min(1.0);
-    if sin2_t >= 1.0 { 1.0 } else { r }
 }
 
 impl Microfacet {
@@ -1621,9 +1606,9 @@ mod tests {
         each_pair(&faces, [0.01, 0.3, 0.8], |pair, mf, (n_i, far, transmit, mu_i, mu_o)| {
             let mut got = vec![0.0; c.len()];
             pair.add_many((&c, &s), 0.7, &mut got);
+            let (alpha, dist) = (mf.alpha(), mf.distribution());
             for k in 0..c.len() {
                 let want = 0.0 + 0.7 * pair.at(c[k], s[k]);
-                let (alpha, dist) = (mf.alpha(), mf.distribution());
                 assert_eq!(
                     got[k].to_bits(),
                     want.to_bits(),

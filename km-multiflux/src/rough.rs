@@ -269,11 +269,11 @@ pub fn rough_operators(
 
 /// The blocks `Q[y][x]` (rows: cells of side `y`, columns: cells of side
 /// `x`, per order) integrated as in eq. R11, before symmetrisation. The
-/// transmission is integrated from the side above only (`t`); the other
-/// way is its transpose (eq. R11'), as the symmetrisation of eq. R12 would
-/// make it. The incoming points'
-/// columns are independent and computed in parallel (rayon), then summed
-/// in a fixed order: the result does not depend on the number of threads.
+/// transmission is integrated from the points of the side above only; the
+/// other way is its transpose (eq. R11'), as the symmetrisation of eq. R12
+/// would make it. The incoming points' columns are independent and computed
+/// in parallel (rayon), then summed in a fixed order: the result does not
+/// depend on the number of threads.
 fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
     let ns = c.sides.len();
     let mo = c.orders;
@@ -287,15 +287,15 @@ fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
             })
         })
         .collect();
-    // The side whose points integrate the transmission: above (from below
-    // on the 1.5 / 1.4 face of docs/rough.md §7's three-layer table, its
-    // energy check read 4.4e-4 instead of 1.5e-4).
-    let t = 0;
+    // The transmission from the points above (from below, on the 1.5 / 1.4
+    // face of docs/rough.md §7's three-layer table, its energy check read
+    // 4.4e-4 instead of 1.5e-4); the points below integrate their
+    // reflection alone.
     let columns: Vec<Column> = points
         .par_iter()
         .map(|&(x, _, u, _)| {
             (0..ns)
-                .map(|y| if y == x || x == t { side_column(c, x, u, y) } else { Vec::new() })
+                .map(|y| if y == x || x == 0 { side_column(c, x, u, y) } else { Vec::new() })
                 .collect()
         })
         .collect();
@@ -311,16 +311,14 @@ fn node_blocks(c: &Ctx<'_>) -> Vec<Vec<Vec<f64>>> {
             }
         }
     }
-    if ns == 2 {
-        // Q[o][t](i, j) = Q[t][o](j, i) (eq. R11': R11's 1/n_Y^2 makes the
+    if let [above, below] = &mut q[..] {
+        // Q[0][1](i, j) = Q[1][0](j, i) (eq. R11': R11's 1/n_Y^2 makes the
         // exact integrals symmetric).
-        let o = 1 - t;
-        let (nt, no) = (c.sides[t].len(), c.sides[o].len());
-        for i in 0..nt {
-            for j in 0..no {
-                let (from, to) = ((j * nt + i) * mo, (i * no + j) * mo);
-                let v = q[o][t][from..from + mo].to_vec();
-                q[t][o][to..to + mo].copy_from_slice(&v);
+        let (n0, n1) = (c.sides[0].len(), c.sides[1].len());
+        for i in 0..n0 {
+            for j in 0..n1 {
+                let (from, to) = ((j * n0 + i) * mo, (i * n1 + j) * mo);
+                above[1][to..to + mo].copy_from_slice(&below[0][from..from + mo]);
             }
         }
     }
