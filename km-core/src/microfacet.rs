@@ -447,6 +447,17 @@ impl AtPair {
 }
 
 impl AtPair {
+    /// Whether a pair of refraction is dark at every azimuth (eq. R6c): its
+    /// facets carry light only where `i.o < -n_rare / n_dense` and the half
+    /// vector's vertical part points to the denser side; `i.o` is least at
+    /// `psi = 0`. (Lit, it is dark for `i.o >= -n_rare / n_dense`, i.e.
+    /// beyond its kink, [`Microfacet::fourier_add`].)
+    fn dark_refraction(&self) -> bool {
+        let r = self.n_i.min(self.n_o) / self.n_i.max(self.n_o);
+        let towards_dense = if self.n_i < self.n_o { self.hz < 0.0 } else { self.hz > 0.0 };
+        !towards_dense || -self.siso - self.mumu >= -r
+    }
+
     /// `out[k] += weight * at(c[k], s[k])` for every `k`: the same values
     /// as [`AtPair::at`] bit for bit (the same operations in the same
     /// order, branches as selects), in loops the compiler vectorises, on
@@ -760,6 +771,12 @@ impl Microfacet {
         let si = (1.0 - mu_i * mu_i).max(0.0).sqrt();
         let so = (1.0 - mu_o * mu_o).max(0.0).sqrt();
         let pair = AtPair::new(*self, (mu_o, mu_i), n_i, far, transmit);
+        // A pair of refraction dark at every azimuth adds nothing; one lit
+        // is dark beyond its kink (eq. R6c).
+        let refraction = pair.transmit && pair.k != 0.0;
+        if refraction && pair.dark_refraction() {
+            return;
+        }
         // The lobe in psi (eq. R6b): the (generalised) half vector
         // n_i i + n_o o has the vertical part h_z and a horizontal part of
         // length sqrt(a^2 + b^2 - 2 a b cos psi), a = n_i sin_i, b = n_o sin_o;
@@ -805,11 +822,13 @@ impl Microfacet {
         let n = acc.len();
         let (skip_lo, skip_hi) =
             span.map_or((n, n), |(lo, hi)| (lo * PANEL_POINTS, (hi + 1) * PANEL_POINTS));
-        for r in [0..skip_lo, skip_hi..n] {
+        // Beyond a kink of refraction, dark (above).
+        let end = if refraction { skip_hi } else { n };
+        for r in [0..skip_lo, skip_hi..end] {
             pair.add_many((&rule.cos[r.clone()], &rule.sin[r.clone()]), w2, &mut acc[r]);
         }
         if let (Some(pk), Some((a, b))) = (kink, span) {
-            let (lo, hi) = (rule.edges[a], rule.edges[b + 1]);
+            let (lo, hi) = (rule.edges[a], if refraction { pk } else { rule.edges[b + 1] });
             KINK.with(|k| {
                 let k = &mut *k.borrow_mut();
                 kink_panel(lo, pk, hi, orders, (&mut k.cos, &mut k.sin, &mut k.w));
@@ -1585,6 +1604,49 @@ mod tests {
             }
         });
         assert!(worst < 1e-11, "{worst:.2e}");
+    }
+
+    /// Eq. R6c against the pointwise BSDF ([`Microfacet::bsdf`], the
+    /// vector form): a pair of refraction that [`AtPair::dark_refraction`]
+    /// calls dark is zero at every azimuth, and a lit one is zero at every
+    /// azimuth beyond its kink `cos psi_k = (n_rare / n_dense - mu_i mu_o)
+    /// / (sin_i sin_o)`; both are met (lit pairs with a kink inside, dark
+    /// pairs), so the test sees both cases.
+    #[test]
+    fn refraction_is_dark_where_eq_r6c_says() {
+        let faces = [
+            (1.0, Far::Dielectric(1.5)),
+            (1.5, Far::Dielectric(1.0)),
+            (1.33, Far::Dielectric(1.0)),
+            (1.0, Far::Dielectric(1.7)),
+        ];
+        let (mut dark, mut kinked, mut lit_values) = (0, 0, 0);
+        each_pair(&faces, [0.05, 0.3, 0.8], |pair, mf, (n_i, far, transmit, mu_i, mu_o)| {
+            if !transmit {
+                return;
+            }
+            let Far::Dielectric(n_t) = far else { return };
+            let (si, so) = ((1.0 - mu_i * mu_i).sqrt(), (1.0 - mu_o * mu_o).sqrt());
+            let r = n_i.min(n_t) / n_i.max(n_t);
+            let is_dark = pair.dark_refraction();
+            let kink = ((r - mu_i * mu_o) / (si * so)).clamp(-1.0, 1.0).acos();
+            dark += usize::from(is_dark);
+            kinked += usize::from(!is_dark && kink < PI);
+            for k in 0..=2000 {
+                let psi = PI * k as f64 / 2000.0;
+                let f =
+                    mf.bsdf([si, 0.0, mu_i], [-so * psi.cos(), -so * psi.sin(), -mu_o], n_i, far);
+                if is_dark || psi > kink {
+                    assert_eq!(
+                        f, 0.0,
+                        "{n_i} -> {n_t}, {mu_i} {mu_o}, psi {psi} (kink {kink}): {f}"
+                    );
+                } else {
+                    lit_values += usize::from(f > 0.0);
+                }
+            }
+        });
+        assert!(dark > 100 && kinked > 100 && lit_values > 10_000, "{dark} {kinked} {lit_values}");
     }
 
     /// [`AtPair::add_many`] (the loops the compiler vectorises) against
