@@ -30,7 +30,9 @@ C DISORT at NSTR = 128 with 1000 moments and its intensity correction
 (km at 64 streams is listed against it). Each tool runs at the cheapest
 setting of its ladder whose largest relative BRDF error is within 1 %
 (DISORT: NSTR with 128 moments and the intensity correction; km: streams,
-its defaults otherwise); times are best of --repeats in-process calls (DISORT:
+its defaults otherwise), at each of two azimuthal tolerances (DISORT's ACCUR
+0 and 1e-4; km's default and `--fourier-tol 1e-4`), each tool timed at the
+faster of its two; times are best of --repeats in-process calls (DISORT:
 `solve()` on an allocated state; km: `km solve --repeat K`, `seconds_best`),
 alternated per case, and the ratio km / DISORT is printed per g. Writes
 out/peers-brdf.md.
@@ -206,6 +208,13 @@ BRDF_THETA0 = 30.0
 BRDF_THETA = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0]
 BRDF_PHI = [0.0, 45.0, 90.0, 135.0, 180.0]
 BRDF_TOL = 0.01
+# The azimuthal tolerances tried for each tool: its default, and a hundredth
+# of BRDF_TOL (km: `--fourier-tol`, which tests the multiply scattered light,
+# docs/multiflux.md eq. 5j; DISORT: ACCUR, which tests the whole Fourier
+# coefficient). Each tool is timed at the cheaper of its two settings that
+# meet BRDF_TOL.
+KM_FOURIER_TOLS = [None, 1e-4]
+DISORT_ACCURS = [0.0, 1e-4]
 # Every stream count at the low end (where the ratio is decided), so that
 # neither tool is held to a coarser step than the other: km N and DISORT
 # NSTR = 2N meet the same accuracy on this case.
@@ -246,13 +255,14 @@ BRDF_RUNNER = r"""
 import json, math, sys, time
 import nanodisort as nd
 from nanodisort.utils.phase_functions import henyey_greenstein
-g, nstr, nmom, repeats, theta0, thetas, phis = json.load(sys.stdin)
+g, nstr, nmom, repeats, theta0, thetas, phis, accur = json.load(sys.stdin)
 s = nd.DisortState()
 s.nstr = nstr; s.nmom = nmom; s.nlyr = 1; s.ntau = 1
 mus = sorted(math.cos(math.radians(t)) for t in thetas)
 s.numu = len(mus); s.nphi = len(phis)
 s.usrtau = True; s.usrang = True; s.onlyfl = False; s.lamber = True; s.planck = False
 s.quiet = True; s.intensity_correction = True; s.old_intensity_correction = True
+s.accur = accur
 s.allocate()
 s.dtauc[:] = [1.0]; s.ssalb[:] = [0.9]; s.pmom[:, 0] = henyey_greenstein(g, nmom)
 s.utau[:] = [0.0]; s.umu[:] = mus; s.phi[:] = [(p - 180.0) % 360.0 for p in phis]
@@ -274,24 +284,27 @@ def run_runner(py: Path, runner: str, args):
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-def run_km(km: Path, scene: Path, streams, repeats):
-    """`km solve --streams N --repeat K --json`: the output, with `seconds`
-    (the first call) and `best` (the best of the K)."""
+def run_km(km: Path, scene: Path, streams, repeats, extra=()):
+    """`km solve --streams N --repeat K --json` (and the flags `extra`): the
+    output, with `seconds` (the first call) and `best` (the best of the K)."""
     res = subprocess.run([str(km), "solve", str(scene), "--method", "multiflux", "--streams",
-                          str(streams), "--repeat", str(max(1, repeats)), "--json"],
+                          str(streams), "--repeat", str(max(1, repeats)), "--json", *extra],
                          capture_output=True, text=True, check=True)
     d = json.loads(res.stdout)
     d["best"] = d.get("seconds_best", d["seconds"])
     return d
 
 
-def disort_brdf(py: Path, g, nstr, nmom, repeats):
-    return run_runner(py, BRDF_RUNNER, [g, nstr, nmom, repeats, BRDF_THETA0, BRDF_THETA, BRDF_PHI])
+def disort_brdf(py: Path, g, nstr, nmom, repeats, accur=0.0):
+    return run_runner(py, BRDF_RUNNER,
+                      [g, nstr, nmom, repeats, BRDF_THETA0, BRDF_THETA, BRDF_PHI, accur])
 
 
-def km_brdf(km: Path, scene: Path, streams, repeats):
-    d = run_km(km, scene, streams, repeats)
-    return {"brdf": d["brdf"], "seconds": d["best"], "first": d["seconds"]}
+def km_brdf(km: Path, scene: Path, streams, repeats, fourier_tol=None):
+    extra = () if fourier_tol is None else ("--fourier-tol", repr(fourier_tol))
+    d = run_km(km, scene, streams, repeats, extra)
+    return {"brdf": d["brdf"], "seconds": d["best"], "first": d["seconds"],
+            "orders": d.get("fourier_orders")}
 
 
 def max_rel(a, ref):
@@ -319,50 +332,77 @@ def brdf_main(root: Path, out: Path, py: Path, profile: str, repeats: int, km: P
              f"Slab tau = 1, albedo 0.9, HG g, black below, light at {BRDF_THETA0} degrees; "
              f"{len(BRDF_THETA) * len(BRDF_PHI)} exit directions. Reference: DISORT NSTR = 128, "
              "1000 moments, intensity correction. Each tool at the cheapest setting of its ladder "
-             f"within {BRDF_TOL:.0%} (largest relative BRDF error); best of {repeats} "
-             "in-process calls.", "",
-             "| g | km streams | km error | km warm | km first call | DISORT NSTR | DISORT error "
-             "| DISORT warm | DISORT first call | km warm / DISORT warm "
-             "| km first / DISORT first | km 64 vs reference |",
+             f"within {BRDF_TOL:.0%} (largest relative BRDF error): streams at each of its "
+             "azimuthal tolerances (km: its default and `--fourier-tol 1e-4`; DISORT: ACCUR 0 "
+             "and 1e-4), the faster of the two; best of "
+             f"{repeats} in-process calls.", "",
+             "| g | km streams, fourier_tol (orders) | km error | km warm | km first call "
+             "| DISORT NSTR, ACCUR | DISORT error | DISORT warm | DISORT first call "
+             "| km warm / DISORT warm | km first / DISORT first | km 64 vs reference |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    ratios = []
+    ratios, notes = [], []
     for g in BRDF_G:
         scene = scenes / f"brdf-g{g}.toml"
         scene.write_text(brdf_scene_toml(g))
         ref = disort_brdf(py, g, 128, 1000, 1)["brdf"]
         km64 = max_rel(km_brdf(km, scene, 64, 1)["brdf"], ref)
 
-        def run_km(n, reps=1):
-            r = km_brdf(km, scene, n, reps)
+        def run_km(setting, reps=1):
+            n, tol = setting
+            r = km_brdf(km, scene, n, reps, tol)
             return r, max_rel(r["brdf"], ref)
 
-        def run_disort(n, reps=1):
-            r = disort_brdf(py, g, n, 128, reps)
+        def run_disort(setting, reps=1):
+            n, accur = setting
+            r = disort_brdf(py, g, n, 128, reps, accur)
             return None if "error" in r else (r, max_rel(r["brdf"], ref))
 
-        nk, _ = cheapest(KM_LADDER, run_km)
-        nd_, _ = cheapest(DISORT_LADDER, run_disort)
-        if nk is None or nd_ is None:
-            lines.append(f"| {g} | {nk} | | | | {nd_} | | | | not reached | | {km64:.1e} |")
+        # Per tool the cheapest stream count at each azimuthal tolerance,
+        # then the faster of those settings (three alternated rounds each).
+        km_sets = [cheapest([(n, t) for n in KM_LADDER], run_km)[0] for t in KM_FOURIER_TOLS]
+        nd_sets = [cheapest([(n, a) for n in DISORT_LADDER], run_disort)[0]
+                   for a in DISORT_ACCURS]
+        km_sets = [k for k in km_sets if k is not None]
+        nd_sets = [k for k in nd_sets if k is not None]
+        if not km_sets or not nd_sets:
+            lines.append(f"| {g} | {km_sets} | | | | {nd_sets} | | | | not reached | | "
+                         f"{km64:.1e} |")
             continue
-        # Timing, alternated: three rounds, best of each tool.
-        kt, kf, dt, df = [], [], [], []
+        kt = {k: [] for k in km_sets}
+        kf = {k: [] for k in km_sets}
+        dt = {k: [] for k in nd_sets}
+        df = {k: [] for k in nd_sets}
+        ke, de, ko = {}, {}, {}
         for _ in range(3):
-            rk, ek = run_km(nk, repeats)
-            kt.append(rk["seconds"])
-            kf.append(rk["first"])
-            rd, ed = run_disort(nd_, repeats)
-            dt.append(rd["seconds"])
-            df.append(rd["first"])
-        ratio = min(kt) / min(dt)
+            for k in km_sets:
+                rk, ke[k] = run_km(k, repeats)
+                kt[k].append(rk["seconds"])
+                kf[k].append(rk["first"])
+                ko[k] = rk["orders"]
+            for k in nd_sets:
+                rd, de[k] = run_disort(k, repeats)
+                dt[k].append(rd["seconds"])
+                df[k].append(rd["first"])
+        bk = min(km_sets, key=lambda k: min(kt[k]))
+        bd = min(nd_sets, key=lambda k: min(dt[k]))
+        ratio = min(kt[bk]) / min(dt[bd])
         ratios.append(ratio)
-        kf1, df1 = statistics.median(kf), statistics.median(df)
-        lines.append(f"| {g} | {nk} | {ek:.1e} | {min(kt) * 1e6:.1f} µs | {kf1 * 1e6:.0f} µs | "
-                     f"{nd_} | {ed:.1e} | {min(dt) * 1e6:.1f} µs | {df1 * 1e6:.0f} µs | "
-                     f"{ratio:.2f} | {kf1 / df1:.2f} | {km64:.1e} |")
+        kf1, df1 = statistics.median(kf[bk]), statistics.median(df[bd])
+        tol = "default" if bk[1] is None else f"{bk[1]:g}"
+        lines.append(f"| {g} | {bk[0]}, {tol} ({ko[bk]}) | {ke[bk]:.1e} | "
+                     f"{min(kt[bk]) * 1e6:.1f} µs | {kf1 * 1e6:.0f} µs | "
+                     f"{bd[0]}, {bd[1]:g} | {de[bd]:.1e} | {min(dt[bd]) * 1e6:.1f} µs | "
+                     f"{df1 * 1e6:.0f} µs | {ratio:.2f} | {kf1 / df1:.2f} | {km64:.1e} |")
+        others = [f"km {k[0]}, {'default' if k[1] is None else f'{k[1]:g}'}: "
+                  f"{min(kt[k]) * 1e6:.1f} µs" for k in km_sets if k != bk]
+        others += [f"DISORT {k[0]}, {k[1]:g}: {min(dt[k]) * 1e6:.1f} µs"
+                   for k in nd_sets if k != bd]
+        if others:
+            notes.append(f"g {g}, the other settings within {BRDF_TOL:.0%}: " + "; ".join(others))
     if ratios:
         geo = math.exp(sum(math.log(r) for r in ratios) / len(ratios))
         lines += ["", f"Geometric mean km warm / DISORT: {geo:.2f}"]
+    lines += [""] + notes
     (out / "peers-brdf.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

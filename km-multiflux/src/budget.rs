@@ -313,8 +313,17 @@ pub fn check_bsdf(
     Ok(est)
 }
 
-/// `opts.max_work` (default [`DEFAULT_MAX_WORK`]) when it is a positive number.
+/// `opts.max_work` (default [`DEFAULT_MAX_WORK`]) when it is a positive number
+/// (and `opts.fourier_tol` in `[0, MAX_FOURIER_TOL]`).
 fn checked_budget(opts: &MultifluxOptions) -> Result<f64, MultifluxError> {
+    let tol = opts.fourier_tol;
+    if !(0.0..=crate::options::MAX_FOURIER_TOL).contains(&tol) {
+        return Err(MultifluxError::Option {
+            name: "fourier_tol",
+            value: tol,
+            reason: "must lie in [0, 0.1]",
+        });
+    }
     let budget = opts.max_work.unwrap_or(DEFAULT_MAX_WORK);
     if budget.is_nan() || budget <= 0.0 {
         return Err(MultifluxError::Option {

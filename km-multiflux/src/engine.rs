@@ -15,9 +15,12 @@
 //! exit direction at azimuth `phi` is then a cosine sum (eq. B1).
 //!
 //! The azimuthal series stops as the request says ([`Stop`]): for a table,
-//! once two orders are below `FOURIER_TOL` of the largest order-0
-//! coefficient; for a solve, once two orders are below `FOURIER_TOL` of the
+//! once two orders are below `fourier_tol` of the largest order-0
+//! coefficient; for a solve, once two orders are below `fourier_tol` of the
 //! largest value so far at the solve's own directions (DISORT's ACCUR test).
+//! Where the corrected layers give each order's once-scattered part in
+//! closed form, the rule tests the rest, and the orders after the stop are
+//! that closed form alone (eq. 5i–5k of docs/multiflux.md).
 
 mod extras;
 mod pieces;
@@ -31,7 +34,7 @@ use km_core::{MonoScene, Substrate};
 
 use crate::MultifluxError;
 use crate::correction::PeakCorrection;
-use crate::options::{FOURIER_TOL, MultifluxOptions};
+use crate::options::MultifluxOptions;
 use crate::prepare::{media_grid, planned_cutoff, scale_layers};
 use crate::quadrature::{AngularGrid, MediumNodes};
 use crate::slab::{SlabOrder, slab_beam_reflection, slab_beam_response};
@@ -136,9 +139,9 @@ pub(crate) enum Incidence<'a> {
 /// When the azimuthal series stops.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Stop {
-    /// Two orders below `FOURIER_TOL` of the largest order-0 coefficient.
+    /// Two orders below `fourier_tol` of the largest order-0 coefficient.
     Table,
-    /// Two orders below `FOURIER_TOL` of the largest value so far at the
+    /// Two orders below `fourier_tol` of the largest value so far at the
     /// request's directions.
     Values,
     /// Every order up to the last (all effects).
@@ -354,18 +357,24 @@ pub(crate) fn last_moment(layers: &[Scaled]) -> usize {
 }
 
 /// Azimuthal convergence (as DISORT's ACCUR test): after two consecutive
-/// orders whose Fourier amplitudes are all below [`FOURIER_TOL`] times the
-/// reference value (the largest value so far, or the table's largest order-0
-/// coefficient).
-#[derive(Default)]
+/// orders whose Fourier amplitudes (or their multiply scattered parts,
+/// eq. 5j of docs/multiflux.md) are all below
+/// [`MultifluxOptions::fourier_tol`] times the reference value (the largest
+/// value so far, or the table's largest order-0 coefficient).
 pub(crate) struct FourierStop {
     small_orders: usize,
+    tol: f64,
 }
 
 impl FourierStop {
+    /// The rule at the relative tolerance `tol` ([`MultifluxOptions::fourier_tol`]).
+    pub(crate) fn new(tol: f64) -> Self {
+        FourierStop { small_orders: 0, tol }
+    }
+
     /// After an order whose largest amplitude is `term`: whether the series has converged.
     pub(crate) fn converged(&mut self, term: f64, reference: f64) -> bool {
-        self.small_orders = if term <= FOURIER_TOL * reference { self.small_orders + 1 } else { 0 };
+        self.small_orders = if term <= self.tol * reference { self.small_orders + 1 } else { 0 };
         self.small_orders == 2
     }
 }

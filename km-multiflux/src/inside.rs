@@ -70,7 +70,7 @@ pub const MAX_INSIDE_VALUES: usize = 1_000_000;
 ///
 /// Orders: 0 for diffuse light; under a beam up to the last non-negligible
 /// phase-function moment (every order the streams resolve with all
-/// effects), stopping after two orders below `FOURIER_TOL` of the largest
+/// effects), stopping after two orders below `fourier_tol` of the largest
 /// value (DISORT's test). Under a beam with delta-M, the single scattering
 /// of the layers whose phase function the kept moments do not represent is
 /// made exact (TMS, Nakajima & Tanaka 1988; `docs/field.md` eq. D17): the
@@ -135,7 +135,7 @@ pub fn inside_radiance(
         tms: &tms,
         corr: &corr,
     };
-    let mut stop = FourierStop::default();
+    let mut stop = FourierStop::new(opts.fourier_tol);
     let mut largest = 0.0f64;
     for m in 0..=last {
         let mut term = 0.0f64;

@@ -86,8 +86,12 @@ fn streams_rule(scene: &MonoScene, grazing: bool, angles: bool) -> usize {
 }
 
 /// Relative size below which two consecutive Fourier orders end the azimuthal
-/// series of the BRDF/BTDF (DISORT's azimuthal convergence test, ACCUR).
+/// series of the BRDF/BTDF (DISORT's azimuthal convergence test, ACCUR): the
+/// default of [`MultifluxOptions::fourier_tol`].
 pub const FOURIER_TOL: f64 = 1e-9;
+
+/// The largest [`MultifluxOptions::fourier_tol`] accepted.
+pub const MAX_FOURIER_TOL: f64 = 0.1;
 
 /// Options of the Fourier–Gauss solver.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,6 +103,12 @@ pub struct MultifluxOptions {
     pub neumann_order: Option<usize>,
     /// Upper bound on the Fourier order used for BRDF/BTDF (`None`: as needed).
     pub max_fourier_order: Option<usize>,
+    /// The azimuthal series of BRDF/BTDF values stops after two consecutive
+    /// orders whose multiply scattered part is at most this fraction of the
+    /// largest value (eq. 5i–5k of `docs/multiflux.md`; DISORT's ACCUR);
+    /// default [`FOURIER_TOL`], at most [`MAX_FOURIER_TOL`]. The series'
+    /// error stays within a few times it (docs/benchmarks.md §9).
+    pub fourier_tol: f64,
     /// Delta-M scaling of the phase function (Wiscombe 1977); default true.
     pub delta_m: bool,
     /// With `delta_m`, keep `3N/2` Legendre moments instead of `2N` for a
@@ -129,6 +139,7 @@ impl Default for MultifluxOptions {
             streams: None,
             neumann_order: None,
             max_fourier_order: None,
+            fourier_tol: FOURIER_TOL,
             delta_m: true,
             peak_truncation: true,
             all_effects: false,

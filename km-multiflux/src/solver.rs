@@ -194,7 +194,7 @@ fn solve_mono_parts(
     let values = values.unwrap_or(DirectionValues { brdf: Vec::new(), btdf: Vec::new() });
     let mut out = ChannelResult { brdf: values.brdf, btdf: values.btdf, ..Default::default() };
     let residual = finish(&prep, &table, &mut out)?;
-    Ok(ChannelPart { result: out, streams, orders: table.orders, residual, cutoff: prep.cutoff })
+    Ok(ChannelPart { result: out, streams, orders: table.solved, residual, cutoff: prep.cutoff })
 }
 
 /// The distinct exit polar angles of `dirs` in order of first appearance,

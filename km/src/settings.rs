@@ -159,6 +159,18 @@ pub const SETTINGS: &[Setting] = &[
         sets: "the Neumann order of multi-flux adding",
     },
     Setting {
+        name: "fourier_tol",
+        methods: &[Mf],
+        kind: Kind::Real { min: 0.0, max: km_multiflux::options::MAX_FOURIER_TOL },
+        default: Some("1e-9"),
+        conflicts: &[],
+        help: "Stop the azimuthal series of BRDF/BTDF values after two Fourier orders whose \
+              multiply scattered part is at most TOL of the largest value (DISORT's ACCUR; \
+              docs/multiflux.md eq. 5j) [multiflux]",
+        value_name: Some("TOL"),
+        sets: "where the azimuthal series of multi-flux BRDF/BTDF values stops",
+    },
+    Setting {
         name: "directions",
         methods: &[Ds],
         kind: Kind::Count { min: 4, max: 2000 },
@@ -564,6 +576,7 @@ impl Settings {
             Mf => MethodOptions::Multiflux(km_multiflux::MultifluxOptions {
                 streams: usize_of("streams"),
                 neumann_order: usize_of("order"),
+                fourier_tol: self.real("fourier_tol").unwrap_or(km_multiflux::options::FOURIER_TOL),
                 all_effects,
                 ..Default::default()
             }),

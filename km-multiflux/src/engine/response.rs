@@ -14,6 +14,9 @@ use crate::prepare::flux;
 use crate::quadrature::mu_of_invariant;
 use crate::stack::Scaled;
 
+mod once;
+use once::OnceOrders;
+
 /// The correction data of one scattering layer (eq. B1, second line).
 #[derive(Debug, Clone)]
 pub(crate) struct TmsLayer {
@@ -76,6 +79,9 @@ pub struct ChannelBsdf {
     /// The same for the BTDF (all zero for an opaque substrate).
     pub(crate) coef_t: Vec<f64>,
     pub(crate) orders: usize,
+    /// Of those, the orders solved by the operators (the others are their
+    /// once-scattered part alone, eq. 5k of docs/multiflux.md).
+    pub(crate) solved: usize,
     pub(crate) tms: Vec<TmsLayer>,
     /// Exit polar angles and whether light leaves below.
     pub(crate) no: usize,
@@ -390,6 +396,9 @@ pub(crate) struct Accumulator<'a> {
     stop: FourierStop,
     largest: f64,
     at: Option<AtDirections>,
+    /// The once-scattered part of each order (eq. 5i of docs/multiflux.md),
+    /// where the corrected layers give it and the series may stop early.
+    once: Option<OnceOrders>,
 }
 
 impl<'a> Accumulator<'a> {
@@ -404,6 +413,7 @@ impl<'a> Accumulator<'a> {
             coef_r: Vec::new(),
             coef_t: Vec::new(),
             orders: 0,
+            solved: 0,
             tms: Vec::new(),
             no,
             transmits: prep.n_sub.is_some(),
@@ -437,9 +447,10 @@ impl<'a> Accumulator<'a> {
             coefs_t: Vec::with_capacity(ni * no * (req.last_order + 1)),
             orders: 0,
             out,
-            stop: FourierStop::default(),
+            stop: FourierStop::new(prep.opts.fourier_tol),
             largest: 0.0,
             at,
+            once: None,
         }
     }
 
@@ -459,10 +470,46 @@ impl<'a> Accumulator<'a> {
         if m == 0 {
             self.totals(read);
         }
-        let done = self.sum_at_directions(&cr[start..], &ct[start..], m, term);
+        // The stopping rule reads the light scattered more than once.
+        let rest = match &mut self.once {
+            Some(once) if m > 0 => {
+                once.order(&self.out.tms, m, pairs);
+                once.rest(&cr[start..], &ct[start..], self.prep.n_sub.is_some())
+            }
+            _ => term,
+        };
+        let done = self.sum_at_directions(&cr[start..], &ct[start..], m, (term, rest));
         (self.coefs_r, self.coefs_t) = (cr, ct);
         self.orders += 1;
+        self.out.solved = self.orders;
+        if done {
+            self.once_tail(m);
+        }
         Ok(done)
+    }
+
+    /// After the series stopped at order `last`: the orders up to the
+    /// request's last as their once-scattered part alone (eq. 5k of
+    /// docs/multiflux.md), into the record and the directions' values.
+    fn once_tail(&mut self, last: usize) {
+        let Some(once) = &mut self.once else { return };
+        let pairs = self.ni * self.no;
+        let below = self.prep.n_sub.is_some();
+        for m in last + 1..=self.req.last_order {
+            once.order(&self.out.tms, m, pairs);
+            self.coefs_r.extend_from_slice(&once.sr);
+            self.coefs_t.extend_from_slice(&once.st);
+            self.orders += 1;
+            if let Some(at) = &mut self.at {
+                at.azimuths.cos_order(m, &mut at.cos_m);
+                for (k, (&o, &a)) in at.o.iter().zip(&at.azimuths.of).enumerate() {
+                    at.values.brdf[k] += once.sr[o] * at.cos_m[a];
+                    if below {
+                        at.values.btdf[k] += once.st[o] * at.cos_m[a];
+                    }
+                }
+            }
+        }
     }
 
     /// Totals and delta parts per incidence, and the correction weights.
@@ -480,11 +527,28 @@ impl<'a> Accumulator<'a> {
                 self.out.tms.push(read.marker_weights(&self.prep.layers[l], l));
             }
         }
+        // A rough face's exact path (eq. R18 of docs/rough.md) replaces
+        // the summed orders of its series, so every order is summed there.
+        if !self.out.tms.is_empty()
+            && !self.prep.scene.has_rough_face()
+            && self.req.stop != Stop::Never
+        {
+            self.once = Some(OnceOrders::default());
+        }
     }
 
     /// Sum order `m` into the values at the solve's directions (with the
     /// correction after order 0) and apply the stopping rule.
-    fn sum_at_directions(&mut self, cr: &[f64], ct: &[f64], m: usize, term: f64) -> bool {
+    /// `term` is the order's largest coefficient, `rest` the largest of
+    /// what the stopping rule tests (the multiply scattered part, or the
+    /// whole where the once-scattered part is not known).
+    fn sum_at_directions(
+        &mut self,
+        cr: &[f64],
+        ct: &[f64],
+        m: usize,
+        (term, rest): (f64, f64),
+    ) -> bool {
         if m == 0 {
             self.largest = term;
         }
@@ -492,7 +556,7 @@ impl<'a> Accumulator<'a> {
             // The table's rule: against the largest order-0 coefficient.
             return m > 0
                 && matches!(self.req.stop, Stop::Table)
-                && self.stop.converged(term, self.largest);
+                && self.stop.converged(rest, self.largest);
         };
         at.azimuths.cos_order(m, &mut at.cos_m);
         let below = self.prep.n_sub.is_some();
@@ -516,11 +580,11 @@ impl<'a> Accumulator<'a> {
         }
         match self.req.stop {
             Stop::Never => false,
-            Stop::Table => self.stop.converged(term, self.largest),
+            Stop::Table => self.stop.converged(rest, self.largest),
             Stop::Values => {
                 let v = &at.values;
                 let largest = v.brdf.iter().chain(&v.btdf).fold(0.0f64, |a, &b| a.max(b.abs()));
-                self.stop.converged(term, largest)
+                self.stop.converged(rest, largest)
             }
         }
     }
