@@ -470,9 +470,10 @@ impl<'a> Accumulator<'a> {
         if m == 0 {
             self.totals(read);
         }
-        // The stopping rule reads the light scattered more than once.
+        // The stopping rule reads the light scattered more than once (not
+        // needed at the last order: nothing is left to save).
         let rest = match &mut self.once {
-            Some(once) if m > 0 => {
+            Some(once) if m > 0 && m < self.req.last_order => {
                 once.order(&self.out.tms, m, pairs);
                 once.rest(&cr[start..], &ct[start..], self.prep.n_sub.is_some())
             }

@@ -16,8 +16,8 @@ impl TmsLayer {
     /// Lambda_l^m(mu_b) Lambda_l^m(mu_x) [W_R (-1)^(l-m) + W_T]`, the
     /// Fourier coefficient of `W_R q p*(c_R) + W_T q p*(c_T)` (the
     /// addition theorem of the Legendre polynomials; `Lambda(-mu_x) =
-    /// (-1)^(l-m) Lambda(mu_x)` in `c_R`). `lam` is scratch.
-    pub(super) fn add_once_order(&self, m: usize, [sr, st]: [&mut [f64]; 2], lam: &mut Vec<f64>) {
+    /// (-1)^(l-m) Lambda(mu_x)` in `c_R`).
+    fn add_once_order(&self, m: usize, [sr, st]: [&mut [f64]; 2], scratch: &mut Scratch) {
         let nl = self.chiw.len();
         if m >= nl || self.omega == 0.0 {
             return;
@@ -25,7 +25,9 @@ impl TmsLayer {
         let (ni, no) = (self.mu_b.len(), self.mu_r.len());
         // Lambda_l^m at every cosine: the beams, then the reflected and the
         // transmitted exits (zeros where a direction does not exist here).
-        let rec = LegendreRecurrence::new(m, nl);
+        let (a, b) = (std::mem::take(&mut scratch.a), std::mem::take(&mut scratch.b));
+        let rec = LegendreRecurrence::new_in(m, nl, a, b);
+        let lam = &mut scratch.lam;
         lam.clear();
         lam.resize((ni + 2 * no) * nl, 0.0);
         let cosines = self.mu_b.iter().chain(&self.mu_r).chain(&self.mu_t);
@@ -55,7 +57,17 @@ impl TmsLayer {
                 }
             }
         }
+        (scratch.a, scratch.b) = rec.into_buffers();
     }
+}
+
+/// The buffers of [`TmsLayer::add_once_order`], kept over the orders: the
+/// Legendre values and the recurrence's coefficients.
+#[derive(Default)]
+struct Scratch {
+    lam: Vec<f64>,
+    a: Vec<f64>,
+    b: Vec<f64>,
 }
 
 /// The once-scattered part of each order of a request (eq. 5i), summed
@@ -65,7 +77,7 @@ pub(super) struct OnceOrders {
     /// Order `m`'s coefficients, reflected and transmitted, `[i * no + o]`.
     pub(super) sr: Vec<f64>,
     pub(super) st: Vec<f64>,
-    lam: Vec<f64>,
+    scratch: Scratch,
 }
 
 impl OnceOrders {
@@ -76,7 +88,7 @@ impl OnceOrders {
             v.resize(pairs, 0.0);
         }
         for l in tms {
-            l.add_once_order(m, [&mut self.sr, &mut self.st], &mut self.lam);
+            l.add_once_order(m, [&mut self.sr, &mut self.st], &mut self.scratch);
         }
     }
 
