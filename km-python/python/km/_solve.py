@@ -139,6 +139,7 @@ def solve(
     cone: float | None = None,
     streams: int | None = None,
     order: int | None = None,
+    fourier_tol: float | None = None,
     directions: int | None = None,
     samples: int | None = None,
     seed: int | None = None,
@@ -152,9 +153,9 @@ def solve(
 ) -> Solution:
     return _km._solve(scene, method, **_given(dict(
         tolerance=tolerance, all_effects=all_effects, km_mapping=km_mapping, km_model=km_model,
-        cone=cone, streams=streams, order=order, directions=directions, samples=samples,
-        seed=seed, threads=threads, estimator=estimator, budget=budget, repeat=repeat,
-        fdr=fdr, dipole=dipole, analog=analog)))
+        cone=cone, streams=streams, order=order, fourier_tol=fourier_tol, directions=directions,
+        samples=samples, seed=seed, threads=threads, estimator=estimator, budget=budget,
+        repeat=repeat, fdr=fdr, dipole=dipole, analog=analog)))
 
 
 solve.__doc__ = f"""Solve a scene, as ``km solve SCENE --method METHOD --json`` does.
@@ -311,6 +312,7 @@ def solve_many(
     cone: float | None = None,
     streams: int | None = None,
     order: int | None = None,
+    fourier_tol: float | None = None,
     directions: int | None = None,
     samples: int | None = None,
     seed: int | None = None,
@@ -324,9 +326,9 @@ def solve_many(
 ) -> Batch:
     options = _given(dict(
         tolerance=tolerance, all_effects=all_effects, km_mapping=km_mapping, km_model=km_model,
-        cone=cone, streams=streams, order=order, directions=directions, samples=samples,
-        seed=seed, threads=threads, estimator=estimator, budget=budget, repeat=repeat,
-        fdr=fdr, dipole=dipole, analog=analog))
+        cone=cone, streams=streams, order=order, fourier_tol=fourier_tol, directions=directions,
+        samples=samples, seed=seed, threads=threads, estimator=estimator, budget=budget,
+        repeat=repeat, fdr=fdr, dipole=dipole, analog=analog))
     if params is not None:
         if not isinstance(scenes, Scene):
             raise KmError("solve_many: params= sweeps one scene; pass a single Scene")
