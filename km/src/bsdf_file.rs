@@ -264,6 +264,11 @@ pub struct BsdfLists {
     /// would choose for the most demanding incidence).
     #[cfg_attr(feature = "clap", arg(long))]
     pub streams: Option<usize>,
+    /// Stop the azimuthal series after two Fourier orders whose multiply
+    /// scattered part is at most TOL of the largest order-0 coefficient, in
+    /// [0, 0.1] (default 1e-9; docs/multiflux.md eq. 5j, docs/bsdf.md §1).
+    #[cfg_attr(feature = "clap", arg(long, value_name = "TOL"))]
+    pub fourier_tol: Option<f64>,
     /// Factor on the grid budgets (angle pairs, table values) and on the work
     /// budget of the operators (docs/limits.md).
     #[cfg_attr(feature = "clap", arg(long, default_value_t = BsdfLists::default().budget))]
@@ -279,6 +284,7 @@ impl Default for BsdfLists {
             phi: None,
             from_below: false,
             streams: None,
+            fourier_tol: None,
             budget: 1.0,
         }
     }
@@ -297,6 +303,9 @@ pub struct BsdfRequest {
     pub from_below: bool,
     /// Gauss nodes per hemisphere and Snell segment (`None`: the solver's choice).
     pub streams: Option<usize>,
+    /// Where the azimuthal series stops (`MultifluxOptions::fourier_tol`;
+    /// `None`: its default).
+    pub fourier_tol: Option<f64>,
     /// The file format.
     pub format: BsdfFormat,
     /// Factor on the grid budgets of [`check_grid`] and on the work budget
@@ -410,6 +419,7 @@ impl BsdfRequest {
             phi,
             from_below: lists.from_below,
             streams: lists.streams,
+            fourier_tol: lists.fourier_tol,
             format,
             budget: lists.budget,
             channel_mix: None,
@@ -474,6 +484,7 @@ pub fn bsdf_file(
     let solver = MultifluxOptions {
         streams: request.streams,
         max_work: Some(max_work),
+        fourier_tol: request.fourier_tol.unwrap_or(km_multiflux::options::FOURIER_TOL),
         ..Default::default()
     };
     let side = if request.from_below { Side::Below } else { Side::Above };

@@ -66,6 +66,7 @@ proptest! {
             phi,
             from_below: false,
             streams: Some(streams),
+            fourier_tol: None,
             format: BsdfFormat::Npz,
             budget,
             channel_mix: None,

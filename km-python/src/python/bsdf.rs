@@ -285,6 +285,7 @@ impl PyBsdfCore {
             phi: ph.clone(),
             from_below: side == "below",
             streams: self.opts.streams,
+            fourier_tol: Some(self.opts.fourier_tol),
             format: km::bsdf_file::BsdfFormat::Npz,
             budget: 1.0,
             channel_mix: None,
