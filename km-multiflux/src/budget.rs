@@ -289,6 +289,7 @@ pub fn check_bsdf(
     theta_i: &[f64],
     theta_o: &[f64],
 ) -> Result<WorkEstimate, MultifluxError> {
+    check_fourier_tol(opts)?;
     let budget = checked_budget(opts)?;
     let est = estimate_bsdf(scene, opts, theta_i, theta_o);
     if est.units > budget {
@@ -313,17 +314,17 @@ pub fn check_bsdf(
     Ok(est)
 }
 
-/// `opts.max_work` (default [`DEFAULT_MAX_WORK`]) when it is a positive number
-/// (and `opts.fourier_tol` in `[0, MAX_FOURIER_TOL]`).
-fn checked_budget(opts: &MultifluxOptions) -> Result<f64, MultifluxError> {
+/// `opts.fourier_tol` in `[0, MAX_FOURIER_TOL]` (not a number is refused).
+fn check_fourier_tol(opts: &MultifluxOptions) -> Result<(), MultifluxError> {
     let tol = opts.fourier_tol;
-    if !(0.0..=crate::options::MAX_FOURIER_TOL).contains(&tol) {
-        return Err(MultifluxError::Option {
-            name: "fourier_tol",
-            value: tol,
-            reason: "must lie in [0, 0.1]",
-        });
+    if (0.0..=crate::options::MAX_FOURIER_TOL).contains(&tol) {
+        return Ok(());
     }
+    Err(MultifluxError::Option { name: "fourier_tol", value: tol, reason: "must lie in [0, 0.1]" })
+}
+
+/// `opts.max_work` (default [`DEFAULT_MAX_WORK`]) when it is a positive number.
+fn checked_budget(opts: &MultifluxOptions) -> Result<f64, MultifluxError> {
     let budget = opts.max_work.unwrap_or(DEFAULT_MAX_WORK);
     if budget.is_nan() || budget <= 0.0 {
         return Err(MultifluxError::Option {
@@ -351,6 +352,7 @@ pub fn check(scene: &Scene, opts: &MultifluxOptions) -> Result<WorkEstimate, Mul
             reason: "must be <= 100000 (leave it unset for exact adding, which is cheaper)",
         });
     }
+    check_fourier_tol(opts)?;
     let budget = checked_budget(opts)?;
     let est = estimate(scene, opts);
     if est.units > budget {

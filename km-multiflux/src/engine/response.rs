@@ -380,6 +380,21 @@ struct AtDirections {
     values: DirectionValues,
 }
 
+impl AtDirections {
+    /// Order `m`'s coefficients `cr`, `ct` (`[o]`, incidence 0) times
+    /// `cos m(phi - 180 deg)` into the values (the BTDF's when light
+    /// leaves `below`).
+    fn add_order(&mut self, m: usize, cr: &[f64], ct: &[f64], below: bool) {
+        self.azimuths.cos_order(m, &mut self.cos_m);
+        for (k, (&o, &a)) in self.o.iter().zip(&self.azimuths.of).enumerate() {
+            self.values.brdf[k] += cr[o] * self.cos_m[a];
+            if below {
+                self.values.btdf[k] += ct[o] * self.cos_m[a];
+            }
+        }
+    }
+}
+
 /// The orders of one request summed up, and its stopping rule.
 pub(crate) struct Accumulator<'a> {
     prep: &'a Prepared<'a>,
@@ -475,7 +490,7 @@ impl<'a> Accumulator<'a> {
         let rest = match &mut self.once {
             Some(once) if m > 0 && m < self.req.last_order => {
                 once.order(&self.out.tms, m, pairs);
-                once.rest(&cr[start..], &ct[start..], self.prep.n_sub.is_some())
+                once.rest(&cr[start..], &ct[start..])
             }
             _ => term,
         };
@@ -502,13 +517,7 @@ impl<'a> Accumulator<'a> {
             self.coefs_t.extend_from_slice(&once.st);
             self.orders += 1;
             if let Some(at) = &mut self.at {
-                at.azimuths.cos_order(m, &mut at.cos_m);
-                for (k, (&o, &a)) in at.o.iter().zip(&at.azimuths.of).enumerate() {
-                    at.values.brdf[k] += once.sr[o] * at.cos_m[a];
-                    if below {
-                        at.values.btdf[k] += once.st[o] * at.cos_m[a];
-                    }
-                }
+                at.add_order(m, &once.sr, &once.st, below);
             }
         }
     }
@@ -559,14 +568,8 @@ impl<'a> Accumulator<'a> {
                 && matches!(self.req.stop, Stop::Table)
                 && self.stop.converged(rest, self.largest);
         };
-        at.azimuths.cos_order(m, &mut at.cos_m);
         let below = self.prep.n_sub.is_some();
-        for (k, (&o, &a)) in at.o.iter().zip(&at.azimuths.of).enumerate() {
-            at.values.brdf[k] += cr[o] * at.cos_m[a];
-            if below {
-                at.values.btdf[k] += ct[o] * at.cos_m[a];
-            }
-        }
+        at.add_order(m, cr, ct, below);
         if m == 0 && !self.out.tms.is_empty() {
             for (k, &o) in at.o.iter().enumerate() {
                 let phi = &at.phi[k..k + 1];

@@ -94,10 +94,11 @@ impl OnceOrders {
 
     /// The largest difference between an order's coefficients `cr`, `ct`
     /// and its once-scattered part (after [`OnceOrders::order`]): the
-    /// light scattered more than once in that order.
-    pub(super) fn rest(&self, cr: &[f64], ct: &[f64], below: bool) -> f64 {
+    /// light scattered more than once in that order. (Without light below,
+    /// `ct` and `st` are both zero: no transmitted exit has a cosine.)
+    pub(super) fn rest(&self, cr: &[f64], ct: &[f64]) -> f64 {
         let r = cr.iter().zip(&self.sr).map(|(a, b)| (a - b).abs());
-        let t = ct.iter().zip(&self.st).map(|(a, b)| (a - b).abs()).filter(|_| below);
+        let t = ct.iter().zip(&self.st).map(|(a, b)| (a - b).abs());
         r.chain(t).fold(0.0, f64::max)
     }
 }
