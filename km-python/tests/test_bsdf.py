@@ -193,3 +193,30 @@ def test_rough_table_holds_the_exact_single_path_and_eval_agrees(km_cli, tmp_pat
     idx = [(0, 1, 18), (1, 1, 18), (1, 3, 9)]
     want = np.array([tab["brdf"][0][a] for a in idx])
     assert np.abs(ev.ravel() - want).max() <= 1e-10 * max(1.0, float(np.abs(want).max()))
+
+
+def test_fourier_tol_reaches_the_table_as_km_bsdf_and_survives_pickling(km_cli, tmp_path):
+    # The cloud deck's peaked layer needs 20 orders at the default tolerance
+    # (docs/benchmarks.md); 1e-4 must stop the series earlier (the table
+    # moves: the orders after the stop hold their once-scattered part only,
+    # eq. 5k of docs/multiflux.md), give the arrays of `km bsdf --fourier-tol
+    # 1e-4` (same computation: 1e-12) and stay within 1e-4 of the table's
+    # largest value of the default series (the stopping rule's bound, eq. 5j).
+    path = REPO / "examples" / "cloud-deck.toml"
+    scene = km.Scene.from_file(path)
+    grid = ([0.0, 30.0, 60.0], [10.0, 40.0, 70.0], np.arange(0, 360, 30.0))
+    flags = ["--theta-i", "0,30,60", "--theta-o", "10,40,70", "--phi", "0:360:30"]
+    fine, coarse = km.bsdf(scene, streams=8), km.bsdf(scene, streams=8, fourier_tol=1e-4)
+    assert fine.fourier_tol == 1e-9 and coarse.fourier_tol == 1e-4
+    a, b = fine.table(*grid), coarse.table(*grid)
+    ref = npz_of(km_cli, path, tmp_path, "--streams", "8", "--fourier-tol", "1e-4", *flags)
+    for k in ("brdf", "btdf", "reflectance", "transmittance"):
+        scale = max(1.0, float(np.abs(ref[k]).max()))
+        assert np.abs(b[k] - ref[k]).max() <= 1e-12 * scale, k
+    moved = np.abs(b["brdf"] - a["brdf"]).max()
+    assert 0.0 < moved <= 1e-4 * np.abs(a["brdf"]).max()
+    c = pickle.loads(pickle.dumps(coarse))
+    assert c.fourier_tol == 1e-4 and c.eval(30.0, 40.0, 50.0) == coarse.eval(30.0, 40.0, 50.0)
+    for bad in (-1e-3, 0.5, float("nan")):
+        with pytest.raises(km.KmError, match="fourier_tol"):
+            km.bsdf(scene, fourier_tol=bad)

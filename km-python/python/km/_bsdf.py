@@ -97,6 +97,11 @@ class Bsdf:
         return self._core.streams
 
     @property
+    def fourier_tol(self) -> float:
+        """Where the azimuthal series stops (``km bsdf --fourier-tol``)."""
+        return self._core.fourier_tol
+
+    @property
     def transmits(self) -> bool:
         """Whether light leaves through the far side (transparent substrate, no half-space)."""
         return self._core.transmits
@@ -285,7 +290,8 @@ class Bsdf:
 
 
 def bsdf(scene: Scene, *, streams: int | None = None,
-         max_fourier_order: int | None = None) -> Bsdf:
+         max_fourier_order: int | None = None,
+         fourier_tol: float | None = None) -> Bsdf:
     """The whole BSDF of ``scene``'s stack (multi-flux; docs/bsdf.md).
 
     The scene's light and output directions are ignored.
@@ -300,6 +306,11 @@ def bsdf(scene: Scene, *, streams: int | None = None,
         its 32 default incidences, over all channels).
     max_fourier_order : int, optional
         Bound of the azimuthal series (default: as the series needs).
+    fourier_tol : float, optional
+        Where the azimuthal series stops: after two orders whose light
+        scattered more than once is below this fraction of the table's
+        largest order-0 coefficient (``km bsdf --fourier-tol``; default
+        1e-9, at most 0.1; docs/multiflux.md eq. 5j).
 
     Returns
     -------
@@ -318,7 +329,9 @@ def bsdf(scene: Scene, *, streams: int | None = None,
     >>> b.streams, b.transmits
     (8, True)
     """
-    return Bsdf(_km._BsdfCore(scene, streams, max_fourier_order))
+    if fourier_tol is not None:
+        fourier_tol = float(fourier_tol)
+    return Bsdf(_km._BsdfCore(scene, streams, max_fourier_order, fourier_tol))
 
 
 bsdf = _integers_named(bsdf)

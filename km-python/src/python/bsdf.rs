@@ -87,18 +87,22 @@ fn vec1(a: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
 #[pymethods]
 impl PyBsdfCore {
     #[new]
-    #[pyo3(signature = (scene, streams=None, max_fourier_order=None))]
+    #[pyo3(signature = (scene, streams=None, max_fourier_order=None, fourier_tol=None))]
     fn new(
         py: Python<'_>,
         scene: &Bound<'_, PyScene>,
         streams: Option<usize>,
         max_fourier_order: Option<usize>,
+        fourier_tol: Option<f64>,
     ) -> PyResult<PyBsdfCore> {
         let s = scene.get();
         let (scene, toml) = (s.scene.clone(), s.toml.clone());
         let core = guarded(py, || {
             let streams = Some(streams.unwrap_or_else(|| default_streams(&scene)));
-            let opts = MultifluxOptions { streams, max_fourier_order, ..Default::default() };
+            let mut opts = MultifluxOptions { streams, max_fourier_order, ..Default::default() };
+            if let Some(tol) = fourier_tol {
+                opts.fourier_tol = tol;
+            }
             // One small table checks the scene and the options and tells
             // whether the stack transmits.
             let probe = Bsdf::new(
@@ -129,6 +133,11 @@ impl PyBsdfCore {
     #[getter]
     fn max_fourier_order(&self) -> Option<usize> {
         self.opts.max_fourier_order
+    }
+    /// Where the azimuthal series stops (`km bsdf --fourier-tol`).
+    #[getter]
+    fn fourier_tol(&self) -> f64 {
+        self.opts.fourier_tol
     }
     /// Whether light leaves through the far side (transparent substrate, no half-space).
     #[getter]
@@ -340,12 +349,13 @@ impl PyBsdfCore {
         let py = slf.py();
         let me = slf.get();
         let scene = py.get_type::<PyScene>().getattr("from_toml")?.call1((me.toml.clone(),))?;
-        Ok((slf.get_type().into_any(), (scene, me.streams(), me.opts.max_fourier_order)))
+        let args = (scene, me.streams(), me.opts.max_fourier_order, me.opts.fourier_tol);
+        Ok((slf.get_type().into_any(), args))
     }
 }
 
 /// What `__reduce__` returns: the class and its arguments.
-type Reduced<'py> = (Bound<'py, PyAny>, (Bound<'py, PyAny>, usize, Option<usize>));
+type Reduced<'py> = (Bound<'py, PyAny>, (Bound<'py, PyAny>, usize, Option<usize>, f64));
 
 /// Names of the per-incidence totals, in the order of `ChannelBsdf`'s fields.
 const TOTALS: [&str; 4] =
