@@ -29,6 +29,7 @@ pub(crate) mod rough_paths;
 mod rough_pieces;
 
 use std::borrow::Cow;
+use std::sync::Arc;
 
 use km_core::{MonoScene, Substrate};
 
@@ -51,7 +52,7 @@ pub(crate) struct Prepared<'s> {
     pub(crate) cutoff: Option<f64>,
     pub(crate) opts: &'s MultifluxOptions,
     pub(crate) streams: usize,
-    pub(crate) grid: AngularGrid,
+    pub(crate) grid: Arc<AngularGrid>,
     pub(crate) n_sub: Option<f64>,
     pub(crate) layers: Vec<Scaled>,
     /// The layers that carry a single-scattering correction, and the
@@ -59,8 +60,8 @@ pub(crate) struct Prepared<'s> {
     pub(crate) tms_layers: Vec<usize>,
     pub(crate) corr: Vec<Option<PeakCorrection>>,
     /// The ambient medium's nodes and, if light leaves below, the substrate's.
-    pub(crate) nodes0: MediumNodes,
-    pub(crate) nodes_sub: Option<MediumNodes>,
+    pub(crate) nodes0: Arc<MediumNodes>,
+    pub(crate) nodes_sub: Option<Arc<MediumNodes>>,
 }
 
 impl<'s> Prepared<'s> {
@@ -76,8 +77,8 @@ impl<'s> Prepared<'s> {
         let corr = (0..layers.len())
             .map(|l| tms_layers.contains(&l).then(|| layers[l].correction()))
             .collect();
-        let nodes0 = grid.medium(scene.ambient_n());
-        let nodes_sub = n_sub.map(|n| grid.medium(n));
+        let nodes0 = grid.shared(scene.ambient_n());
+        let nodes_sub = n_sub.map(|n| grid.shared(n));
         Prepared {
             scene,
             cutoff,
@@ -285,7 +286,7 @@ impl Prepared<'_> {
             // Nothing below receives the transmitted light: reflection only.
             (slab_beam_reflection(&nodes.mu, &nodes.w, directions, 0, &p, None)?, Vec::new())
         };
-        let mut markers = Vec::new();
+        let mut markers = Vec::with_capacity(if m == 0 { extras.marker_of.len() } else { 0 });
         if m == 0 {
             for (k, &(p, ml, slot)) in extras.marker_of.iter().enumerate() {
                 let x = extras.base_len + k;

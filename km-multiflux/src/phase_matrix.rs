@@ -83,7 +83,7 @@ pub(crate) struct Scaling {
 pub(crate) fn symmetric_scaling(k: &Mat<f64>, w: &[f64]) -> Scaling {
     let n = w.len();
     let mut d = vec![1.0; n];
-    let mut r = vec![0.0; n];
+    let mut r = crate::workspace::zeros(n);
     let mut best = f64::INFINITY;
     let mut stall = 0;
     for _ in 0..MAX_ITERATIONS {

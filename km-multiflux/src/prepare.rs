@@ -4,6 +4,8 @@
 //! ([`crate::engine`]), the field ([`crate::field`], [`crate::depth`]) and
 //! the BSDF table ([`crate::bsdf`]).
 
+use std::sync::Arc;
+
 use km_core::phase::{Phase, PhaseFunction};
 use km_core::{MonoScene, Substrate};
 
@@ -84,16 +86,17 @@ pub(crate) fn resolve_streams(
 
 /// The media of the stack, top to bottom (ambient, layers, and a transparent
 /// substrate unless a half-space hides it), and their Snell-mapped grid.
-pub(crate) fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, AngularGrid) {
+/// The grid is the one this thread kept for the same media and streams,
+/// if any ([`AngularGrid::kept`]).
+pub(crate) fn media_grid(scene: &MonoScene, streams: usize) -> (Option<f64>, Arc<AngularGrid>) {
     let half = scene.layers().last().is_some_and(|l| l.is_half_space() && l.tau() > 0.0);
     let n_sub = match scene.substrate() {
         Substrate::Transparent { n } if !half => Some(n),
         _ => None,
     };
-    let mut all_n = vec![scene.ambient_n()];
-    all_n.extend(scene.layers().iter().map(|l| l.n()));
-    all_n.extend(n_sub);
-    (n_sub, AngularGrid::new(&all_n, streams))
+    let media =
+        std::iter::once(scene.ambient_n()).chain(scene.layers().iter().map(|l| l.n())).chain(n_sub);
+    (n_sub, AngularGrid::kept(media, streams))
 }
 
 /// The scene as the plan's `transmission` rule leaves it (eq. PL1 of

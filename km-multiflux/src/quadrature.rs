@@ -30,6 +30,7 @@
 
 use std::cell::RefCell;
 use std::rc::Rc;
+use std::sync::Arc;
 
 use km_core::quadrature::gauss_legendre;
 
@@ -43,6 +44,14 @@ thread_local! {
     /// Gauss–Legendre rules by point count, most recent last.
     static RULES: RefCell<Vec<(usize, Rule)>> =
         const { RefCell::new(Vec::new()) };
+}
+
+/// Grids a thread keeps (the oldest goes).
+const GRIDS_KEPT: usize = 4;
+
+thread_local! {
+    /// Grids built by [`AngularGrid::kept`], most recent last.
+    static GRIDS: RefCell<Vec<Arc<AngularGrid>>> = const { RefCell::new(Vec::new()) };
 }
 
 /// The `n`-point Gauss–Legendre rule on `[-1, 1]` (nodes, weights), computed
@@ -77,6 +86,8 @@ pub struct AngularGrid {
     w_birth: Vec<f64>,
     /// Index of the medium where each node's segment was born.
     n_birth: Vec<f64>,
+    /// The nodes of each medium of `indices` (eq. Q1, Q2), in that order.
+    media: Vec<Arc<MediumNodes>>,
 }
 
 /// The nodes of one medium.
@@ -114,7 +125,42 @@ impl AngularGrid {
             }
             prev = nk;
         }
-        AngularGrid { indices: idx, streams, mu_birth, w_birth, n_birth }
+        let mut grid =
+            AngularGrid { indices: idx, streams, mu_birth, w_birth, n_birth, media: Vec::new() };
+        grid.media = grid.indices.iter().map(|&n| Arc::new(grid.nodes_of(n))).collect();
+        grid
+    }
+
+    /// [`AngularGrid::new`] of the media `media` (any order, repeats
+    /// allowed), kept per thread: a solve of the same media and streams as
+    /// one of the last few on this thread (the repeats of a timing, the
+    /// points of a sweep, the channels of a spectrum) shares that grid and
+    /// its nodes instead of building them again. The grid is a pure
+    /// function of the distinct indices and `streams`, so the values are
+    /// those of a new one, bit for bit.
+    pub(crate) fn kept(media: impl Iterator<Item = f64> + Clone, streams: usize) -> Arc<Self> {
+        // The distinct indices of `media`, counted without a vector.
+        let distinct =
+            media.clone().enumerate().filter(|&(i, n)| !media.clone().take(i).any(|m| m == n));
+        let count = distinct.count();
+        GRIDS.with(|cell| {
+            let mut grids = cell.borrow_mut();
+            let same = |g: &AngularGrid| {
+                g.streams == streams
+                    && g.indices.len() == count
+                    && media.clone().all(|n| g.indices.contains(&n))
+            };
+            if let Some(g) = grids.iter().rev().find(|g| same(g)) {
+                return Arc::clone(g);
+            }
+            let all: Vec<f64> = media.clone().collect();
+            let g = Arc::new(AngularGrid::new(&all, streams));
+            if grids.len() >= GRIDS_KEPT {
+                grids.remove(0);
+            }
+            grids.push(Arc::clone(&g));
+            g
+        })
     }
 
     /// Number of nodes of a medium of index `n` (one hemisphere).
@@ -124,6 +170,20 @@ impl AngularGrid {
 
     /// The nodes of the medium of index `n` (eq. Q1, Q2).
     pub fn medium(&self, n: f64) -> MediumNodes {
+        Arc::unwrap_or_clone(self.shared(n))
+    }
+
+    /// [`AngularGrid::medium`], shared: the nodes kept for a medium of
+    /// the grid, computed for any other index.
+    pub(crate) fn shared(&self, n: f64) -> Arc<MediumNodes> {
+        match self.indices.iter().position(|&x| x == n) {
+            Some(i) => Arc::clone(&self.media[i]),
+            None => Arc::new(self.nodes_of(n)),
+        }
+    }
+
+    /// The nodes of the medium of index `n` (eq. Q1, Q2), computed.
+    fn nodes_of(&self, n: f64) -> MediumNodes {
         let count = self.count(n);
         let mut mu = Vec::with_capacity(count);
         let mut w = Vec::with_capacity(count);

@@ -59,8 +59,12 @@ pub fn solve(scene: &Scene, opts: &MultifluxOptions) -> Result<Solution, Multifl
     // without its rayon feature, so its global default is already sequential:
     // the solve changes no global state.
     let start = Instant::now();
-    let parts =
-        scene.channels().iter().map(|ch| solve_channel(ch, opts)).collect::<Result<Vec<_>, _>>()?;
+    // Sized to the channels: `collect` through `Result` would reserve room
+    // for four parts, a request glibc serves past its per-thread cache.
+    let mut parts = Vec::with_capacity(scene.channels().len());
+    for ch in scene.channels() {
+        parts.push(solve_channel(ch, opts)?);
+    }
     Ok(assemble(scene, opts, parts, start.elapsed().as_secs_f64()))
 }
 
@@ -202,7 +206,7 @@ fn solve_mono_parts(
 /// apart by their bits, by a linear search among those found so far, or
 /// through a map when the request has more than 64 directions.
 fn distinct_polar(dirs: &[[f64; 2]]) -> (Vec<f64>, Vec<usize>) {
-    let mut theta_o: Vec<f64> = Vec::new();
+    let mut theta_o: Vec<f64> = Vec::with_capacity(dirs.len().min(64));
     let mut index: Option<std::collections::HashMap<u64, usize>> =
         (dirs.len() > 64).then(std::collections::HashMap::new);
     let o_of = dirs

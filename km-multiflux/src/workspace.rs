@@ -289,6 +289,16 @@ impl Workspace {
     }
 }
 
+/// `n` zeros in a vector taken from `malloc`, not `calloc` (`vec![0.0; n]`):
+/// glibc (2.36) serves `calloc` outside its per-thread cache, by its general
+/// allocator, at several times the instructions of a cached `malloc` and a
+/// fill for the short vectors a solve makes once (docs/benchmarks.md §9).
+pub(crate) fn zeros(n: usize) -> Vec<f64> {
+    let mut v = Vec::with_capacity(n);
+    v.resize(n, 0.0);
+    v
+}
+
 thread_local! {
     static WORKSPACE: RefCell<Workspace> = const { RefCell::new(Workspace::new()) };
 }

@@ -53,7 +53,12 @@ impl Extras {
     /// probe and corrected layer the markers R and T (and I where the
     /// second-order term can matter, eq. B2).
     pub(crate) fn new(beams: &[f64], theta_o: &[f64], c: &ExtraSetup<'_>) -> Self {
-        let mut ex: Vec<(f64, Kind)> = beams.iter().map(|&s| (s, Kind::Beam)).collect();
+        let ni = beams.len();
+        let probes = theta_o.len() * (1 + usize::from(c.n_sub.is_some()));
+        // At most three markers per probe and corrected layer, none without a beam.
+        let markers = if ni > 0 { 3 * probes * c.tms_layers.len() } else { 0 };
+        let mut ex: Vec<(f64, Kind)> = Vec::with_capacity(ni + probes + markers);
+        ex.extend(beams.iter().map(|&s| (s, Kind::Beam)));
         let r0 = ex.len();
         // sin(theta) once per angle, shared by the probes above and below.
         let sines: Vec<f64> = theta_o.iter().map(|t| t.to_radians().sin()).collect();
@@ -63,7 +68,6 @@ impl Extras {
             ex.extend(sines.iter().map(|s| (ns * s, Kind::Probe)));
         }
         let base_len = ex.len();
-        let ni = beams.len();
         // Whether a layer's IMS term can matter: it scales as (omega f)^2 times
         // Legendre sums of at most ~1e3 (2N terms and the tails beyond them), so
         // below omega f = 1e-8 it is under ~1e-13 of a unit radiance and the
@@ -74,28 +78,35 @@ impl Extras {
         // The IMS term lives only within the cone around the beam's polar angle
         // (in the layer): its marker is needed where some beam is that close
         // (a margin of 1e-6 rad; inside, the correction's own test decides).
-        let in_cone = |p: usize, l: usize| {
-            let n = c.layers[l].n;
-            let cone = crate::correction::IMS_CONE_DEG.to_radians() + 1e-6;
-            mu_of_invariant(ex[p].0, n).is_some_and(|mx| {
-                (0..ni).any(|i| {
-                    mu_of_invariant(ex[i].0, n)
-                        .is_some_and(|mb| (mb.acos() - mx.acos()).abs() <= cone)
+        // The beams' polar angles in each corrected layer whose IMS term can
+        // matter, once per layer.
+        let cone = crate::correction::IMS_CONE_DEG.to_radians() + 1e-6;
+        let beam_angles: Vec<Option<Vec<f64>>> = if markers == 0 {
+            Vec::new()
+        } else {
+            c.tms_layers
+                .iter()
+                .map(|&l| {
+                    let n = c.layers[l].n;
+                    ims_on(l).then(|| {
+                        beams.iter().filter_map(|&s| mu_of_invariant(s, n).map(f64::acos)).collect()
+                    })
                 })
-            })
+                .collect()
         };
         // Markers: per probe, per corrected layer, R and T kinds (and I); none
         // without a beam (the correction is the beam's single scattering).
-        let slots: Vec<usize> = (r0..base_len)
-            .flat_map(|p| c.tms_layers.iter().map(move |&l| (p, l)))
-            .map(|(p, l)| if ims_on(l) && in_cone(p, l) { 3 } else { 2 })
-            .collect();
-        let mut slots = slots.into_iter();
-        let mut marker_of = Vec::new();
+        let mut marker_of = Vec::with_capacity(markers);
         if ni > 0 {
             for p in r0..base_len {
-                for &l in c.tms_layers {
-                    for slot in 0..slots.next().unwrap_or(2) {
+                for (&l, angles) in c.tms_layers.iter().zip(&beam_angles) {
+                    let in_cone = angles.as_ref().is_some_and(|a| {
+                        mu_of_invariant(ex[p].0, c.layers[l].n).is_some_and(|mx| {
+                            let x = mx.acos();
+                            a.iter().any(|&b| (b - x).abs() <= cone)
+                        })
+                    });
+                    for slot in 0..if in_cone { 3 } else { 2 } {
                         marker_of.push((p, l, slot));
                         ex.push((ex[p].0, Kind::Marker { l, slot }));
                     }

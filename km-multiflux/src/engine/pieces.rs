@@ -113,7 +113,7 @@ impl OrderPieces<'_> {
     /// The smooth interface from index `na` to `nb` (eq. F1): diagonal on
     /// the core, and each probe and marker by its own Fresnel factors.
     fn interface(&self, na: f64, nb: f64) -> Augmented {
-        let (a, b) = (self.grid.medium(na), self.grid.medium(nb));
+        let (a, b) = (self.grid.shared(na), self.grid.shared(nb));
         let (ea, eb) =
             (self.extras.in_medium(na, self.count), self.extras.in_medium(nb, self.count));
         let nbeam = self.extras.beams;
@@ -150,7 +150,7 @@ impl OrderPieces<'_> {
         li: usize,
         l: &Scaled,
     ) -> Result<(Augmented, Option<SlabSolution>), MultifluxError> {
-        let (ex, nodes) = (self.extras, self.grid.medium(l.n));
+        let (ex, nodes) = (self.extras, self.grid.shared(l.n));
         let directions = ex.in_medium(l.n, self.count);
         let base = ex.base_len.min(self.count);
         let p = SlabOrder { tau: l.tau, omega: l.omega, chi: &l.chi, m: self.m };
@@ -223,7 +223,7 @@ impl OrderPieces<'_> {
     /// A Lambertian floor of `albedo` under index `n` (eq. F2): its
     /// reflection of the core, the probes lit by it, the markers dark.
     fn lambertian(&self, n: f64, albedo: f64) -> Augmented {
-        let nodes = self.grid.medium(n);
+        let nodes = self.grid.shared(n);
         let ex = self.extras;
         let directions = ex.in_medium(n, self.count);
         let (nn, nbeam) = (nodes.mu.len(), ex.beams);

@@ -13,6 +13,7 @@ use crate::exits::Azimuths;
 use crate::prepare::flux;
 use crate::quadrature::mu_of_invariant;
 use crate::stack::Scaled;
+use crate::workspace::zeros;
 
 mod once;
 use once::OnceOrders;
@@ -432,10 +433,10 @@ impl<'a> Accumulator<'a> {
             tms: Vec::new(),
             no,
             transmits: prep.n_sub.is_some(),
-            reflectance: vec![0.0; ni],
-            transmittance: vec![0.0; ni],
-            reflectance_specular: vec![0.0; ni],
-            transmittance_direct: vec![0.0; ni],
+            reflectance: zeros(ni),
+            transmittance: zeros(ni),
+            reflectance_specular: zeros(ni),
+            transmittance_direct: zeros(ni),
             streams: prep.streams,
             rough: None,
         };
@@ -444,9 +445,8 @@ impl<'a> Accumulator<'a> {
             dirs => {
                 let o = req.o_of.to_vec();
                 let azimuths = Azimuths::new(dirs);
-                let cos_m = vec![0.0; azimuths.values.len()];
-                let zeros = vec![0.0; dirs.len()];
-                let values = DirectionValues { brdf: zeros.clone(), btdf: zeros };
+                let cos_m = zeros(azimuths.values.len());
+                let values = DirectionValues { brdf: zeros(dirs.len()), btdf: zeros(dirs.len()) };
                 let phi = dirs.iter().map(|d| d[1]).collect();
                 Some(AtDirections { o, phi, azimuths, cos_m, values })
             }
@@ -685,7 +685,7 @@ impl Accumulator<'_> {
 /// (`coefs[m * pairs + k]`), reordered by pair, orders contiguous:
 /// `out[k * orders + m]`.
 fn by_pair(coefs: &[f64], pairs: usize, orders: usize) -> Vec<f64> {
-    let mut out = vec![0.0; pairs * orders];
+    let mut out = zeros(pairs * orders);
     for (m, c) in coefs.chunks_exact(pairs.max(1)).take(orders).enumerate() {
         for (k, &x) in c.iter().enumerate() {
             out[k * orders + m] = x;

@@ -33,7 +33,7 @@ impl OrderPieces<'_> {
         nb: f64,
         mf: Microfacet,
     ) -> Result<Augmented, MultifluxError> {
-        let (a, b) = (self.grid.medium(na), self.grid.medium(nb));
+        let (a, b) = (self.grid.shared(na), self.grid.shared(nb));
         let base = self.extras.base_len.min(self.count);
         let (ea, eb) = (self.extras.in_medium(na, base), self.extras.in_medium(nb, base));
         let face = RoughFace { mf, n_above: na, below: Far::Dielectric(nb) };
@@ -52,7 +52,7 @@ impl OrderPieces<'_> {
         k: f64,
         rough: Option<Microfacet>,
     ) -> Result<Augmented, MultifluxError> {
-        let a = self.grid.medium(na);
+        let a = self.grid.shared(na);
         let nbeam = self.extras.beams;
         let core_a = a.mu.len() + nbeam;
         let (dense, count) = match rough {

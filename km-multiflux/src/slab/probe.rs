@@ -230,8 +230,26 @@ impl SlabSolution {
     /// The probes of `extras`, one [`Probe`] per distinct cosine (the beam
     /// and directions absent from this medium have none).
     pub(super) fn probes(&self, extras: &[Extra], ws: &mut Workspace) -> Probes {
-        let mut mu = ws.take(0);
         let mut of = ws.take_idx(extras.len());
+        if !extras.iter().any(|ex| !ex.beam && ex.mu.is_some()) {
+            // No probe (totals): nothing to take or compute (the empty
+            // vectors allocate nothing and are not kept by `recycle`).
+            of.iter_mut().for_each(|o| *o = NO_PROBE);
+            let (n, nl) = (self.n, self.chi.len());
+            let none = Vec::new;
+            return Probes {
+                mu: none(),
+                n,
+                nl,
+                us: none(),
+                uy: none(),
+                lam: none(),
+                ev: none(),
+                od: none(),
+                of,
+            };
+        }
+        let mut mu = ws.take(0);
         // Distinct cosines by a linear search, or by their bits once there are
         // many (a request of thousands of exit polar angles).
         let mut seen: Option<std::collections::HashMap<u64, usize>> =
