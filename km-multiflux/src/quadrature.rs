@@ -49,6 +49,11 @@ thread_local! {
 /// Grids a thread keeps (the oldest goes).
 const GRIDS_KEPT: usize = 4;
 
+/// Largest grid a thread keeps, in node cosines and weights over its media
+/// (`2 N K (K + 1) / 2` for `K` indices: 512 KiB; 16 streams and 50 distinct
+/// indices fit). A larger grid is built for its solve alone.
+const GRID_KEPT_VALUES: usize = 65_536;
+
 thread_local! {
     /// Grids built by [`AngularGrid::kept`], most recent last.
     static GRIDS: RefCell<Vec<Arc<AngularGrid>>> = const { RefCell::new(Vec::new()) };
@@ -155,10 +160,13 @@ impl AngularGrid {
             }
             let all: Vec<f64> = media.clone().collect();
             let g = Arc::new(AngularGrid::new(&all, streams));
-            if grids.len() >= GRIDS_KEPT {
-                grids.remove(0);
+            let values: usize = g.media.iter().map(|m| 2 * m.mu.len()).sum();
+            if values <= GRID_KEPT_VALUES {
+                if grids.len() >= GRIDS_KEPT {
+                    grids.remove(0);
+                }
+                grids.push(Arc::clone(&g));
             }
-            grids.push(Arc::clone(&g));
             g
         })
     }
@@ -216,6 +224,35 @@ pub fn mu_of_invariant(s: f64, n: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_kept_grid_is_the_new_one_shared_by_the_same_media_only() {
+        let media = [1.0, 1.5, 1.33, 1.0];
+        let g = AngularGrid::kept(media.iter().copied(), 7);
+        // The same values as a grid built afresh, bit for bit, nodes included.
+        assert_eq!(*g, AngularGrid::new(&media, 7));
+        for n in [1.0, 1.33, 1.5] {
+            assert_eq!(*g.shared(n), AngularGrid::new(&media, 7).medium(n));
+        }
+        // The same distinct indices in another order: the kept grid itself.
+        let again = AngularGrid::kept([1.33, 1.5, 1.0].into_iter(), 7);
+        assert!(Arc::ptr_eq(&g, &again));
+        // Another stream count, another index or one index fewer: not it.
+        for (m, s) in [(&[1.0, 1.5, 1.33][..], 8), (&[1.0, 1.5, 1.34], 7), (&[1.0, 1.5], 7)] {
+            let other = AngularGrid::kept(m.iter().copied(), s);
+            assert!(!Arc::ptr_eq(&g, &other), "{m:?}, {s}");
+            assert_eq!(*other, AngularGrid::new(m, s));
+        }
+        // An index outside the grid gets its nodes computed (`count` of the
+        // indices below it), not a kept medium's.
+        assert_eq!(g.shared(1.4).mu.len(), 2 * 7);
+        // A grid above the kept size (32 x 50 x 51 values) is built for its
+        // caller alone.
+        let many: Vec<f64> = (0..50).map(|i| 1.0 + 0.01 * f64::from(i)).collect();
+        let big = AngularGrid::kept(many.iter().copied(), 32);
+        assert!(!Arc::ptr_eq(&big, &AngularGrid::kept(many.iter().copied(), 32)));
+        assert_eq!(*big, AngularGrid::new(&many, 32));
+    }
 
     #[test]
     fn every_medium_integrates_mu_exactly_and_nodes_map_under_snell() {
