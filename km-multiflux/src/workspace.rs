@@ -174,20 +174,20 @@ impl Workspace {
     /// A vector of `len` unspecified values (those of its last use, zeros
     /// where it grows): [`Workspace::take`] without the zero fill, for
     /// callers that write every element before reading any.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn take_for_overwrite(&mut self, len: usize) -> Vec<f64> {
         let mut v = self.take_kept(len);
         if v.len() >= len {
             v.truncate(len);
+            v
         } else {
-            v.resize(len, 0.0);
+            grown(v, len)
         }
-        v
     }
 
     /// Hand `v` back for reuse (freed instead when the workspace is full or
     /// `v` is longer than [`MAX_LEN`]).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn give(&mut self, v: Vec<f64>) {
         if v.capacity() > 0 && v.capacity() <= MAX_LEN && self.free.len() < MAX_VECTORS {
             self.free.push(v);
@@ -287,6 +287,14 @@ impl Workspace {
     pub(crate) fn counts(&self) -> (usize, usize) {
         (self.taken, self.fresh)
     }
+}
+
+/// `v` grown to `len` values (zeros past its old ones): the rare path of
+/// [`Workspace::take_for_overwrite`], kept out of its inlined common one.
+#[inline(never)]
+fn grown(mut v: Vec<f64>, len: usize) -> Vec<f64> {
+    v.resize(len, 0.0);
+    v
 }
 
 /// `n` zeros in a vector taken from `malloc`, not `calloc` (`vec![0.0; n]`):
