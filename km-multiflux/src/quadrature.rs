@@ -110,9 +110,11 @@ impl AngularGrid {
     /// The grid for the media of indices `indices` (any order, repeats allowed)
     /// with `streams` nodes per segment.
     pub fn new(indices: &[f64], streams: usize) -> Self {
-        let mut idx: Vec<f64> = indices.to_vec();
-        idx.sort_by(|a, b| a.total_cmp(b));
-        idx.dedup();
+        Self::of_distinct(distinct(indices.iter().copied()), streams)
+    }
+
+    /// [`AngularGrid::new`] of the distinct indices `idx`, ascending.
+    fn of_distinct(idx: Vec<f64>, streams: usize) -> Self {
         let gl = rule(streams);
         let (x, wx) = (&gl.0, &gl.1);
         let mut mu_birth = Vec::with_capacity(streams * idx.len());
@@ -143,23 +145,14 @@ impl AngularGrid {
     /// its nodes instead of building them again. The grid is a pure
     /// function of the distinct indices and `streams`, so the values are
     /// those of a new one, bit for bit.
-    pub(crate) fn kept(media: impl Iterator<Item = f64> + Clone, streams: usize) -> Arc<Self> {
-        // The distinct indices of `media`, counted without a vector.
-        let distinct =
-            media.clone().enumerate().filter(|&(i, n)| !media.clone().take(i).any(|m| m == n));
-        let count = distinct.count();
+    pub(crate) fn kept(media: impl IntoIterator<Item = f64>, streams: usize) -> Arc<Self> {
+        let idx = distinct(media);
         GRIDS.with(|cell| {
             let mut grids = cell.borrow_mut();
-            let same = |g: &AngularGrid| {
-                g.streams == streams
-                    && g.indices.len() == count
-                    && media.clone().all(|n| g.indices.contains(&n))
-            };
-            if let Some(g) = grids.iter().rev().find(|g| same(g)) {
+            if let Some(g) = grids.iter().rev().find(|g| g.streams == streams && g.indices == idx) {
                 return Arc::clone(g);
             }
-            let all: Vec<f64> = media.clone().collect();
-            let g = Arc::new(AngularGrid::new(&all, streams));
+            let g = Arc::new(AngularGrid::of_distinct(idx, streams));
             let values: usize = g.media.iter().map(|m| 2 * m.mu.len()).sum();
             if values <= GRID_KEPT_VALUES {
                 if grids.len() >= GRIDS_KEPT {
@@ -211,6 +204,14 @@ impl AngularGrid {
     }
 }
 
+/// The distinct values of `indices`, ascending.
+fn distinct(indices: impl IntoIterator<Item = f64>) -> Vec<f64> {
+    let mut idx: Vec<f64> = indices.into_iter().collect();
+    idx.sort_by(f64::total_cmp);
+    idx.dedup();
+    idx
+}
+
 /// Cosine in a medium of index `n` of a direction of Snell invariant `s = n sin(theta)`,
 /// `None` when it cannot propagate there (`s >= n`).
 pub fn mu_of_invariant(s: f64, n: f64) -> Option<f64> {
@@ -235,7 +236,7 @@ mod tests {
             assert_eq!(*g.shared(n), AngularGrid::new(&media, 7).medium(n));
         }
         // The same distinct indices in another order: the kept grid itself.
-        let again = AngularGrid::kept([1.33, 1.5, 1.0].into_iter(), 7);
+        let again = AngularGrid::kept([1.33, 1.5, 1.0], 7);
         assert!(Arc::ptr_eq(&g, &again));
         // Another stream count, another index or one index fewer: not it.
         for (m, s) in [(&[1.0, 1.5, 1.33][..], 8), (&[1.0, 1.5, 1.34], 7), (&[1.0, 1.5], 7)] {

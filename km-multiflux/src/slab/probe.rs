@@ -230,26 +230,8 @@ impl SlabSolution {
     /// The probes of `extras`, one [`Probe`] per distinct cosine (the beam
     /// and directions absent from this medium have none).
     pub(super) fn probes(&self, extras: &[Extra], ws: &mut Workspace) -> Probes {
-        let mut of = ws.take_idx(extras.len());
-        if !extras.iter().any(|ex| !ex.beam && ex.mu.is_some()) {
-            // No probe (totals): nothing to take or compute (the empty
-            // vectors allocate nothing and are not kept by `recycle`).
-            of.iter_mut().for_each(|o| *o = NO_PROBE);
-            let (n, nl) = (self.n, self.chi.len());
-            let none = Vec::new;
-            return Probes {
-                mu: none(),
-                n,
-                nl,
-                us: none(),
-                uy: none(),
-                lam: none(),
-                ev: none(),
-                od: none(),
-                of,
-            };
-        }
         let mut mu = ws.take(0);
+        let mut of = ws.take_idx(extras.len());
         // Distinct cosines by a linear search, or by their bits once there are
         // many (a request of thousands of exit polar angles).
         let mut seen: Option<std::collections::HashMap<u64, usize>> =
@@ -276,6 +258,13 @@ impl SlabSolution {
             };
         }
         let (n, nl, np) = (self.n, self.chi.len(), mu.len());
+        if np == 0 {
+            // No probe (totals): nothing more to take or compute (the empty
+            // vectors allocate nothing and are not kept by `recycle`).
+            let none = Vec::new;
+            let (us, uy, lam, ev, od) = (none(), none(), none(), none(), none());
+            return Probes { n, nl, us, uy, lam, ev, od, mu, of };
+        }
         // Every element of the probes' vectors and of the scratch is written
         // before it is read (probe_rows_into).
         let mut pr = Probes {

@@ -329,8 +329,6 @@ def bsdf(scene: Scene, *, streams: int | None = None,
     >>> b.streams, b.transmits
     (8, True)
     """
-    if fourier_tol is not None:
-        fourier_tol = float(fourier_tol)
     return Bsdf(_km._BsdfCore(scene, streams, max_fourier_order, fourier_tol))
 
 
