@@ -9,16 +9,20 @@ air. A `directional` emitter lights it at `theta_i`; one 1-pixel
 `orthographic` sensor per exit direction looks at the middle of the slab
 (scalar variant, `volpath`). The pixel's radiance per unit irradiance on the
 surface is the BRDF (above) or BTDF (below): `f = L / (E cos theta_i)`.
-Several seeds give Mitsuba's standard error. km's multi-flux and Monte
-Carlo answers of the same scene files come from the `km` binary.
+Several seeds give Mitsuba's standard error: 16 by default, since the
+spread of 4 seeds' means underestimated it by up to 4x at some directions
+(docs/rough.md §8). km's multi-flux and Monte Carlo answers of the same
+scene files come from the `km` binary.
 
-Usage (the numbers of docs/rough.md §8 came from the defaults):
-
-    python3 km-bench/scripts/rough_mitsuba.py --km target/release/km \
-        --spp 65536 --seeds 4 --out target/rough-mitsuba.json
-
-Needs `pip install mitsuba==3.9.1`. Runs for about three minutes on one core
-with the defaults; `--quick` takes a few seconds (fewer samples, 2 stacks).
+The totals R and T come by reciprocity: the directional-hemispherical
+reflectance at `theta_i` is the radiance leaving the top along `theta_i`
+under a uniform sky of unit radiance above the slab, and the transmittance
+the radiance leaving the top along it under a uniform sky below (not the
+radiance leaving the bottom under the sky above: that is the transmittance
+of light arriving from below, which differs where the faces differ). Each
+is one 1-pixel sensor just above the top under a `constant` emitter, with
+a black plane that shades the sky on the other side: below the slab for R,
+above the sensor for T.
 """
 
 import argparse
@@ -169,6 +173,19 @@ def mitsuba_scene(mi, s, sensor_dir, below, seed, spp):
     }
 
 
+def finite_render(mi, scene_of, seed, spp, label):
+    """The pixel of the scene `scene_of(seed)`; a render whose pixel is not
+    finite (one sample's NaN spoils the whole pixel: seen once in 800
+    renders, a GGX 0.05 face seen at the normal) is reported and replaced
+    by the render of seed `seed + 1000`, and so on."""
+    for k in range(seed, seed + 10_000, 1000):
+        v = float(mi.render(mi.load_dict(scene_of(k)), spp=spp, seed=k).array[0])
+        if math.isfinite(v):
+            return v
+        print(f"  ({label}, seed {k}: not finite, replaced)", file=sys.stderr)
+    raise RuntimeError("no finite render in ten seeds")
+
+
 def mitsuba_values(mi, s, spp, seeds):
     """BRDF (and BTDF when light leaves below) at DIRS: means and standard errors."""
     out = {}
@@ -181,9 +198,9 @@ def mitsuba_values(mi, s, spp, seeds):
         for dvec in DIRS:
             vals = []
             for seed in range(seeds):
-                scene = mi.load_dict(mitsuba_scene(mi, s, dvec, below, seed, spp))
-                img = mi.render(scene, spp=spp, seed=seed)
-                vals.append(float(img.array[0]) / cos_i)
+                vals.append(finite_render(
+                    mi, lambda k: mitsuba_scene(mi, s, dvec, below, k, spp), seed, spp,
+                    f"{s['name']} {key} {dvec}") / cos_i)
             m = sum(vals) / len(vals)
             var = sum((x - m) ** 2 for x in vals) / max(len(vals) - 1, 1)
             means.append(m)
@@ -191,6 +208,65 @@ def mitsuba_values(mi, s, spp, seeds):
         out[key] = means
         out[key + "_stderr"] = errs
     return out
+
+
+def totals_scene(mi, s, transmitted, seed, spp):
+    """The scene whose one pixel is R (or T, `transmitted`) of the stack at
+    `theta_i`, by reciprocity: the radiance leaving the top along `theta_i`
+    under a unit uniform sky, shaded by a black plane below the slab (R) or
+    above the sensor (T)."""
+    tf = mi.ScalarTransform4f
+    d = mitsuba_scene(mi, s, [s["theta_i"], 0.0], False, seed, spp)
+    del d["emitter"]
+    d["sky"] = {"type": "constant", "radiance": 1.0}
+    z = 0.5 if transmitted else -1.5
+    d["shade"] = {"type": "rectangle", "bsdf": {"type": "diffuse", "reflectance": 0.0},
+                  "to_world": tf().translate([0, 0, z]) @ tf().scale([4.0e4, 4.0e4, 1.0])}
+    if transmitted:
+        # The sensor between the top (z = 0) and the shade, with a footprint
+        # small enough that no ray starts beyond either.
+        th = math.radians(s["theta_i"])
+        origin = [0.02 * math.sin(th), 0.0, 0.02 * math.cos(th)]
+        d["sensor"]["to_world"] = (tf().look_at(origin=origin, target=[0, 0, 0], up=[0, 0, 1])
+                                   @ tf().scale([0.002, 0.002, 1.0]))
+        d["sensor"]["near_clip"] = 1e-4
+    return d
+
+
+def mitsuba_totals(mi, s, spp, seeds):
+    """R (and T when light leaves below) at `theta_i`: means and standard errors."""
+    out = {}
+    sides = [("reflectance", False)]
+    if s["bottom"]["kind"] == "air":
+        sides.append(("transmittance", True))
+    for key, transmitted in sides:
+        vals = []
+        for seed in range(seeds):
+            vals.append(finite_render(
+                mi, lambda k: totals_scene(mi, s, transmitted, k, spp), seed, spp,
+                f"{s['name']} {key}"))
+        m = sum(vals) / len(vals)
+        var = sum((x - m) ** 2 for x in vals) / max(len(vals) - 1, 1)
+        out[key] = m
+        out[key + "_stderr"] = math.sqrt(var / len(vals))
+    return out
+
+
+def report_totals(mt, mf, mc):
+    """Print km's totals against Mitsuba's (within max(3 sigma, 1e-3))."""
+    for key in ("reflectance", "transmittance"):
+        if key not in mt:
+            continue
+        m, e = mt[key], mt[key + "_stderr"]
+        for name, res in (("multiflux", mf), ("mc", mc)):
+            if "refused" in res:
+                continue
+            x = first(res[key])
+            ex = first(res["stderr"][key]) if name == "mc" else 0.0
+            sig = math.hypot(e, ex)
+            ok = abs(x - m) <= max(3 * sig, 1e-3)
+            print(f"  {key}: km {name} {x:.5f} +- {ex:.1g} mitsuba {m:.5f} +- {e:.1g} "
+                  f"(diff {x - m:+.1e}) {'ok' if ok else 'OFF'}", file=sys.stderr)
 
 
 def first(v):
@@ -219,8 +295,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--km", required=True, help="the km binary")
     ap.add_argument("--spp", type=int, default=65536)
-    ap.add_argument("--seeds", type=int, default=4)
-    ap.add_argument("--mc-samples", type=int, default=2_000_000)
+    ap.add_argument("--seeds", type=int, default=16)
+    ap.add_argument("--mc-samples", type=int, default=20_000_000)
     ap.add_argument("--mc-cone", type=float, default=1.0,
                     help="half-angle (degrees) of km's Monte Carlo cone bins; Mitsuba's "
                     "values are points, so a lobe needs a narrow cone")
@@ -248,8 +324,11 @@ def main():
         mc = km_values(a.km, s, "mc", ["--samples", str(a.mc_samples), "--seed", "1",
                                         "--cone", str(a.mc_cone)])
         ms = mitsuba_values(mi, s, spp, a.seeds)
-        results.append(dict(stack=s, directions_deg=DIRS, multiflux=mf, mc=mc, mitsuba=ms))
+        mt = mitsuba_totals(mi, s, spp, a.seeds)
+        results.append(dict(stack=s, directions_deg=DIRS, multiflux=mf, mc=mc, mitsuba=ms,
+                            mitsuba_totals=mt))
         print(f"{s['name']}: done", file=sys.stderr)
+        report_totals(mt, mf, mc)
         for key in ("brdf", "btdf"):
             if key not in ms:
                 continue
