@@ -197,9 +197,15 @@ impl LegendreRecurrence {
             out.iter_mut().for_each(|x| *x = 0.0);
             return;
         }
-        // Zeros below m; every value from m on is written below.
-        out[..m].iter_mut().for_each(|x| *x = 0.0);
-        out[nl..].iter_mut().for_each(|x| *x = 0.0);
+        // Zeros below m; every value from m on is written below. (Tested
+        // first: an empty fill is still a call of `memset`, and order 0
+        // with `out` exactly `nl` long is the common case.)
+        if m > 0 {
+            out[..m].iter_mut().for_each(|x| *x = 0.0);
+        }
+        if out.len() > nl {
+            out[nl..].iter_mut().for_each(|x| *x = 0.0);
+        }
         let sin = ((1.0 - mu) * (1.0 + mu)).max(0.0).sqrt();
         let pmm = self.c0 * sin.powi(m as i32);
         out[m] = pmm;

@@ -37,6 +37,11 @@ impl Azimuths {
 
     /// `cos m(phi - 180 deg)` of every distinct azimuth into `out`.
     pub(crate) fn cos_order(&self, m: usize, out: &mut [f64]) {
+        if m == 0 {
+            // cos(0 x) = 1 exactly (the azimuths are finite).
+            out.iter_mut().for_each(|c| *c = 1.0);
+            return;
+        }
         for (c, &phi) in out.iter_mut().zip(&self.values) {
             *c = (m as f64 * (phi - 180.0).to_radians()).cos();
         }

@@ -69,6 +69,44 @@ impl TmsLayer {
         let q = self.omega / (4.0 * std::f64::consts::PI);
         ((e1 - q * s1) / mu_b, (e2 - q * s2) / mu_b)
     }
+
+    /// One of [`TmsLayer::fix2`]'s values alone (the same operations on
+    /// one chain, so the same bits), for a pair whose other weight is zero.
+    fn fix1(&self, c: f64, mu_b: f64) -> f64 {
+        let c = c.clamp(-1.0, 1.0);
+        let k = self.omega_true / (1.0 - self.omega_true * self.f);
+        let e = k * self.phase.eval(c);
+        let mut s = self.chiw[0];
+        let (mut p0, mut p1) = (1.0, c);
+        if self.chiw.len() > 1 {
+            s += self.chiw[1] * c;
+        }
+        for l in 2..self.chiw.len() {
+            let (a, b) = self.rec[l];
+            let p = a * c * p1 - b * p0;
+            s += self.chiw[l] * p;
+            (p0, p1) = (p1, p);
+        }
+        let q = self.omega / (4.0 * std::f64::consts::PI);
+        (e - q * s) / mu_b
+    }
+
+    /// `(F(c_R), F(c_T))` where their weights `w_r`, `w_t` need them (zero
+    /// where the weight is zero: a reflected exit over a black floor has no
+    /// transmitted path).
+    fn fix_weighted(
+        &self,
+        (c_r, c_t): (f64, f64),
+        mu_b: f64,
+        (w_r, w_t): (f64, f64),
+    ) -> (f64, f64) {
+        match (w_r == 0.0, w_t == 0.0) {
+            (false, false) => self.fix2(c_r, c_t, mu_b),
+            (false, true) => (self.fix1(c_r, mu_b), 0.0),
+            (true, false) => (0.0, self.fix1(c_t, mu_b)),
+            (true, true) => (0.0, 0.0),
+        }
+    }
 }
 
 /// The BSDF of one spectral channel: Fourier coefficients and correction
@@ -190,6 +228,21 @@ impl ChannelBsdf {
         transmitted: bool,
         out: &mut [f64],
     ) {
+        let cosines = phi_deg.iter().map(|&p| (p - 180.0).to_radians().cos());
+        self.add_correction_at(i, o, cosines, transmitted, out);
+    }
+
+    /// [`ChannelBsdf::add_correction`] at the azimuths whose
+    /// `cos(phi - 180 deg)` are `cosines` (a solve's exit directions share
+    /// a few azimuths, whose cosines it has already).
+    pub(crate) fn add_correction_at(
+        &self,
+        i: usize,
+        o: usize,
+        cosines: impl Iterator<Item = f64> + Clone,
+        transmitted: bool,
+        out: &mut [f64],
+    ) {
         let no = self.no;
         for l in &self.tms {
             let w = if transmitted { l.w_t[i * no + o] } else { l.w_r[i * no + o] };
@@ -200,10 +253,10 @@ impl ChannelBsdf {
             let (Some(mu_b), Some(mu_x)) = (l.mu_b[i], mu_x) else { continue };
             let (sx, sb) =
                 ((1.0 - mu_x * mu_x).max(0.0).sqrt(), (1.0 - mu_b * mu_b).max(0.0).sqrt());
-            for (k, &p) in phi_deg.iter().enumerate() {
-                let cphi = (p - 180.0).to_radians().cos();
+            for (k, cphi) in cosines.clone().enumerate() {
                 let c_t = mu_x * mu_b + sx * sb * cphi;
-                let (f_r, f_t) = l.fix2(-mu_x * mu_b + sx * sb * cphi, c_t, mu_b);
+                let c_r = -mu_x * mu_b + sx * sb * cphi;
+                let (f_r, f_t) = l.fix_weighted((c_r, c_t), mu_b, (w[0], w[1]));
                 out[k] += w[0] * f_r + w[1] * f_t;
                 if w[2] != 0.0 {
                     out[k] += w[2] * l.corr.peak_pspike(c_t);
@@ -571,11 +624,13 @@ impl<'a> Accumulator<'a> {
         let below = self.prep.n_sub.is_some();
         at.add_order(m, cr, ct, below);
         if m == 0 && !self.out.tms.is_empty() {
-            for (k, &o) in at.o.iter().enumerate() {
-                let phi = &at.phi[k..k + 1];
-                self.out.add_correction(0, o, phi, false, &mut at.values.brdf[k..k + 1]);
+            // cos(phi - 180 deg) per distinct azimuth: order 1's cosines.
+            at.azimuths.cos_order(1, &mut at.cos_m);
+            for (k, (&o, &a)) in at.o.iter().zip(&at.azimuths.of).enumerate() {
+                let c = std::iter::once(at.cos_m[a]);
+                self.out.add_correction_at(0, o, c.clone(), false, &mut at.values.brdf[k..k + 1]);
                 if below {
-                    self.out.add_correction(0, o, phi, true, &mut at.values.btdf[k..k + 1]);
+                    self.out.add_correction_at(0, o, c, true, &mut at.values.btdf[k..k + 1]);
                 }
             }
         }
@@ -692,4 +747,45 @@ fn by_pair(coefs: &[f64], pairs: usize, orders: usize) -> Vec<f64> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`TmsLayer::fix1`] is either value of [`TmsLayer::fix2`] bit for bit
+    /// (the correction of a pair with one weight zero skips the other chain
+    /// without moving a solve's output), and `fix_weighted` leaves out only
+    /// the side whose weight is zero.
+    #[test]
+    fn one_chain_is_either_of_the_two_bit_for_bit() {
+        let phase = km_core::phase::Phase::henyey_greenstein(0.8).unwrap();
+        let corr = crate::correction::PeakCorrection::new(phase.clone(), 0.95, 8, false);
+        let f = corr.f();
+        let chiw: Vec<f64> = (0..8)
+            .map(|l| (2 * l + 1) as f64 * (phase.legendre_moment(l) - f) / (1.0 - f))
+            .collect();
+        let layer = TmsLayer {
+            omega_true: 0.95,
+            f,
+            omega: 0.95 * (1.0 - f) / (1.0 - 0.95 * f),
+            rec: km_core::legendre::legendre_coefficients(chiw.len()),
+            chiw,
+            phase,
+            mu_b: Vec::new(),
+            mu_r: Vec::new(),
+            mu_t: Vec::new(),
+            w_r: Vec::new(),
+            w_t: Vec::new(),
+            corr,
+        };
+        for (c1, c2) in [(-0.9, 0.3), (0.2, 0.99), (-1.0, 1.0), (0.5, -0.25)] {
+            let (a, b) = layer.fix2(c1, c2, 0.7);
+            assert_eq!(layer.fix1(c1, 0.7).to_bits(), a.to_bits());
+            assert_eq!(layer.fix1(c2, 0.7).to_bits(), b.to_bits());
+            assert_eq!(layer.fix_weighted((c1, c2), 0.7, (1.0, 0.0)), (a, 0.0));
+            assert_eq!(layer.fix_weighted((c1, c2), 0.7, (0.0, 2.0)), (0.0, b));
+            assert_eq!(layer.fix_weighted((c1, c2), 0.7, (1.0, 2.0)), (a, b));
+        }
+    }
 }

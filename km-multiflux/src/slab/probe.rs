@@ -122,11 +122,12 @@ impl SlabSolution {
     /// entering at the top, and the same from the bottom (eq. 14 of docs/multiflux.md).
     /// `eb` is the probe's attenuation `exp(-tau / mu_x)` through the layer;
     /// `out` holds the probe's `[us, uy, lam, ev, od]`; `scratch` three
-    /// vectors of at least `nl` values.
+    /// vectors of at least `nl` values; `ow` is `omega w_i / t_i` per node
+    /// (the same for every probe of the order).
     fn probe_rows_into(
         &self,
-        mu_x: f64,
-        eb: f64,
+        (mu_x, eb): (f64, f64),
+        ow: &[f64],
         out: [&mut [f64]; 5],
         scratch: &mut [Vec<f64>; 3],
     ) {
@@ -140,8 +141,8 @@ impl SlabSolution {
         // a_j = omega w ev . v_j ; b_j = -omega w od . z_j (up-going probe), original coords.
         let (fe, fo) = (&mut fe[..n], &mut fo[..n]);
         for i in 0..n {
-            fe[i] = self.omega * self.w[i] / self.t[i] * ev[i];
-            fo[i] = self.omega * self.w[i] / self.t[i] * od[i];
+            fe[i] = ow[i] * ev[i];
+            fo[i] = ow[i] * od[i];
         }
         for j in 0..n {
             let a = dot(fe, self.v.col_as_slice(j));
@@ -281,6 +282,11 @@ impl SlabSolution {
         let w = nl.max(n);
         let mut scratch =
             [ws.take_for_overwrite(w), ws.take_for_overwrite(w), ws.take_for_overwrite(w)];
+        // omega w_i / t_i, as `(omega w_i) / t_i` was computed per probe.
+        let mut ow = ws.take_for_overwrite(n);
+        for i in 0..n {
+            ow[i] = self.omega * self.w[i] / self.t[i];
+        }
         // The attenuations do not depend on the order: kept in the workspace.
         let mut eb = ws.take_for_overwrite(np);
         for (d, s) in eb.iter_mut().zip(ws.probe_attenuations(self.tau, &pr.mu)) {
@@ -294,11 +300,12 @@ impl SlabSolution {
                 &mut pr.ev[p * n..(p + 1) * n],
                 &mut pr.od[p * n..(p + 1) * n],
             ];
-            self.probe_rows_into(pr.mu[p], eb[p], out, &mut scratch);
+            self.probe_rows_into((pr.mu[p], eb[p]), &ow, out, &mut scratch);
         }
         for v in scratch {
             ws.give(v);
         }
+        ws.give(ow);
         ws.give(eb);
         pr
     }
