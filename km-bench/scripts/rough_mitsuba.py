@@ -173,6 +173,13 @@ def mitsuba_scene(mi, s, sensor_dir, below, seed, spp):
     }
 
 
+def mean_stderr(vals):
+    """The mean of the seeds' values and its standard error (from their spread)."""
+    m = sum(vals) / len(vals)
+    var = sum((x - m) ** 2 for x in vals) / max(len(vals) - 1, 1)
+    return m, math.sqrt(var / len(vals))
+
+
 def finite_render(mi, scene_of, seed, spp, label):
     """The pixel of the scene `scene_of(seed)`; a render whose pixel is not
     finite (one sample's NaN spoils the whole pixel: seen once in 800
@@ -201,10 +208,9 @@ def mitsuba_values(mi, s, spp, seeds):
                 vals.append(finite_render(
                     mi, lambda k: mitsuba_scene(mi, s, dvec, below, k, spp), seed, spp,
                     f"{s['name']} {key} {dvec}") / cos_i)
-            m = sum(vals) / len(vals)
-            var = sum((x - m) ** 2 for x in vals) / max(len(vals) - 1, 1)
+            m, e = mean_stderr(vals)
             means.append(m)
-            errs.append(math.sqrt(var / len(vals)))
+            errs.append(e)
         out[key] = means
         out[key + "_stderr"] = errs
     return out
@@ -245,10 +251,7 @@ def mitsuba_totals(mi, s, spp, seeds):
             vals.append(finite_render(
                 mi, lambda k: totals_scene(mi, s, transmitted, k, spp), seed, spp,
                 f"{s['name']} {key}"))
-        m = sum(vals) / len(vals)
-        var = sum((x - m) ** 2 for x in vals) / max(len(vals) - 1, 1)
-        out[key] = m
-        out[key + "_stderr"] = math.sqrt(var / len(vals))
+        out[key], out[key + "_stderr"] = mean_stderr(vals)
     return out
 
 

@@ -135,7 +135,7 @@ pub(crate) fn field_in_layer(
 /// (its own column after the ambient medium's nodes), or diffuse light of
 /// unit irradiance (radiance `1/pi` at every node, order 0 only).
 pub(crate) fn input(scene: &MonoScene, grid: &AngularGrid, m: usize) -> Mat<f64> {
-    let na0 = grid.medium(scene.ambient_n()).mu.len();
+    let na0 = grid.shared(scene.ambient_n()).mu.len();
     let beams = usize::from(scene.beam_invariant().is_some());
     let mut a = Mat::<f64>::zeros(na0 + beams, 1);
     if beams == 0 {

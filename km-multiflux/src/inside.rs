@@ -561,7 +561,7 @@ fn probes_at_cut(
         down[p] = dp;
         up[p] = r2d + r2 * dp;
     }
-    let nn = grid.medium(n_cut).mu.len();
+    let nn = grid.shared(n_cut).mu.len();
     let out = ProbesAtCut {
         beam_down: if beams == 0 { 0.0 } else { d[(nn, 0)] },
         beam_up: if beams == 0 { 0.0 } else { u[(nn, 0)] },
