@@ -1132,18 +1132,17 @@ fn kink_panel(
     let ((x8, w8), widest) = kink_rule(orders);
     let (spk, cpk) = pk.sin_cos();
     let offsets = kink_offsets(orders);
-    out.0.clear();
-    out.1.clear();
-    out.2.clear();
-    let mut put = |(c, s, w): (f64, f64, f64)| {
+    let (oc, os, ow) = out;
+    oc.clear();
+    os.clear();
+    ow.clear();
+    // A point at `psi` of weight `w` (its cosine and sine computed).
+    fn direct(out: (&mut Vec<f64>, &mut Vec<f64>, &mut Vec<f64>), psi: f64, w: f64) {
+        let (s, c) = psi.sin_cos();
         out.0.push(c);
         out.1.push(s);
         out.2.push(w);
-    };
-    let direct = |psi: f64, w: f64| {
-        let (s, c) = psi.sin_cos();
-        (c, s, w)
-    };
+    }
     for (to, dir) in [(lo, -1.0), (hi, 1.0)] {
         let len = (to - pk).abs();
         if len <= 0.0 {
@@ -1153,20 +1152,24 @@ fn kink_panel(
         if len <= a {
             // The whole side in one substituted piece.
             for (t, v) in x8.iter().zip(w8) {
-                put(direct(pk + dir * len * t * t, 2.0 * len * t * v));
+                direct((oc, os, ow), pk + dir * len * t * t, 2.0 * len * t * v);
             }
             continue;
         }
-        for piece in offsets.iter().take_while(|p| p.end <= len) {
-            for &(w, c, s) in &piece.points {
-                put((cpk * c - dir * spk * s, spk * c + dir * cpk * s, w));
-            }
-            a = piece.end;
+        // The whole pieces of the side, turned to the kink in bulk.
+        let whole = offsets.end.partition_point(|&e| e <= len);
+        if let Some(&end) = whole.checked_sub(1).and_then(|p| offsets.end.get(p)) {
+            let k = offsets.points_of(whole);
+            let (c, s) = (&offsets.cos[..k], &offsets.sin[..k]);
+            oc.extend(c.iter().zip(s).map(|(&c, &s)| cpk * c - dir * spk * s));
+            os.extend(c.iter().zip(s).map(|(&c, &s)| spk * c + dir * cpk * s));
+            ow.extend_from_slice(&offsets.w[..k]);
+            a = end;
         }
         while a < len {
             let b = (a + a.min(widest)).min(len);
             for (t, v) in x8.iter().zip(w8) {
-                put(direct(pk + dir * (a + (b - a) * t), (b - a) * v));
+                direct((oc, os, ow), pk + dir * (a + (b - a) * t), (b - a) * v);
             }
             a = b;
         }
@@ -1308,20 +1311,30 @@ fn kink_rule(orders: usize) -> (&'static (Vec<f64>, Vec<f64>), f64) {
     if 16.0 / w16 < 8.0 / w8 { (rule16(), w16) } else { (rule8(), w8) }
 }
 
-/// A piece of [`kink_panel`] at a fixed offset from the kink: where it ends,
-/// and its points `(weight, cos offset, sin offset)`.
-struct KinkPiece {
-    end: f64,
-    points: Vec<(f64, f64, f64)>,
+/// The pieces of [`kink_panel`] at fixed offsets from the kink, on one side
+/// up to `pi` from it: where each piece ends, and the points of all of them
+/// in order (the weight, cosine and sine of each offset), as many per
+/// piece as [`kink_rule`]'s Gauss rule has.
+struct KinkOffsets {
+    end: Vec<f64>,
+    w: Vec<f64>,
+    cos: Vec<f64>,
+    sin: Vec<f64>,
 }
 
-/// The pieces of [`kink_panel`] on one side of a kink, up to `pi` from it,
-/// for `orders` orders, cached per thread.
-fn kink_offsets(orders: usize) -> std::rc::Rc<Vec<KinkPiece>> {
+impl KinkOffsets {
+    /// The number of points of the first `pieces` pieces.
+    fn points_of(&self, pieces: usize) -> usize {
+        if pieces == 0 { 0 } else { pieces * (self.w.len() / self.end.len()) }
+    }
+}
+
+/// [`KinkOffsets`] for `orders` orders, cached per thread.
+fn kink_offsets(orders: usize) -> std::rc::Rc<KinkOffsets> {
     use std::cell::RefCell;
     use std::rc::Rc;
     thread_local! {
-        static CACHE: RefCell<Vec<(usize, Rc<Vec<KinkPiece>>)>> = const { RefCell::new(Vec::new()) };
+        static CACHE: RefCell<Vec<(usize, Rc<KinkOffsets>)>> = const { RefCell::new(Vec::new()) };
     }
     CACHE.with(|c| {
         let mut c = c.borrow_mut();
@@ -1329,29 +1342,35 @@ fn kink_offsets(orders: usize) -> std::rc::Rc<Vec<KinkPiece>> {
             return Rc::clone(r);
         }
         let ((x8, w8), widest) = kink_rule(orders);
-        let point = |d: f64, w: f64| {
-            let (s, c) = d.sin_cos();
-            (w, c, s)
+        let mut o = KinkOffsets {
+            end: Vec::new(),
+            w: Vec::new(),
+            cos: Vec::new(),
+            sin: Vec::new(),
+        };
+        let mut point = |dj: f64, w: f64| {
+            let (s, c) = dj.sin_cos();
+            o.w.push(w);
+            o.cos.push(c);
+            o.sin.push(s);
         };
         let first = 0.25 * widest;
-        let mut pieces = vec![KinkPiece {
-            end: first,
-            // psi = pk + dir first s^2, dpsi = 2 first s ds.
-            points: x8
-                .iter()
-                .zip(w8)
-                .map(|(t, v)| point(first * t * t, 2.0 * first * t * v))
-                .collect(),
-        }];
+        // psi = pk + dir first s^2, dpsi = 2 first s ds.
+        for (t, v) in x8.iter().zip(w8) {
+            point(first * t * t, 2.0 * first * t * v);
+        }
+        let mut ends = vec![first];
         let mut a = first;
         while a < PI {
             let b = a + a.min(widest);
-            let points =
-                x8.iter().zip(w8).map(|(t, v)| point(a + (b - a) * t, (b - a) * v)).collect();
-            pieces.push(KinkPiece { end: b, points });
+            for (t, v) in x8.iter().zip(w8) {
+                point(a + (b - a) * t, (b - a) * v);
+            }
+            ends.push(b);
             a = b;
         }
-        let r = Rc::new(pieces);
+        o.end = ends;
+        let r = Rc::new(o);
         if c.len() >= 16 {
             c.remove(0);
         }

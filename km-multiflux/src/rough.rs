@@ -433,10 +433,11 @@ fn node_operators(c: &Ctx<'_>, b: &Blocks) -> (Vec<LayerOperators>, Vec<f64>) {
     let at = |m: usize, y: usize, i: usize, x: usize, j: usize| q[y][x][(i * len[x] + j) * mo + m];
     let mut s = vec![vec![0.0; total * total]; mo];
     let target: Vec<f64> = b.target.iter().flatten().copied().collect();
-    for x in 0..ns {
-        for j in 0..len[x] {
-            for y in 0..ns {
-                for i in 0..len[y] {
+    // Row by row: each order's matrix written in order.
+    for y in 0..ns {
+        for i in 0..len[y] {
+            for x in 0..ns {
+                for j in 0..len[x] {
                     for (m, sm) in s.iter_mut().enumerate() {
                         let v = 0.5 * (at(m, y, i, x, j) + at(m, x, j, y, i));
                         sm[(off[y] + i) * total + off[x] + j] = v;
@@ -480,13 +481,16 @@ fn node_operators(c: &Ctx<'_>, b: &Blocks) -> (Vec<LayerOperators>, Vec<f64>) {
 
 /// `D` with `D S D` of column sums `target` (S symmetric, non-negative):
 /// the symmetric Sinkhorn–Knopp iteration `D_j <- D_j sqrt(t_j / (D S D)_j)`
-/// (Knight 2008), to 1e-14 relative or 500 sweeps.
+/// (Knight 2008), to 1e-14 relative or 500 sweeps. `S` is symmetric bit
+/// for bit (an average of the two ways, [`node_operators`]), so column `j`
+/// is read as row `j`: the same products in the same order, contiguous.
 fn symmetric_scaling(s: &[f64], target: &[f64], n: usize) -> Vec<f64> {
     let mut d = vec![1.0; n];
     for _ in 0..500 {
         let mut worst = 0.0f64;
         for j in 0..n {
-            let col: f64 = (0..n).map(|i| d[i] * s[i * n + j]).sum::<f64>() * d[j];
+            let row = &s[j * n..(j + 1) * n];
+            let col: f64 = d.iter().zip(row).map(|(di, sji)| di * sji).sum::<f64>() * d[j];
             if col > 0.0 && target[j] > 0.0 {
                 let r = target[j] / col;
                 worst = worst.max((r - 1.0).abs());
