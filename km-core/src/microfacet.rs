@@ -1342,12 +1342,8 @@ fn kink_offsets(orders: usize) -> std::rc::Rc<KinkOffsets> {
             return Rc::clone(r);
         }
         let ((x8, w8), widest) = kink_rule(orders);
-        let mut o = KinkOffsets {
-            end: Vec::new(),
-            w: Vec::new(),
-            cos: Vec::new(),
-            sin: Vec::new(),
-        };
+        let mut o =
+            KinkOffsets { end: Vec::new(), w: Vec::new(), cos: Vec::new(), sin: Vec::new() };
         let mut point = |dj: f64, w: f64| {
             let (s, c) = dj.sin_cos();
             o.w.push(w);

@@ -485,6 +485,10 @@ fn node_operators(c: &Ctx<'_>, b: &Blocks) -> (Vec<LayerOperators>, Vec<f64>) {
 /// for bit (an average of the two ways, [`node_operators`]), so column `j`
 /// is read as row `j`: the same products in the same order, contiguous.
 fn symmetric_scaling(s: &[f64], target: &[f64], n: usize) -> Vec<f64> {
+    debug_assert!(
+        (0..n).all(|i| (0..i).all(|j| s[i * n + j].to_bits() == s[j * n + i].to_bits())),
+        "the scaled matrix is symmetric bit for bit"
+    );
     let mut d = vec![1.0; n];
     for _ in 0..500 {
         let mut worst = 0.0f64;
