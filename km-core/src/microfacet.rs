@@ -1159,7 +1159,7 @@ fn kink_panel(
         // The whole pieces of the side, turned to the kink in bulk.
         let whole = offsets.end.partition_point(|&e| e <= len);
         if let Some(&end) = whole.checked_sub(1).and_then(|p| offsets.end.get(p)) {
-            let k = offsets.points_of(whole);
+            let k = whole * offsets.per_piece;
             let (c, s) = (&offsets.cos[..k], &offsets.sin[..k]);
             oc.extend(c.iter().zip(s).map(|(&c, &s)| cpk * c - dir * spk * s));
             os.extend(c.iter().zip(s).map(|(&c, &s)| spk * c + dir * cpk * s));
@@ -1313,20 +1313,14 @@ fn kink_rule(orders: usize) -> (&'static (Vec<f64>, Vec<f64>), f64) {
 
 /// The pieces of [`kink_panel`] at fixed offsets from the kink, on one side
 /// up to `pi` from it: where each piece ends, and the points of all of them
-/// in order (the weight, cosine and sine of each offset), as many per
-/// piece as [`kink_rule`]'s Gauss rule has.
+/// in order (the weight, cosine and sine of each offset), `per_piece` per
+/// piece ([`kink_rule`]'s Gauss rule).
 struct KinkOffsets {
     end: Vec<f64>,
+    per_piece: usize,
     w: Vec<f64>,
     cos: Vec<f64>,
     sin: Vec<f64>,
-}
-
-impl KinkOffsets {
-    /// The number of points of the first `pieces` pieces.
-    fn points_of(&self, pieces: usize) -> usize {
-        if pieces == 0 { 0 } else { pieces * (self.w.len() / self.end.len()) }
-    }
 }
 
 /// [`KinkOffsets`] for `orders` orders, cached per thread.
@@ -1342,8 +1336,13 @@ fn kink_offsets(orders: usize) -> std::rc::Rc<KinkOffsets> {
             return Rc::clone(r);
         }
         let ((x8, w8), widest) = kink_rule(orders);
-        let mut o =
-            KinkOffsets { end: Vec::new(), w: Vec::new(), cos: Vec::new(), sin: Vec::new() };
+        let mut o = KinkOffsets {
+            end: Vec::new(),
+            per_piece: x8.len(),
+            w: Vec::new(),
+            cos: Vec::new(),
+            sin: Vec::new(),
+        };
         let mut point = |dj: f64, w: f64| {
             let (s, c) = dj.sin_cos();
             o.w.push(w);
