@@ -30,6 +30,7 @@
 //! come back). The bound on the neglected reflectance is reported with the
 //! reason. Conservative layers (`omega = 1`) are never cut.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::str::FromStr;
@@ -163,11 +164,12 @@ pub struct LayerPlan {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
     /// Physical effects present, as short phrases (`"interface"`, `"total-internal-reflection"`, ...).
-    pub effects: Vec<String>,
+    /// Fixed phrases are borrowed, not allocated: a plan is drawn up on every solve.
+    pub effects: Vec<Cow<'static, str>>,
     /// The simplifications taken.
     pub skipped: Vec<Simplification>,
-    /// Why each simplification was taken.
-    pub reasons: BTreeMap<Simplification, String>,
+    /// Why each simplification was taken (fixed texts borrowed, as `effects`).
+    pub reasons: BTreeMap<Simplification, Cow<'static, str>>,
     /// One entry per layer, top first.
     pub layers: Vec<LayerPlan>,
     /// How many layers take part (those below a half-space do not).
@@ -202,13 +204,16 @@ impl Plan {
             active == scene.layers().len() && layers.last().is_none_or(|l| !l.half_space);
         match scene.substrate() {
             Substrate::Lambertian { .. } if substrate_reached => {
-                d.effects.push("lambertian-substrate".to_string())
+                d.effects.push("lambertian-substrate".into())
             }
-            Substrate::Black if substrate_reached => d.effects.push("black-substrate".to_string()),
+            Substrate::Black if substrate_reached => d.effects.push("black-substrate".into()),
             _ => {}
         }
         if !substrate_reached {
-            d.skip(Simplification::Substrate, format!("no light reaches below layer {active}"));
+            d.skip(
+                Simplification::Substrate,
+                format!("no light reaches below layer {active}").into(),
+            );
         }
 
         // Azimuth: isotropic phase functions, diffuse light or totals only need m = 0.
@@ -226,13 +231,13 @@ impl Plan {
             } else {
                 "isotropic scattering: the phase function has no azimuthal Fourier orders m > 0"
             };
-            d.skip(Simplification::Azimuth, why.to_string());
+            d.skip(Simplification::Azimuth, why.into());
         }
         let angular_tallies = all_effects || request.directions;
         if !angular_tallies {
             d.skip(
                 Simplification::AngularTallies,
-                "no [output] directions: Monte Carlo tallies totals only".to_string(),
+                "no [output] directions: Monte Carlo tallies totals only".into(),
             );
         }
         Plan {
@@ -258,7 +263,9 @@ impl Plan {
     /// Keep only the simplifications in `relevant`.
     pub fn restricted_to(mut self, relevant: &[Simplification]) -> Plan {
         self.skipped.retain(|s| relevant.contains(s));
-        let kept = self.skipped.clone();
+        // A reason is kept with its simplification: those kept are the
+        // relevant ones among `skipped`.
+        let kept = &self.skipped;
         self.reasons.retain(|k, _| kept.contains(k));
         self
     }
@@ -274,8 +281,8 @@ impl Plan {
     /// The JSON of the `km solve --json` contract: `{"effects", "skipped", "reasons"}`.
     pub fn to_json(&self) -> serde_json::Value {
         let skipped: Vec<&str> = self.skipped.iter().map(|s| s.name()).collect();
-        let reasons: BTreeMap<&str, &String> =
-            self.reasons.iter().map(|(k, v)| (k.name(), v)).collect();
+        let reasons: BTreeMap<&str, &str> =
+            self.reasons.iter().map(|(k, v)| (k.name(), v.as_ref())).collect();
         serde_json::json!({
             "effects": self.effects,
             "skipped": skipped,
@@ -409,7 +416,8 @@ pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
                 "{} of {} channels are distinct: each is solved once",
                 distinct,
                 scene.channels().len()
-            ),
+            )
+            .into(),
         );
     }
     p
@@ -419,13 +427,13 @@ pub fn plan_scene(scene: &Scene, request: Request, all_effects: bool) -> Plan {
 /// work skipped and why (the first reason given for each).
 #[derive(Default)]
 struct Draft {
-    effects: Vec<String>,
+    effects: Vec<Cow<'static, str>>,
     skipped: Vec<Simplification>,
-    reasons: BTreeMap<Simplification, String>,
+    reasons: BTreeMap<Simplification, Cow<'static, str>>,
 }
 
 impl Draft {
-    fn skip(&mut self, name: Simplification, reason: String) {
+    fn skip(&mut self, name: Simplification, reason: Cow<'static, str>) {
         if !self.skipped.contains(&name) {
             self.skipped.push(name);
         }
@@ -441,7 +449,19 @@ fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerP
     let mut n_above = scene.ambient_n();
     let mut any_interface = false;
     let mut tir = false;
-    let mut matched = Vec::new();
+    // "indices match at: top of layer 1, ..." written as the matches are
+    // found (without the formatting machinery: a plan is drawn up on every solve).
+    let mut matched = String::new();
+    let mut matched_at = |layer: Option<usize>| {
+        matched.push_str(if matched.is_empty() { "indices match at: " } else { ", " });
+        match layer {
+            Some(i) => {
+                matched.push_str("top of layer ");
+                push_decimal(&mut matched, i);
+            }
+            None => matched.push_str("bottom of the stack"),
+        }
+    };
     for (i, l) in scene.layers().iter().enumerate() {
         let iface = l.n() != n_above || all_effects;
         if l.n() != n_above {
@@ -449,7 +469,7 @@ fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerP
             // Light inside the denser medium can be totally reflected.
             tir |= l.n() > scene.ambient_n() || l.n() > n_above;
         } else {
-            matched.push(format!("top of layer {}", i + 1));
+            matched_at(Some(i + 1));
         }
         layers.push(LayerPlan {
             interface_above: iface,
@@ -464,31 +484,46 @@ fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerP
             any_interface = true;
             tir |= n_above > n;
         } else {
-            matched.push("bottom of the stack".to_string());
+            matched_at(None);
         }
     }
     if any_interface {
-        d.effects.push("interface".to_string());
+        d.effects.push("interface".into());
     }
     if tir {
-        d.effects.push("total-internal-reflection".to_string());
+        d.effects.push("total-internal-reflection".into());
     }
     if !matched.is_empty() && !all_effects {
-        d.skip(Simplification::Interface, format!("indices match at: {}", matched.join(", ")));
+        d.skip(Simplification::Interface, matched.into());
     }
     layers
+}
+
+/// Append `k` in decimal digits to `s` (what `write!(s, "{k}")` writes).
+fn push_decimal(s: &mut String, mut k: usize) {
+    let mut digits = [0u8; 20];
+    let mut start = digits.len();
+    loop {
+        start -= 1;
+        // A digit is below 10: the cast keeps it.
+        digits[start] = b'0' + (k % 10) as u8;
+        k /= 10;
+        if k == 0 {
+            break;
+        }
+    }
+    s.extend(digits[start..].iter().map(|&d| char::from(d)));
 }
 
 /// Scattering and anisotropy; layers that only absorb are attenuated in
 /// closed form. Returns whether any layer scatters.
 fn scattering(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> bool {
-    let scattering: Vec<usize> =
-        (0..scene.layers().len()).filter(|&i| scene.layers()[i].sigma_s() > 0.0).collect();
-    if !scattering.is_empty() {
-        d.effects.push("scattering".to_string());
+    let scattering = scene.layers().iter().any(|l| l.sigma_s() > 0.0);
+    if scattering {
+        d.effects.push("scattering".into());
     }
     if scene.layers().iter().any(|l| l.sigma_s() > 0.0 && l.g() != 0.0) {
-        d.effects.push("anisotropy".to_string());
+        d.effects.push("anisotropy".into());
     }
     let absorbers: Vec<String> = (0..scene.layers().len())
         .filter(|&i| scene.layers()[i].sigma_s() == 0.0)
@@ -497,10 +532,10 @@ fn scattering(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> bool {
     if !absorbers.is_empty() && !all_effects {
         d.skip(
             Simplification::Scattering,
-            format!("{} only absorb: attenuation in closed form", absorbers.join(", ")),
+            format!("{} only absorb: attenuation in closed form", absorbers.join(", ")).into(),
         );
     }
-    !scattering.is_empty()
+    scattering
 }
 
 /// Thick layers: the transmission rule (eq. PL1), top down; nothing below a
@@ -525,7 +560,8 @@ fn thick_layers(
                 l.tau(),
                 l.albedo(),
                 bound
-            ),
+            )
+            .into(),
         );
         return i + 1;
     }
@@ -559,4 +595,18 @@ pub fn transmission_cut(scene: &MonoScene) -> Option<(usize, f64)> {
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::push_decimal;
+
+    #[test]
+    fn decimal_digits_are_those_of_the_formatter() {
+        for k in [0, 1, 9, 10, 11, 99, 100, 12_345, 1_000_000, usize::MAX] {
+            let mut s = String::from("layer ");
+            push_decimal(&mut s, k);
+            assert_eq!(s, format!("layer {k}"));
+        }
+    }
 }

@@ -167,15 +167,30 @@ struct Parts {
 fn estimate_parts(scene: &MonoScene, opts: &MultifluxOptions, parts: Parts) -> WorkEstimate {
     let streams = parts.streams as f64;
     // Media top to bottom; the substrate is a medium when it is transparent.
-    let mut media: Vec<f64> = vec![scene.ambient_n()];
-    media.extend(scene.layers().iter().map(|l| l.n()));
-    if let Substrate::Transparent { n } = scene.substrate() {
-        media.push(n);
+    let substrate_n = match scene.substrate() {
+        Substrate::Transparent { n } => Some(n),
+        _ => None,
+    };
+    let media = std::iter::once(scene.ambient_n())
+        .chain(scene.layers().iter().map(|l| l.n()))
+        .chain(substrate_n);
+    // d(n): rank of n among the distinct indices (sorted once, then a binary
+    // search); on the stack for a few media (the estimate runs on every solve).
+    let mut few = [0.0f64; 8];
+    let mut many = Vec::new();
+    let count = scene.layers().len() + 1 + usize::from(substrate_n.is_some());
+    let all: &mut [f64] = if count <= few.len() {
+        &mut few[..count]
+    } else {
+        many.resize(count, 0.0);
+        &mut many
+    };
+    let mut finite = 0;
+    for x in media.filter(|x| x.is_finite()) {
+        all[finite] = x;
+        finite += 1;
     }
-    // d(n): rank of n among the distinct indices (sorted once, then a binary search).
-    let mut distinct: Vec<f64> = media.iter().copied().filter(|x| x.is_finite()).collect();
-    distinct.sort_by(|a, b| a.total_cmp(b));
-    distinct.dedup();
+    let distinct = sorted_distinct(&mut all[..finite]);
     // The beams, and a probe per distinct exit polar angle above (and below
     // when the substrate is transparent), with up to three markers per probe
     // and peaked layer at order 0.
@@ -204,14 +219,15 @@ fn estimate_parts(scene: &MonoScene, opts: &MultifluxOptions, parts: Parts) -> W
     let mut work = 0.0;
     let mut operators = 0;
     let mut max_nodes = 0.0f64;
-    for (i, l) in scene.layers().iter().enumerate() {
+    let mut above = scene.ambient_n();
+    for l in scene.layers() {
         let n_layer = nodes(l.n());
         max_nodes = max_nodes.max(n_layer);
         work += cost(l.n());
         operators += 1;
-        let above = media[i];
-        if above != l.n() || opts.all_effects {
-            work += cost(above.max(l.n()));
+        let (above, here) = (std::mem::replace(&mut above, l.n()), l.n());
+        if above != here || opts.all_effects {
+            work += cost(above.max(here));
             operators += 1;
         }
     }
@@ -230,6 +246,20 @@ fn estimate_parts(scene: &MonoScene, opts: &MultifluxOptions, parts: Parts) -> W
         operators,
         channels: 1,
     }
+}
+
+/// Sort `x` and move its distinct values to its front (`Vec::dedup` on a
+/// slice): the sorted distinct values.
+fn sorted_distinct(x: &mut [f64]) -> &[f64] {
+    x.sort_by(|a, b| a.total_cmp(b));
+    let mut len = 0;
+    for i in 0..x.len() {
+        if len == 0 || x[i] != x[len - 1] {
+            x[len] = x[i];
+            len += 1;
+        }
+    }
+    &x[..len]
 }
 
 /// The work of a BSDF table ([`crate::bsdf::Bsdf::new`]) of `scene` at the
@@ -390,6 +420,40 @@ mod tests {
             ));
         }
         Scene::from_toml_str(&t).unwrap()
+    }
+
+    #[test]
+    fn sorted_distinct_is_sort_then_dedup() {
+        for x in [
+            Vec::<f64>::new(),
+            vec![1.5],
+            vec![1.0, 1.5, 1.0, 1.33, 1.5, 1.5],
+            vec![2.0, 1.0, 2.0, 1.0, 1.0, 3.0, 2.5, 2.5, 1.0, 4.0, 1.0, 0.5],
+        ] {
+            let mut want = x.clone();
+            want.sort_by(|a, b| a.total_cmp(b));
+            want.dedup();
+            let mut got = x.clone();
+            assert_eq!(sorted_distinct(&mut got), &want[..], "{x:?}");
+        }
+    }
+
+    /// Up to 8 media the ranks are found on the stack, from 9 on in a
+    /// vector. `stack(k)` has `k` distinct indices (its first is the
+    /// ambient's), so its deepest layer meets `8 k` nodes at 8 streams, on
+    /// either side of the switch; a repeated index adds no rank.
+    #[test]
+    fn index_ranks_on_both_sides_of_the_stack_buffer() {
+        let o = MultifluxOptions { streams: Some(8), ..Default::default() };
+        for k in [1, 6, 7, 8, 9, 12] {
+            assert_eq!(estimate(&stack(k), &o).max_nodes, 8 * k, "{k} layers");
+        }
+        let repeated = Scene::from_toml_str(
+            &"[[layer]]\ntau = 0.1\nalbedo = 0.9\nn = 1.5\n[[layer]]\ntau = 0.1\nalbedo = 0.9\nn = 1.2\n"
+                .repeat(6),
+        )
+        .unwrap();
+        assert_eq!(estimate(&repeated, &o).max_nodes, 8 * 3);
     }
 
     #[test]

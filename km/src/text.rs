@@ -511,7 +511,7 @@ pub fn plan_words(plan: &Plan, method: Method) -> String {
         let _ = writeln!(s, "skipped: nothing");
     }
     for name in &plan.skipped {
-        let why = plan.reasons.get(name).map(String::as_str).unwrap_or("");
+        let why = plan.reasons.get(name).map_or("", |s| s.as_ref());
         let name = name.name();
         let _ = writeln!(s, "skipped {name}: {why}");
     }
