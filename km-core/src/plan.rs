@@ -603,7 +603,8 @@ mod tests {
 
     #[test]
     fn decimal_digits_are_those_of_the_formatter() {
-        for k in [0, 1, 9, 10, 11, 99, 100, 12_345, 1_000_000, usize::MAX] {
+        let large = [12_345, 1_000_000, 9_876_543_210, usize::MAX - 1, usize::MAX];
+        for k in (0..=1000).chain(large) {
             let mut s = String::from("layer ");
             push_decimal(&mut s, k);
             assert_eq!(s, format!("layer {k}"));
