@@ -12,6 +12,12 @@
 //! Each case is measured briefly (10 samples, 1 s) so that the 62 cases
 //! take about two minutes: `cargo bench -p km-bench --bench multiflux_sweep`;
 //! `km-bench/examples/sweep_chart.rs` draws the medians.
+//!
+//! A third group, `km::solve totals (plan included)`, times the totals at
+//! N = 2 to 8 through the library's front door (`km::solve`: the plan, the
+//! dispatch and the result around the solver), as `km solve --repeat` and
+//! `peers.py --totals-ladder` time them: at these sizes the work around
+//! the solver is a tenth of the whole.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -50,6 +56,16 @@ fn bench(c: &mut Criterion) {
         }
         g.finish();
     }
+    let mut g = c.benchmark_group("km::solve totals (plan included)");
+    g.sample_size(20).warm_up_time(Duration::from_millis(300));
+    g.measurement_time(Duration::from_secs(1));
+    for n in 2usize..=8 {
+        let o = km::Options::from(MultifluxOptions { streams: Some(n), ..Default::default() });
+        g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| km::solve(black_box(&totals), &o).expect("solve"))
+        });
+    }
+    g.finish();
 }
 
 criterion_group! {
