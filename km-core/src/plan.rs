@@ -449,15 +449,16 @@ fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerP
     let mut n_above = scene.ambient_n();
     let mut any_interface = false;
     let mut tir = false;
-    // "indices match at: top of layer 1, ..." written as the matches are
-    // found (without the formatting machinery: a plan is drawn up on every solve).
+    // "indices match at: top of layer 1, ..." written into one string as the
+    // matches are found.
     let mut matched = String::new();
     let mut matched_at = |layer: Option<usize>| {
         matched.push_str(if matched.is_empty() { "indices match at: " } else { ", " });
         match layer {
             Some(i) => {
-                matched.push_str("top of layer ");
-                push_decimal(&mut matched, i);
+                use fmt::Write;
+                // Writing to a `String` cannot fail.
+                let _ = write!(matched, "top of layer {i}");
             }
             None => matched.push_str("bottom of the stack"),
         }
@@ -497,22 +498,6 @@ fn interfaces(d: &mut Draft, scene: &MonoScene, all_effects: bool) -> Vec<LayerP
         d.skip(Simplification::Interface, matched.into());
     }
     layers
-}
-
-/// Append `k` in decimal digits to `s` (what `write!(s, "{k}")` writes).
-fn push_decimal(s: &mut String, mut k: usize) {
-    let mut digits = [0u8; 20];
-    let mut start = digits.len();
-    loop {
-        start -= 1;
-        // A digit is below 10: the cast keeps it.
-        digits[start] = b'0' + (k % 10) as u8;
-        k /= 10;
-        if k == 0 {
-            break;
-        }
-    }
-    s.extend(digits[start..].iter().map(|&d| char::from(d)));
 }
 
 /// Scattering and anisotropy; layers that only absorb are attenuated in
@@ -595,19 +580,4 @@ pub fn transmission_cut(scene: &MonoScene) -> Option<(usize, f64)> {
         }
     }
     None
-}
-
-#[cfg(test)]
-mod tests {
-    use super::push_decimal;
-
-    #[test]
-    fn decimal_digits_are_those_of_the_formatter() {
-        let large = [12_345, 1_000_000, 9_876_543_210, usize::MAX - 1, usize::MAX];
-        for k in (0..=1000).chain(large) {
-            let mut s = String::from("layer ");
-            push_decimal(&mut s, k);
-            assert_eq!(s, format!("layer {k}"));
-        }
-    }
 }

@@ -219,15 +219,15 @@ fn estimate_parts(scene: &MonoScene, opts: &MultifluxOptions, parts: Parts) -> W
     let mut work = 0.0;
     let mut operators = 0;
     let mut max_nodes = 0.0f64;
-    let mut above = scene.ambient_n();
+    let mut n_above = scene.ambient_n();
     for l in scene.layers() {
         let n_layer = nodes(l.n());
         max_nodes = max_nodes.max(n_layer);
         work += cost(l.n());
         operators += 1;
-        let (above, here) = (std::mem::replace(&mut above, l.n()), l.n());
-        if above != here || opts.all_effects {
-            work += cost(above.max(here));
+        let above = std::mem::replace(&mut n_above, l.n());
+        if above != l.n() || opts.all_effects {
+            work += cost(above.max(l.n()));
             operators += 1;
         }
     }
